@@ -1,0 +1,182 @@
+//! Light sources. `sample` draws a direction towards the light from a
+//! reference point; `pdf` is the solid-angle density of doing so.
+
+mod envmap;
+
+pub use envmap::{EnvFilter, EnvMap};
+
+use crate::color::{luminance, Rgb};
+use crate::geometry::Geometry;
+use crate::math::{Vec2, Vec3, PI};
+
+/// The closed set of emitters.
+#[derive(Clone, Debug)]
+pub enum Emitter {
+    /// Uniform emission from the front side of a shape.
+    Area { shape: u32, radiance: Rgb },
+    /// Isotropic point light with radiant intensity `intensity` (W/sr).
+    Point { position: Vec3, intensity: Rgb },
+    /// Uniform radiance from every direction at infinity.
+    Constant { radiance: Rgb },
+    /// An image-based light at infinity.
+    Environment(Box<EnvMap>),
+}
+
+/// A light sample as seen from a reference point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the reference point towards the light.
+    pub wi: Vec3,
+    /// Point on the light (far away for infinite lights).
+    pub p: Vec3,
+    /// Normal at the light point (zero for points and infinite lights).
+    pub n: Vec3,
+    /// Distance to the light point (infinity for infinite lights).
+    pub dist: f32,
+    /// Incident radiance divided by the solid-angle pdf (for delta lights:
+    /// intensity / dist^2).
+    pub weight: Rgb,
+    /// Solid-angle pdf (0 for delta lights, which MIS must not weight).
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+/// Geometry of the scene the emitters need (area lights live on shapes;
+/// infinite lights need the scene's bounding sphere for power estimates).
+pub struct EmitterContext<'a> {
+    pub shapes: &'a [Geometry],
+    pub scene_radius: f32,
+}
+
+impl Emitter {
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Emitter::Constant { .. } | Emitter::Environment(_))
+    }
+
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Emitter::Point { .. })
+    }
+
+    /// Estimated emitted power (luminance), for choosing lights.
+    pub fn power(&self, ctx: &EmitterContext) -> f32 {
+        match self {
+            Emitter::Area { shape, radiance } => {
+                PI * ctx.shapes[*shape as usize].area() * luminance(*radiance)
+            }
+            Emitter::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
+            Emitter::Constant { radiance } => {
+                PI * ctx.scene_radius * ctx.scene_radius * PI * luminance(*radiance)
+            }
+            Emitter::Environment(env) => {
+                PI * ctx.scene_radius * ctx.scene_radius * PI * env.mean_luminance()
+            }
+        }
+    }
+
+    /// Radiance arriving along a ray that escapes the scene in direction `d`
+    /// (zero for lights that are not at infinity).
+    pub fn eval_infinite(&self, d: Vec3) -> Rgb {
+        match self {
+            Emitter::Constant { radiance } => *radiance,
+            Emitter::Environment(env) => env.eval(d),
+            _ => Rgb::ZERO,
+        }
+    }
+
+    /// Samples incident illumination at `p_ref`.
+    pub fn sample(&self, ctx: &EmitterContext, p_ref: Vec3, u: Vec2, u1: f32) -> Option<LightSample> {
+        match self {
+            Emitter::Area { shape, radiance } => {
+                let s = match &ctx.shapes[*shape as usize] {
+                    Geometry::Mesh(m) => m.sample_area(u1, u),
+                    Geometry::Sphere(sp) => sp.sample_area(u),
+                };
+                let to = s.p - p_ref;
+                let d2 = to.length_squared();
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                let wi = to / dist;
+                let cos_l = -wi.dot(s.n);
+                if cos_l <= 0.0 {
+                    return None;
+                }
+                let pdf = s.pdf_area * d2 / cos_l;
+                Some(LightSample {
+                    wi,
+                    p: s.p,
+                    n: s.n,
+                    dist,
+                    weight: *radiance / pdf,
+                    pdf,
+                    delta: false,
+                })
+            }
+            Emitter::Point {
+                position,
+                intensity,
+            } => {
+                let to = *position - p_ref;
+                let d2 = to.length_squared();
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                Some(LightSample {
+                    wi: to / dist,
+                    p: *position,
+                    n: Vec3::ZERO,
+                    dist,
+                    weight: *intensity / d2,
+                    pdf: 0.0,
+                    delta: true,
+                })
+            }
+            Emitter::Constant { radiance } => {
+                let wi = crate::sampling::warp::square_to_uniform_sphere(u);
+                let pdf = crate::sampling::warp::square_to_uniform_sphere_pdf(wi);
+                Some(LightSample {
+                    wi,
+                    p: p_ref + wi * (2.0 * ctx.scene_radius),
+                    n: Vec3::ZERO,
+                    dist: f32::INFINITY,
+                    weight: *radiance / pdf,
+                    pdf,
+                    delta: false,
+                })
+            }
+            Emitter::Environment(env) => {
+                let (wi, weight, pdf) = env.sample(u)?;
+                Some(LightSample {
+                    wi,
+                    p: p_ref + wi * (2.0 * ctx.scene_radius),
+                    n: Vec3::ZERO,
+                    dist: f32::INFINITY,
+                    weight,
+                    pdf,
+                    delta: false,
+                })
+            }
+        }
+    }
+
+    /// Solid-angle pdf that `sample` from `p_ref` produces the point `p_light`
+    /// with normal `n_light` (area lights) or the direction `wi` (infinite).
+    pub fn pdf(&self, ctx: &EmitterContext, p_ref: Vec3, wi: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
+        match self {
+            Emitter::Area { shape, .. } => {
+                let area = ctx.shapes[*shape as usize].area();
+                let d2 = (p_light - p_ref).length_squared();
+                let cos_l = (-wi).dot(n_light);
+                if cos_l <= 0.0 || area <= 0.0 {
+                    return 0.0;
+                }
+                d2 / (cos_l * area)
+            }
+            Emitter::Point { .. } => 0.0,
+            Emitter::Constant { .. } => crate::sampling::warp::square_to_uniform_sphere_pdf(wi),
+            Emitter::Environment(env) => env.pdf(wi),
+        }
+    }
+}

@@ -1,0 +1,214 @@
+//! One BVH over every triangle and sphere of the scene: built by obvhs
+//! (compressed wide BVH), traversed with our own watertight triangle test.
+
+use std::time::{Duration, Instant};
+
+use glam::Vec3A;
+use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
+use obvhs::{aabb::Aabb as OAabb, BvhBuildParams, Boundable};
+
+use super::triangle::{intersect_triangle, RayShear};
+use super::{Geometry, Sphere};
+use crate::math::{Aabb, Ray, Vec3};
+
+/// A primitive with its data copied in BVH order, so traversal touches one
+/// contiguous array.
+#[derive(Clone, Copy, Debug)]
+enum Prim {
+    Triangle { v: [Vec3; 3] },
+    Sphere(Sphere),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PrimRef {
+    shape: u32,
+    index: u32,
+}
+
+struct BoundsOnly(OAabb);
+
+impl Boundable for BoundsOnly {
+    fn aabb(&self) -> OAabb {
+        self.0
+    }
+}
+
+/// Closest-hit record from the BVH: enough to rebuild the full intersection.
+#[derive(Clone, Copy, Debug)]
+pub struct BvhHit {
+    pub t: f32,
+    pub shape: u32,
+    /// Triangle index within its mesh (0 for spheres).
+    pub index: u32,
+    /// Barycentrics of vertices 1 and 2 (triangles only).
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// The scene's acceleration structure.
+pub struct Bvh {
+    bvh: Option<CwBvh>,
+    prims: Vec<Prim>,
+    refs: Vec<PrimRef>,
+    bounds: Aabb,
+    /// Wall time spent building.
+    pub build_time: Duration,
+}
+
+impl Bvh {
+    pub fn build(shapes: &[Geometry]) -> Bvh {
+        let start = Instant::now();
+        let mut prims = Vec::new();
+        let mut refs = Vec::new();
+        let mut boxes = Vec::new();
+        let mut bounds = Aabb::EMPTY;
+        for (si, g) in shapes.iter().enumerate() {
+            match g {
+                Geometry::Mesh(m) => {
+                    for (ti, _) in m.indices.iter().enumerate() {
+                        let v = m.vertices(ti);
+                        prims.push(Prim::Triangle { v });
+                        refs.push(PrimRef {
+                            shape: si as u32,
+                            index: ti as u32,
+                        });
+                        boxes.push(m.triangle_bounds(ti));
+                    }
+                }
+                Geometry::Sphere(s) => {
+                    prims.push(Prim::Sphere(*s));
+                    refs.push(PrimRef {
+                        shape: si as u32,
+                        index: 0,
+                    });
+                    boxes.push(s.bounds());
+                }
+            }
+        }
+        for b in &boxes {
+            bounds = bounds.union(*b);
+        }
+        if prims.is_empty() {
+            return Bvh {
+                bvh: None,
+                prims,
+                refs,
+                bounds,
+                build_time: start.elapsed(),
+            };
+        }
+        let oboxes: Vec<BoundsOnly> = boxes
+            .iter()
+            .map(|b| BoundsOnly(OAabb::new(Vec3A::from(b.min), Vec3A::from(b.max))))
+            .collect();
+        let mut core = Duration::default();
+        let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
+        // Reorder primitives into leaf order so the traversal id indexes directly.
+        let prims: Vec<Prim> = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| prims[i as usize])
+            .collect();
+        let refs: Vec<PrimRef> = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| refs[i as usize])
+            .collect();
+        Bvh {
+            bvh: Some(bvh),
+            prims,
+            refs,
+            bounds,
+            build_time: start.elapsed(),
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.prims.len()
+    }
+
+    fn oray(ray: &Ray) -> obvhs::ray::Ray {
+        obvhs::ray::Ray::new(
+            Vec3A::from(ray.o),
+            Vec3A::from(ray.d),
+            ray.tmin,
+            ray.tmax,
+        )
+    }
+
+    /// Closest hit along the ray within its range.
+    pub fn intersect(&self, ray: &Ray) -> Option<BvhHit> {
+        let bvh = self.bvh.as_ref()?;
+        let shear = RayShear::new(ray.d);
+        let mut best = BvhHit {
+            t: ray.tmax,
+            shape: 0,
+            index: 0,
+            b1: 0.0,
+            b2: 0.0,
+        };
+        let mut hit = obvhs::ray::RayHit::none();
+        let o = ray.o;
+        let d = ray.d;
+        let found = bvh.ray_traverse(Self::oray(ray), &mut hit, |r, id| {
+            match &self.prims[id] {
+                Prim::Triangle { v } => {
+                    match intersect_triangle(o, &shear, v[0], v[1], v[2], r.tmin, r.tmax) {
+                        Some((t, b1, b2)) => {
+                            best = BvhHit {
+                                t,
+                                shape: self.refs[id].shape,
+                                index: self.refs[id].index,
+                                b1,
+                                b2,
+                            };
+                            t
+                        }
+                        None => f32::INFINITY,
+                    }
+                }
+                Prim::Sphere(s) => match s.intersect(o, d, r.tmin, r.tmax) {
+                    Some(t) => {
+                        best = BvhHit {
+                            t,
+                            shape: self.refs[id].shape,
+                            index: 0,
+                            b1: 0.0,
+                            b2: 0.0,
+                        };
+                        t
+                    }
+                    None => f32::INFINITY,
+                },
+            }
+        });
+        if found {
+            Some(best)
+        } else {
+            None
+        }
+    }
+
+    /// True if anything blocks the ray within its range.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
+        let shear = RayShear::new(ray.d);
+        let o = ray.o;
+        let d = ray.d;
+        !bvh.ray_traverse_miss(Self::oray(ray), |r, id| match &self.prims[id] {
+            Prim::Triangle { v } => {
+                match intersect_triangle(o, &shear, v[0], v[1], v[2], r.tmin, r.tmax) {
+                    Some((t, _, _)) => t,
+                    None => f32::INFINITY,
+                }
+            }
+            Prim::Sphere(s) => s.intersect(o, d, r.tmin, r.tmax).unwrap_or(f32::INFINITY),
+        })
+    }
+}

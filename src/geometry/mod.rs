@@ -1,0 +1,82 @@
+//! Shapes, ray intersection, and the acceleration structure.
+
+mod bvh;
+mod mesh;
+mod obj;
+mod sphere;
+mod triangle;
+
+pub use bvh::Bvh;
+pub use mesh::TriangleMesh;
+pub use obj::load_obj;
+pub use sphere::Sphere;
+pub use triangle::intersect_triangle;
+
+use crate::math::{Aabb, Frame, Transform, Vec2, Vec3};
+
+/// The geometry of one shape.
+#[derive(Clone, Debug)]
+pub enum Geometry {
+    Mesh(TriangleMesh),
+    Sphere(Sphere),
+}
+
+impl Geometry {
+    /// Number of BVH primitives this shape contributes.
+    pub fn primitive_count(&self) -> usize {
+        match self {
+            Geometry::Mesh(m) => m.indices.len(),
+            Geometry::Sphere(_) => 1,
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        match self {
+            Geometry::Mesh(m) => m.bounds(),
+            Geometry::Sphere(s) => s.bounds(),
+        }
+    }
+
+    /// Total surface area.
+    pub fn area(&self) -> f32 {
+        match self {
+            Geometry::Mesh(m) => m.area(),
+            Geometry::Sphere(s) => s.area(),
+        }
+    }
+
+    /// Applies a transform in place (meshes bake it; spheres need a similarity).
+    pub fn transform(&mut self, t: &Transform) -> Result<(), String> {
+        match self {
+            Geometry::Mesh(m) => {
+                m.transform(t);
+                Ok(())
+            }
+            Geometry::Sphere(s) => s.transform(t),
+        }
+    }
+}
+
+/// A point on a surface found by a ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Intersection {
+    /// Ray parameter of the hit.
+    pub t: f32,
+    pub p: Vec3,
+    /// Unit geometric normal (facing as the shape defines it, not the ray).
+    pub ng: Vec3,
+    /// Shading frame (interpolated normal).
+    pub shading: Frame,
+    pub uv: Vec2,
+    /// Index of the shape in the scene.
+    pub shape: u32,
+}
+
+/// A point sampled on a surface, with its area density.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceSample {
+    pub p: Vec3,
+    pub n: Vec3,
+    /// Density with respect to area.
+    pub pdf_area: f32,
+}

@@ -1,0 +1,119 @@
+//! Analytic spheres.
+
+use crate::math::{Aabb, Transform, Vec2, Vec3, PI};
+use crate::sampling::warp;
+
+use super::SurfaceSample;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+impl Sphere {
+    pub fn bounds(&self) -> Aabb {
+        Aabb {
+            min: self.center - Vec3::splat(self.radius),
+            max: self.center + Vec3::splat(self.radius),
+        }
+    }
+
+    pub fn area(&self) -> f32 {
+        4.0 * PI * self.radius * self.radius
+    }
+
+    /// Applies a similarity transform; anything that shears or scales
+    /// unevenly would no longer be a sphere.
+    pub fn transform(&mut self, t: &Transform) -> Result<(), String> {
+        let sx = t.vector(Vec3::X).length();
+        let sy = t.vector(Vec3::Y).length();
+        let sz = t.vector(Vec3::Z).length();
+        let tol = 1e-4 * sx.max(sy).max(sz);
+        if (sx - sy).abs() > tol || (sx - sz).abs() > tol {
+            return Err(format!(
+                "a sphere can only be transformed by a similarity, but the scale factors are {sx}, {sy}, {sz}"
+            ));
+        }
+        self.center = t.point(self.center);
+        self.radius *= sx;
+        Ok(())
+    }
+
+    /// Nearest hit parameter in (tmin, tmax), computed in a numerically
+    /// stable way (the quadratic relative to the closest point on the ray).
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+        let f = o - self.center;
+        let a = d.length_squared();
+        let b = -f.dot(d);
+        // Distance from centre to the ray's closest point, computed stably.
+        let l = f + (b / a) * d;
+        let disc = self.radius * self.radius - l.length_squared();
+        if disc < 0.0 {
+            return None;
+        }
+        let c = f.length_squared() - self.radius * self.radius;
+        let q = b + b.signum() * (a * disc).sqrt();
+        let (t0, t1) = if q == 0.0 {
+            (0.0, 0.0)
+        } else {
+            let (x, y) = (c / q, q / a);
+            (x.min(y), x.max(y))
+        };
+        if t0 > tmin && t0 < tmax {
+            Some(t0)
+        } else if t1 > tmin && t1 < tmax {
+            Some(t1)
+        } else {
+            None
+        }
+    }
+
+    /// Outward normal and spherical (u, v) at a surface point.
+    pub fn normal_uv(&self, p: Vec3) -> (Vec3, Vec2) {
+        let n = ((p - self.center) / self.radius).normalize();
+        let phi = n.x.atan2(-n.z).rem_euclid(2.0 * PI);
+        let theta = n.y.clamp(-1.0, 1.0).acos();
+        (n, Vec2::new(phi / (2.0 * PI), theta / PI))
+    }
+
+    /// Uniform point on the whole sphere.
+    pub fn sample_area(&self, u: Vec2) -> SurfaceSample {
+        let n = warp::square_to_uniform_sphere(u);
+        SurfaceSample {
+            p: self.center + self.radius * n,
+            n,
+            pdf_area: 1.0 / self.area(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hits_from_outside_and_inside() {
+        let s = Sphere {
+            center: Vec3::new(0.0, 0.0, 5.0),
+            radius: 1.0,
+        };
+        let t = s.intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        assert!((t - 4.0).abs() < 1e-5);
+        let t = s
+            .intersect(Vec3::new(0.0, 0.0, 5.0), Vec3::Z, 0.0, f32::INFINITY)
+            .unwrap();
+        assert!((t - 1.0).abs() < 1e-5);
+        assert!(s.intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY).is_none());
+    }
+
+    #[test]
+    fn far_small_sphere_is_precise() {
+        let s = Sphere {
+            center: Vec3::new(0.0, 0.0, 1e4),
+            radius: 0.01,
+        };
+        let t = s.intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        assert!((t - (1e4 - 0.01)).abs() < 2e-3);
+    }
+}

@@ -1,0 +1,121 @@
+//! The film: filter-weighted sample accumulation, tile by tile.
+//!
+//! Each tile accumulates into its own block (the tile plus a border as wide
+//! as the filter). Blocks are merged in a fixed order, so the image is the
+//! same bit for bit whatever the thread count or completion order.
+
+use super::{Bitmap, Filter};
+use crate::color::Rgb;
+use crate::math::Vec2;
+
+/// Accumulated weighted radiance and weight for one tile plus its border.
+#[derive(Clone, Debug)]
+pub struct FilmBlock {
+    /// Top-left pixel of the block (may be negative: the border).
+    pub x0: i32,
+    pub y0: i32,
+    pub width: usize,
+    pub height: usize,
+    /// (sum of w * L, sum of w) per pixel.
+    pub data: Vec<(Rgb, f32)>,
+    filter: Filter,
+    radius: f32,
+}
+
+impl FilmBlock {
+    /// A block for the tile at (`x`, `y`) of size `w` x `h`.
+    pub fn new(x: u32, y: u32, w: u32, h: u32, filter: Filter) -> FilmBlock {
+        let radius = filter.radius();
+        let border = radius.ceil() as i32;
+        let width = w as usize + 2 * border as usize;
+        let height = h as usize + 2 * border as usize;
+        FilmBlock {
+            x0: x as i32 - border,
+            y0: y as i32 - border,
+            width,
+            height,
+            data: vec![(Rgb::ZERO, 0.0); width * height],
+            filter,
+            radius,
+        }
+    }
+
+    /// Splats a radiance sample at a film position (pixels; pixel centres at
+    /// +0.5) onto every pixel within the filter radius.
+    #[inline]
+    pub fn put(&mut self, pos: Vec2, value: Rgb) {
+        if !value.is_finite() {
+            return;
+        }
+        let px = pos.x - 0.5;
+        let py = pos.y - 0.5;
+        let xmin = ((px - self.radius).ceil() as i32).max(self.x0);
+        let xmax = ((px + self.radius).floor() as i32).min(self.x0 + self.width as i32 - 1);
+        let ymin = ((py - self.radius).ceil() as i32).max(self.y0);
+        let ymax = ((py + self.radius).floor() as i32).min(self.y0 + self.height as i32 - 1);
+        for y in ymin..=ymax {
+            let wy = self.filter.eval_1d(y as f32 - py);
+            if wy == 0.0 {
+                continue;
+            }
+            let row = (y - self.y0) as usize * self.width;
+            for x in xmin..=xmax {
+                let w = wy * self.filter.eval_1d(x as f32 - px);
+                if w == 0.0 {
+                    continue;
+                }
+                let cell = &mut self.data[row + (x - self.x0) as usize];
+                cell.0 += w * value;
+                cell.1 += w;
+            }
+        }
+    }
+}
+
+/// The whole image's accumulation buffer.
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: usize,
+    pub height: usize,
+    data: Vec<(Rgb, f32)>,
+}
+
+impl Film {
+    pub fn new(width: usize, height: usize) -> Film {
+        Film {
+            width,
+            height,
+            data: vec![(Rgb::ZERO, 0.0); width * height],
+        }
+    }
+
+    /// Adds a block's contents (clipped to the image).
+    pub fn merge(&mut self, block: &FilmBlock) {
+        for by in 0..block.height {
+            let y = block.y0 + by as i32;
+            if y < 0 || y >= self.height as i32 {
+                continue;
+            }
+            for bx in 0..block.width {
+                let x = block.x0 + bx as i32;
+                if x < 0 || x >= self.width as i32 {
+                    continue;
+                }
+                let src = block.data[by * block.width + bx];
+                let dst = &mut self.data[y as usize * self.width + x as usize];
+                dst.0 += src.0;
+                dst.1 += src.1;
+            }
+        }
+    }
+
+    /// The normalised image: weighted radiance over weight (black where no
+    /// sample landed).
+    pub fn to_bitmap(&self) -> Bitmap {
+        let mut bmp = Bitmap::new(self.width, self.height);
+        for (dst, &(sum, w)) in bmp.pixels.iter_mut().zip(&self.data) {
+            *dst = if w != 0.0 { sum / w } else { Rgb::ZERO };
+        }
+        bmp
+    }
+}

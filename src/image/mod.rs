@@ -1,0 +1,11 @@
+//! Images: the film that accumulates samples, reconstruction filters, and
+//! bitmaps with their file formats.
+
+mod bitmap;
+mod film;
+mod filter;
+pub mod io;
+
+pub use bitmap::Bitmap;
+pub use film::{Film, FilmBlock};
+pub use filter::Filter;

@@ -1,0 +1,82 @@
+//! Integrators: estimate the radiance arriving along a camera ray.
+
+mod path;
+mod simple;
+
+use crate::color::Rgb;
+use crate::math::Ray;
+use crate::sampling::Sampler;
+use crate::scene::Scene;
+
+/// Path-tracer parameters shared by the path integrators.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathParams {
+    /// Longest path in segments (1 = emitters seen directly); `None` is unlimited.
+    pub max_depth: Option<u32>,
+    /// Path length from which Russian roulette starts.
+    pub rr_depth: u32,
+    /// Hide emitters seen directly by the camera.
+    pub hide_emitters: bool,
+}
+
+impl Default for PathParams {
+    fn default() -> Self {
+        PathParams {
+            max_depth: None,
+            rr_depth: 3,
+            hide_emitters: false,
+        }
+    }
+}
+
+/// How the emitted light of the scene is gathered along paths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// BSDF sampling only: emission is counted where a path hits it.
+    Mats,
+    /// Emitter sampling (next-event estimation) at every non-specular vertex.
+    Ems,
+    /// Both, combined with the power heuristic.
+    Mis,
+}
+
+/// The closed set of integrators.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integrator {
+    /// Absolute value of the shading normal as a colour.
+    Normals,
+    /// Ambient occlusion: fraction of the cosine-weighted hemisphere that is
+    /// unoccluded within `length`.
+    Ao { length: f32 },
+    /// Unidirectional path tracing.
+    Path {
+        strategy: Strategy,
+        params: PathParams,
+    },
+}
+
+impl Integrator {
+    /// Estimates incident radiance along `ray` (one sample).
+    pub fn li(&self, scene: &Scene, ray: &Ray, sampler: &mut Sampler) -> Rgb {
+        match self {
+            Integrator::Normals => simple::normals(scene, ray),
+            Integrator::Ao { length } => simple::ao(scene, ray, sampler, *length),
+            Integrator::Path { strategy, params } => {
+                path::li(scene, ray, sampler, *strategy, params)
+            }
+        }
+    }
+
+    /// Name as a Nori scene would spell it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Integrator::Normals => "normals",
+            Integrator::Ao { .. } => "ao",
+            Integrator::Path { strategy, .. } => match strategy {
+                Strategy::Mats => "path_mats",
+                Strategy::Ems => "path_ems",
+                Strategy::Mis => "path_mis",
+            },
+        }
+    }
+}

@@ -1,0 +1,184 @@
+//! The unidirectional path tracer with three ways of finding light:
+//! BSDF sampling (mats), emitter sampling (ems), and both with MIS.
+
+use super::{PathParams, Strategy};
+use crate::color::{max_component, Rgb};
+use crate::emitter::Emitter;
+use crate::math::{offset_ray_origin, Ray, Vec3};
+use crate::sampling::Sampler;
+use crate::scene::Scene;
+
+/// Power heuristic (beta = 2) weight of strategy `a` against `b`.
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 == 0.0 || !a2.is_finite() {
+        if a2.is_infinite() {
+            1.0
+        } else {
+            0.0
+        }
+    } else {
+        a2 / (a2 + b2)
+    }
+}
+
+/// Probability that emitter-sampling picks emitter `i`.
+#[inline]
+fn choice_pdf(scene: &Scene, i: usize) -> f32 {
+    scene
+        .light_choice
+        .as_ref()
+        .map_or(0.0, |d| d.discrete_pdf(i))
+}
+
+pub fn li(
+    scene: &Scene,
+    camera_ray: &Ray,
+    sampler: &mut Sampler,
+    strategy: Strategy,
+    params: &PathParams,
+) -> Rgb {
+    let ctx = scene.emitter_context();
+    let max_depth = params.max_depth.unwrap_or(u32::MAX);
+    let mut l = Rgb::ZERO;
+    let mut beta = Rgb::ONE;
+    let mut ray = *camera_ray;
+    // Whether the last bounce was specular (or this is the camera ray).
+    let mut specular = true;
+    // Solid-angle pdf of the BSDF sample that produced `ray`, and its origin.
+    let mut prev_pdf = 0.0f32;
+    let mut prev_p = ray.o;
+    let mut eta_scale = 1.0f32;
+    let mut depth = 0u32;
+
+    loop {
+        let hit = scene.intersect(&ray);
+        // Emission found by following the path.
+        let count_emission = |specular: bool| -> bool {
+            match strategy {
+                Strategy::Mats | Strategy::Mis => true,
+                Strategy::Ems => specular,
+            }
+        };
+        let Some(its) = hit else {
+            if depth == 0 && params.hide_emitters {
+                break;
+            }
+            if count_emission(specular) {
+                for &i in &scene.infinite {
+                    let e = &scene.emitters[i as usize];
+                    let le = e.eval_infinite(ray.d);
+                    if le == Rgb::ZERO {
+                        continue;
+                    }
+                    let w = if strategy == Strategy::Mis && !specular {
+                        let pl = choice_pdf(scene, i as usize)
+                            * e.pdf(&ctx, prev_p, ray.d, Vec3::ZERO, Vec3::ZERO);
+                        power_heuristic(prev_pdf, pl)
+                    } else {
+                        1.0
+                    };
+                    l += beta * le * w;
+                }
+            }
+            break;
+        };
+
+        let wi_world = -ray.d;
+        if let Some(ei) = scene.shape_emitter[its.shape as usize] {
+            if count_emission(specular) && !(depth == 0 && params.hide_emitters) {
+                let e = &scene.emitters[ei as usize];
+                if let Emitter::Area { radiance, .. } = e {
+                    if its.ng.dot(wi_world) > 0.0 {
+                        let w = if strategy == Strategy::Mis && !specular {
+                            let pl = choice_pdf(scene, ei as usize)
+                                * e.pdf(&ctx, prev_p, ray.d, its.p, its.ng);
+                            power_heuristic(prev_pdf, pl)
+                        } else {
+                            1.0
+                        };
+                        l += beta * *radiance * w;
+                    }
+                }
+            }
+        }
+
+        depth += 1;
+        if depth >= max_depth {
+            break;
+        }
+
+        let bsdf = &scene.bsdfs[its.shape as usize];
+        let frame = its.shading;
+        let wi = frame.to_local(wi_world);
+
+        // Next-event estimation.
+        if strategy != Strategy::Mats && !bsdf.is_specular() {
+            if let Some(choice) = scene.light_choice.as_ref() {
+                let (li, pchoice, u1) = choice.sample_discrete(sampler.next_1d());
+                let u = sampler.next_2d();
+                let e = &scene.emitters[li];
+                if let Some(ls) = e.sample(&ctx, its.p, u, u1) {
+                    let wo = frame.to_local(ls.wi);
+                    let f = bsdf.eval(wi, wo);
+                    if f != Rgb::ZERO && ls.weight != Rgb::ZERO {
+                        let from = offset_ray_origin(its.p, its.ng, ls.wi);
+                        let blocked = if ls.dist.is_infinite() {
+                            scene.occluded_ray(from, ls.wi)
+                        } else {
+                            let to = if ls.n == Vec3::ZERO {
+                                ls.p
+                            } else {
+                                offset_ray_origin(ls.p, ls.n, -ls.wi)
+                            };
+                            scene.occluded_segment(from, to)
+                        };
+                        if !blocked {
+                            let w = if strategy == Strategy::Mis && !ls.delta {
+                                let pb = bsdf.pdf(wi, wo);
+                                power_heuristic(ls.pdf * pchoice, pb)
+                            } else {
+                                1.0
+                            };
+                            l += beta * f * wo.z.abs() * ls.weight * (w / pchoice);
+                        }
+                    }
+                }
+            }
+        }
+
+        // Continue the path by sampling the BSDF.
+        let u = sampler.next_2d();
+        let u_lobe = sampler.next_1d();
+        let Some(bs) = bsdf.sample(wi, u, u_lobe) else {
+            break;
+        };
+        let wo_world = frame.to_world(bs.wo);
+        // Reject samples that cross the geometric surface against the
+        // shading normal's verdict (light leaks through shading normals).
+        if wo_world.dot(its.ng) * bs.wo.z <= 0.0 && wi_world.dot(its.ng) * wi.z > 0.0 {
+            break;
+        }
+        beta *= bs.weight;
+        eta_scale *= bs.eta * bs.eta;
+        specular = bs.specular;
+        prev_pdf = if bs.specular { 0.0 } else { bs.pdf };
+        prev_p = its.p;
+        if beta == Rgb::ZERO {
+            break;
+        }
+
+        if depth >= params.rr_depth {
+            let q = (max_component(beta) * eta_scale).min(0.99);
+            if sampler.next_1d() >= q {
+                break;
+            }
+            beta /= q;
+        }
+
+        let o = offset_ray_origin(its.p, its.ng, wo_world);
+        ray = Ray::new(o, wo_world);
+    }
+    l
+}

@@ -1,0 +1,16 @@
+//! lente: a physically based path tracer for Nori and Mitsuba scenes.
+//!
+//! See `docs/architecture.md` for the data flow and conventions.
+
+pub mod bsdf;
+pub mod camera;
+pub mod color;
+pub mod emitter;
+pub mod geometry;
+pub mod image;
+pub mod integrator;
+pub mod math;
+pub mod render;
+pub mod sampling;
+pub mod scene;
+pub mod stats;

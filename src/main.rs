@@ -1,0 +1,5 @@
+//! The `lente` command line.
+
+fn main() {
+    println!("lente");
+}

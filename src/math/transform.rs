@@ -1,0 +1,69 @@
+//! Affine transforms carried with their inverse.
+
+use super::{Mat4, Vec3};
+
+/// A 4x4 transform and its inverse, so normals and inverse mappings are cheap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub m: Mat4,
+    pub inv: Mat4,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform::IDENTITY
+    }
+}
+
+impl Transform {
+    pub const IDENTITY: Transform = Transform {
+        m: Mat4::IDENTITY,
+        inv: Mat4::IDENTITY,
+    };
+
+    /// Wraps a matrix; `None` if it is singular or not finite.
+    pub fn new(m: Mat4) -> Option<Transform> {
+        let det = m.determinant();
+        if !det.is_finite() || det.abs() < 1e-12 {
+            return None;
+        }
+        let inv = m.inverse();
+        if !inv.is_finite() {
+            return None;
+        }
+        Some(Transform { m, inv })
+    }
+
+    /// `self` applied after `first`.
+    pub fn then_after(&self, first: &Transform) -> Transform {
+        Transform {
+            m: self.m * first.m,
+            inv: first.inv * self.inv,
+        }
+    }
+
+    pub fn inverse(&self) -> Transform {
+        Transform {
+            m: self.inv,
+            inv: self.m,
+        }
+    }
+
+    pub fn point(&self, p: Vec3) -> Vec3 {
+        self.m.project_point3(p)
+    }
+
+    pub fn vector(&self, v: Vec3) -> Vec3 {
+        self.m.transform_vector3(v)
+    }
+
+    /// Transforms a normal by the inverse transpose (not normalised).
+    pub fn normal(&self, n: Vec3) -> Vec3 {
+        self.inv.transpose().transform_vector3(n)
+    }
+
+    /// True if the transform flips handedness.
+    pub fn flips_handedness(&self) -> bool {
+        self.m.determinant() < 0.0
+    }
+}

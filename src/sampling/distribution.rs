@@ -1,0 +1,198 @@
+//! Piecewise-constant distributions for importance sampling tables
+//! (light selection, environment maps).
+
+use glam::Vec2;
+
+/// A discrete/piecewise-constant 1D distribution over `n` equal cells of [0, 1).
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    func: Vec<f32>,
+    cdf: Vec<f32>,
+    integral: f32,
+}
+
+impl Distribution1D {
+    /// Builds from non-negative weights. If all are zero, falls back to uniform
+    /// so callers never divide by zero (check [`integral`](Self::integral)).
+    pub fn new(weights: &[f32]) -> Distribution1D {
+        assert!(!weights.is_empty(), "distribution needs at least one cell");
+        let n = weights.len();
+        let func: Vec<f32> = weights
+            .iter()
+            .map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 })
+            .collect();
+        let mut cdf = Vec::with_capacity(n + 1);
+        let mut acc = 0.0f64;
+        cdf.push(0.0);
+        for &f in &func {
+            acc += f as f64 / n as f64;
+            cdf.push(acc as f32);
+        }
+        let integral = acc as f32;
+        if integral > 0.0 {
+            for c in cdf.iter_mut() {
+                *c /= integral;
+            }
+        } else {
+            for (i, c) in cdf.iter_mut().enumerate() {
+                *c = i as f32 / n as f32;
+            }
+        }
+        cdf[n] = 1.0;
+        Distribution1D {
+            func,
+            cdf,
+            integral,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// Integral of the weights over [0, 1) (mean weight).
+    pub fn integral(&self) -> f32 {
+        self.integral
+    }
+
+    /// Probability of picking cell `i` as a discrete choice.
+    pub fn discrete_pdf(&self, i: usize) -> f32 {
+        self.cdf[i + 1] - self.cdf[i]
+    }
+
+    /// Density (w.r.t. [0,1)) of the continuous sample in cell `i`.
+    pub fn pdf(&self, i: usize) -> f32 {
+        if self.integral > 0.0 {
+            self.func[i] / self.integral
+        } else {
+            1.0
+        }
+    }
+
+    /// Picks a cell; returns (index, probability, u rescaled to [0,1) within the cell).
+    pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        let i = self.find(u);
+        let p = self.discrete_pdf(i);
+        let du = if p > 0.0 {
+            ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.0
+        };
+        (i, p, du)
+    }
+
+    /// Continuous sample in [0,1): returns (x, density, cell index).
+    pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
+        let (i, _, du) = self.sample_discrete(u);
+        let x = ((i as f32 + du) / self.len() as f32).min(1.0 - f32::EPSILON / 2.0);
+        (x, self.pdf(i), i)
+    }
+
+    /// Last cell whose cdf is <= u and whose probability is non-zero.
+    fn find(&self, u: f32) -> usize {
+        let n = self.func.len();
+        // partition_point: first index with cdf > u, so cell = that - 1.
+        let idx = self.cdf.partition_point(|&c| c <= u);
+        let mut i = idx.saturating_sub(1).min(n - 1);
+        // Never return a zero-probability cell (u exactly on a cdf plateau).
+        if self.cdf[i + 1] - self.cdf[i] <= 0.0 {
+            if let Some(j) = (i..n).find(|&j| self.cdf[j + 1] > self.cdf[j]) {
+                i = j;
+            } else if let Some(j) = (0..i).rev().find(|&j| self.cdf[j + 1] > self.cdf[j]) {
+                i = j;
+            }
+        }
+        i
+    }
+}
+
+/// A piecewise-constant 2D distribution over [0,1)^2 with `nu` x `nv` cells:
+/// a marginal over rows (v) and one conditional per row (u).
+#[derive(Clone, Debug)]
+pub struct Distribution2D {
+    conditional: Vec<Distribution1D>,
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// `weights` is row-major, `nv` rows of `nu` cells.
+    pub fn new(weights: &[f32], nu: usize, nv: usize) -> Distribution2D {
+        assert_eq!(weights.len(), nu * nv);
+        let conditional: Vec<Distribution1D> = weights
+            .chunks_exact(nu)
+            .map(Distribution1D::new)
+            .collect();
+        let marg: Vec<f32> = conditional.iter().map(|d| d.integral()).collect();
+        Distribution2D {
+            conditional,
+            marginal: Distribution1D::new(&marg),
+        }
+    }
+
+    pub fn integral(&self) -> f32 {
+        self.marginal.integral()
+    }
+
+    /// Returns (point in [0,1)^2, density w.r.t. area in [0,1)^2).
+    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
+        let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
+        let (x, pdf_u, _) = self.conditional[row].sample_continuous(u.x);
+        (Vec2::new(x, v), pdf_u * pdf_v)
+    }
+
+    /// Density at a point of [0,1]^2 (clamped into range).
+    pub fn pdf(&self, p: Vec2) -> f32 {
+        let nv = self.conditional.len();
+        let nu = self.conditional[0].len();
+        let iu = ((p.x * nu as f32) as usize).min(nu - 1);
+        let iv = ((p.y * nv as f32) as usize).min(nv - 1);
+        if self.marginal.integral() <= 0.0 {
+            return 1.0;
+        }
+        self.conditional[iv].func[iu] / self.marginal.integral()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn discrete_matches_weights() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0]);
+        assert!((d.discrete_pdf(0) - 0.25).abs() < 1e-6);
+        assert_eq!(d.discrete_pdf(1), 0.0);
+        assert!((d.discrete_pdf(2) - 0.75).abs() < 1e-6);
+        for k in 0..1000 {
+            let (i, _, _) = d.sample_discrete(k as f32 / 1000.0);
+            assert_ne!(i, 1, "zero-weight cell sampled");
+        }
+        assert_eq!(d.sample_discrete(0.25).0, 2);
+    }
+
+    #[test]
+    fn zero_weights_fall_back_to_uniform() {
+        let d = Distribution1D::new(&[0.0, 0.0]);
+        assert_eq!(d.integral(), 0.0);
+        let (x, pdf, _) = d.sample_continuous(0.7);
+        assert!((0.0..1.0).contains(&x) && pdf > 0.0);
+    }
+
+    #[test]
+    fn two_d_pdf_matches_sample() {
+        let w = [0.0, 1.0, 2.0, 3.0, 4.0, 0.0];
+        let d = Distribution2D::new(&w, 3, 2);
+        for i in 0..50 {
+            for j in 0..50 {
+                let u = Vec2::new((i as f32 + 0.5) / 50.0, (j as f32 + 0.5) / 50.0);
+                let (p, pdf) = d.sample(u);
+                assert!((d.pdf(p) - pdf).abs() < 1e-4 * pdf.max(1.0));
+                assert!(pdf > 0.0);
+            }
+        }
+    }
+}

@@ -1,0 +1,144 @@
+//! Warps from the unit square to other domains, each with its pdf.
+//! Names follow Nori's warp tester.
+
+use crate::math::{Vec2, Vec3, INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
+
+pub fn square_to_uniform_square(s: Vec2) -> Vec2 {
+    s
+}
+
+pub fn square_to_uniform_square_pdf(p: Vec2) -> f32 {
+    if (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y) {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+/// 1D tent on [-1, 1] by inverting its CDF.
+fn tent_1d(u: f32) -> f32 {
+    if u < 0.5 {
+        (2.0 * u).sqrt() - 1.0
+    } else {
+        1.0 - (2.0 - 2.0 * u).sqrt()
+    }
+}
+
+pub fn square_to_tent(s: Vec2) -> Vec2 {
+    Vec2::new(tent_1d(s.x), tent_1d(s.y))
+}
+
+pub fn square_to_tent_pdf(p: Vec2) -> f32 {
+    let t = |x: f32| (1.0 - x.abs()).max(0.0);
+    t(p.x) * t(p.y)
+}
+
+/// Shirley-Chiu concentric map onto the unit disk: preserves strata and
+/// relative areas, the sampling pbrt and Mitsuba use for lenses.
+pub fn square_to_uniform_disk(s: Vec2) -> Vec2 {
+    let o = 2.0 * s - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, (PI / 4.0) * (o.y / o.x))
+    } else {
+        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+pub fn square_to_uniform_disk_pdf(p: Vec2) -> f32 {
+    if p.length_squared() <= 1.0 {
+        INV_PI
+    } else {
+        0.0
+    }
+}
+
+pub fn square_to_uniform_sphere(s: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * s.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * s.x;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub fn square_to_uniform_sphere_pdf(_v: Vec3) -> f32 {
+    INV_FOUR_PI
+}
+
+pub fn square_to_uniform_hemisphere(s: Vec2) -> Vec3 {
+    let z = s.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * s.x;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub fn square_to_uniform_hemisphere_pdf(v: Vec3) -> f32 {
+    if v.z >= 0.0 {
+        INV_TWO_PI
+    } else {
+        0.0
+    }
+}
+
+/// Cosine-weighted hemisphere by Malley's method over the concentric disk.
+pub fn square_to_cosine_hemisphere(s: Vec2) -> Vec3 {
+    let d = square_to_uniform_disk(s);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+pub fn square_to_cosine_hemisphere_pdf(v: Vec3) -> f32 {
+    if v.z >= 0.0 {
+        v.z * INV_PI
+    } else {
+        0.0
+    }
+}
+
+/// Uniform cone around +z with the given cosine of its half-angle.
+pub fn square_to_uniform_cone(s: Vec2, cos_max: f32) -> Vec3 {
+    let z = 1.0 - s.y * (1.0 - cos_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * s.x;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub fn square_to_uniform_cone_pdf(v: Vec3, cos_max: f32) -> f32 {
+    if v.z >= cos_max {
+        1.0 / (2.0 * PI * (1.0 - cos_max))
+    } else {
+        0.0
+    }
+}
+
+/// Barycentrics uniform over a triangle.
+pub fn square_to_uniform_triangle(s: Vec2) -> Vec2 {
+    let su = s.x.sqrt();
+    Vec2::new(1.0 - su, s.y * su)
+}
+
+/// Beckmann normal distribution D(m) cos(theta_m): samples microfacet normals.
+pub fn square_to_beckmann(s: Vec2, alpha: f32) -> Vec3 {
+    let tan2 = -alpha * alpha * (1.0 - s.x).ln();
+    let cos_theta = 1.0 / (1.0 + tan2).sqrt();
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let phi = 2.0 * PI * s.y;
+    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+}
+
+/// The Beckmann distribution D(m) (not yet multiplied by cos theta).
+pub fn beckmann_d(m: Vec3, alpha: f32) -> f32 {
+    if m.z <= 0.0 {
+        return 0.0;
+    }
+    let cos2 = m.z * m.z;
+    let tan2 = (1.0 - cos2) / cos2;
+    let a2 = alpha * alpha;
+    (-tan2 / a2).exp() / (PI * a2 * cos2 * cos2)
+}
+
+pub fn square_to_beckmann_pdf(m: Vec3, alpha: f32) -> f32 {
+    beckmann_d(m, alpha) * m.z.max(0.0)
+}

@@ -1,0 +1,202 @@
+//! The renderable scene, and the scene-file readers that build it.
+//!
+//! `xml` parses any scene file into a format-neutral tree with positions;
+//! `props` gives typed, checked access to a node's properties; `nori` maps
+//! Nori's dialect onto the objects below.
+
+pub mod nori;
+pub mod props;
+pub mod xml;
+
+use std::path::PathBuf;
+
+use crate::bsdf::Bsdf;
+use crate::camera::Camera;
+use crate::color::Rgb;
+use crate::emitter::{Emitter, EmitterContext};
+use crate::geometry::{Bvh, Geometry, Intersection};
+use crate::image::Filter;
+use crate::integrator::Integrator;
+use crate::math::{Aabb, Frame, Ray, Vec3};
+use crate::sampling::Distribution1D;
+
+/// A shape as a scene file describes it.
+#[derive(Clone, Debug)]
+pub struct ShapeDesc {
+    pub geometry: Geometry,
+    pub bsdf: Bsdf,
+    /// Radiance if the shape is an area light.
+    pub area_radiance: Option<Rgb>,
+}
+
+/// Everything a scene file describes, before acceleration structures.
+#[derive(Clone, Debug)]
+pub struct SceneDesc {
+    pub camera: crate::camera::CameraParams,
+    pub filter: Filter,
+    pub spp: u32,
+    pub integrator: Integrator,
+    pub shapes: Vec<ShapeDesc>,
+    /// Emitters that are not attached to shapes (point, constant, environment).
+    pub emitters: Vec<Emitter>,
+    /// The file the scene came from (outputs go next to it).
+    pub source: PathBuf,
+}
+
+/// A scene ready to render.
+pub struct Scene {
+    pub camera: Camera,
+    pub filter: Filter,
+    pub spp: u32,
+    pub integrator: Integrator,
+    pub geometry: Vec<Geometry>,
+    pub bsdfs: Vec<Bsdf>,
+    /// For each shape, the index of its area emitter.
+    pub shape_emitter: Vec<Option<u32>>,
+    pub emitters: Vec<Emitter>,
+    /// Indices of emitters at infinity (seen by escaping rays).
+    pub infinite: Vec<u32>,
+    /// Chooses an emitter in proportion to its estimated power.
+    pub light_choice: Option<Distribution1D>,
+    pub bvh: Bvh,
+    pub bounds: Aabb,
+    pub scene_radius: f32,
+    pub source: PathBuf,
+}
+
+impl Scene {
+    pub fn new(desc: SceneDesc) -> Scene {
+        let mut geometry = Vec::new();
+        let mut bsdfs = Vec::new();
+        let mut shape_emitter = Vec::new();
+        let mut emitters = Vec::new();
+        for (i, s) in desc.shapes.into_iter().enumerate() {
+            geometry.push(s.geometry);
+            bsdfs.push(s.bsdf);
+            shape_emitter.push(s.area_radiance.map(|radiance| {
+                emitters.push(Emitter::Area {
+                    shape: i as u32,
+                    radiance,
+                });
+                (emitters.len() - 1) as u32
+            }));
+        }
+        emitters.extend(desc.emitters);
+        let bvh = Bvh::build(&geometry);
+        let mut bounds = bvh.bounds();
+        for e in &emitters {
+            if let Emitter::Point { position, .. } = e {
+                bounds = bounds.extend(*position);
+            }
+        }
+        let scene_radius = if bounds.is_empty() {
+            1.0
+        } else {
+            (0.5 * bounds.diagonal().length()).max(1e-3)
+        };
+        let infinite = emitters
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.is_infinite())
+            .map(|(i, _)| i as u32)
+            .collect();
+        let ctx = EmitterContext {
+            shapes: &geometry,
+            scene_radius,
+        };
+        let powers: Vec<f32> = emitters.iter().map(|e| e.power(&ctx)).collect();
+        let light_choice = if powers.iter().any(|&p| p > 0.0) {
+            Some(Distribution1D::new(&powers))
+        } else {
+            None
+        };
+        Scene {
+            camera: Camera::new(desc.camera),
+            filter: desc.filter,
+            spp: desc.spp,
+            integrator: desc.integrator,
+            geometry,
+            bsdfs,
+            shape_emitter,
+            emitters,
+            infinite,
+            light_choice,
+            bvh,
+            bounds,
+            scene_radius,
+            source: desc.source,
+        }
+    }
+
+    pub fn emitter_context(&self) -> EmitterContext<'_> {
+        EmitterContext {
+            shapes: &self.geometry,
+            scene_radius: self.scene_radius,
+        }
+    }
+
+    /// Closest surface along the ray.
+    pub fn intersect(&self, ray: &Ray) -> Option<Intersection> {
+        let h = self.bvh.intersect(ray)?;
+        let p = ray.at(h.t);
+        let (ng, ns, uv, p) = match &self.geometry[h.shape as usize] {
+            Geometry::Mesh(m) => {
+                let tri = h.index as usize;
+                let ng = m.geometric_normal(tri);
+                let (ns, uv) = m.shading(tri, h.b1, h.b2);
+                // Recompute the point from barycentrics: more precise than o + t d.
+                let [a, b, c] = m.vertices(tri);
+                let pb = a * (1.0 - h.b1 - h.b2) + b * h.b1 + c * h.b2;
+                (ng, ns, uv, pb)
+            }
+            Geometry::Sphere(s) => {
+                let (n, uv) = s.normal_uv(p);
+                // Reproject onto the surface to remove the error of o + t d.
+                let pp = s.center + n * s.radius;
+                (n, n, uv, pp)
+            }
+        };
+        // The geometric normal defines the front side; orient it to agree
+        // with the shading normal so emission and shading see one surface.
+        let ng = if ng.dot(ns) < 0.0 { -ng } else { ng };
+        Some(Intersection {
+            t: h.t,
+            p,
+            ng,
+            shading: Frame::from_normal(ns),
+            uv,
+            shape: h.shape,
+        })
+    }
+
+    /// True if something blocks the segment between two points, each moved
+    /// off its surface by [`crate::math::offset_ray_origin`] beforehand.
+    pub fn occluded_segment(&self, from: Vec3, to: Vec3) -> bool {
+        let ray = Ray::with_range(from, to - from, 0.0, 1.0 - 1e-4);
+        self.bvh.occluded(&ray)
+    }
+
+    /// True if something blocks the ray towards infinity.
+    pub fn occluded_ray(&self, from: Vec3, d: Vec3) -> bool {
+        self.bvh.occluded(&Ray::new(from, d))
+    }
+
+    /// Radiance from emitters at infinity along an escaping direction.
+    pub fn eval_infinite(&self, d: Vec3) -> Rgb {
+        self.infinite
+            .iter()
+            .map(|&i| self.emitters[i as usize].eval_infinite(d))
+            .sum()
+    }
+
+    /// Number of triangles in all meshes.
+    pub fn triangle_count(&self) -> usize {
+        self.geometry
+            .iter()
+            .map(|g| match g {
+                Geometry::Mesh(m) => m.indices.len(),
+                Geometry::Sphere(_) => 0,
+            })
+            .sum()
+    }
+}

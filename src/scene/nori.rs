@@ -1,0 +1,1 @@
+//! Nori's XML dialect.

@@ -1,0 +1,1 @@
+//! Typed property lookup with defaults and positioned errors.

@@ -1,0 +1,1 @@
+//! Format-neutral scene tree with file positions.

@@ -1,0 +1,245 @@
+//! Statistical tests used by the test suite and `lente test`: Pearson's
+//! chi-square goodness-of-fit test and Student's t-test, as Nori runs them.
+
+use statrs::distribution::{ChiSquared, ContinuousCDF, StudentsT};
+
+/// Outcome of a hypothesis test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TestResult {
+    /// The test statistic (chi^2 or t).
+    pub statistic: f64,
+    /// Degrees of freedom.
+    pub dof: f64,
+    /// Probability of a statistic at least this extreme under the null hypothesis.
+    pub p_value: f64,
+}
+
+impl TestResult {
+    /// True if the null hypothesis survives at significance `alpha`.
+    pub fn passes(&self, alpha: f64) -> bool {
+        self.p_value.is_finite() && self.p_value > alpha
+    }
+}
+
+/// Sidak correction: per-test significance so that `n` tests together have
+/// family-wise significance `alpha`.
+pub fn sidak(alpha: f64, n: usize) -> f64 {
+    1.0 - (1.0 - alpha).powf(1.0 / n.max(1) as f64)
+}
+
+/// Chi-square goodness-of-fit test of observed counts against expected
+/// counts. Cells whose expected count is below `min_expected` are pooled
+/// (in ascending order of expectation) until the pool reaches it. Observed
+/// counts in cells whose expected count is zero make the test fail outright
+/// (p = 0): the sampler produced something its pdf says is impossible.
+pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> TestResult {
+    assert_eq!(observed.len(), expected.len());
+    let mut cells: Vec<(f64, f64)> = expected
+        .iter()
+        .copied()
+        .zip(observed.iter().copied())
+        .collect();
+    if cells.iter().any(|&(e, o)| e <= 0.0 && o > 0.0) {
+        return TestResult {
+            statistic: f64::INFINITY,
+            dof: 0.0,
+            p_value: 0.0,
+        };
+    }
+    cells.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut stat = 0.0;
+    let mut dof: i64 = -1;
+    let (mut pool_e, mut pool_o) = (0.0, 0.0);
+    for &(e, o) in &cells {
+        if e <= 0.0 {
+            continue;
+        }
+        if pool_e + e < min_expected && pool_e < min_expected {
+            pool_e += e;
+            pool_o += o;
+            if pool_e >= min_expected {
+                stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+                dof += 1;
+                pool_e = 0.0;
+                pool_o = 0.0;
+            }
+            continue;
+        }
+        stat += (o - e) * (o - e) / e;
+        dof += 1;
+    }
+    if pool_e > 0.0 {
+        // Leftover pool: fold it into the statistic as one more cell.
+        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        dof += 1;
+    }
+    if dof < 1 {
+        return TestResult {
+            statistic: stat,
+            dof: 0.0,
+            p_value: 1.0,
+        };
+    }
+    let dist = ChiSquared::new(dof as f64).expect("positive degrees of freedom");
+    TestResult {
+        statistic: stat,
+        dof: dof as f64,
+        p_value: 1.0 - dist.cdf(stat),
+    }
+}
+
+/// Running mean and variance (Welford), accumulated in f64.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MeanVar {
+    pub n: u64,
+    mean: f64,
+    m2: f64,
+}
+
+impl MeanVar {
+    pub fn push(&mut self, x: f64) {
+        self.n += 1;
+        let d = x - self.mean;
+        self.mean += d / self.n as f64;
+        self.m2 += d * (x - self.mean);
+    }
+
+    pub fn mean(&self) -> f64 {
+        self.mean
+    }
+
+    /// Unbiased sample variance.
+    pub fn variance(&self) -> f64 {
+        if self.n < 2 {
+            0.0
+        } else {
+            self.m2 / (self.n - 1) as f64
+        }
+    }
+
+    /// Combines two accumulators (Chan et al.).
+    pub fn merge(&self, o: &MeanVar) -> MeanVar {
+        if self.n == 0 {
+            return *o;
+        }
+        if o.n == 0 {
+            return *self;
+        }
+        let n = self.n + o.n;
+        let d = o.mean - self.mean;
+        MeanVar {
+            n,
+            mean: self.mean + d * o.n as f64 / n as f64,
+            m2: self.m2 + o.m2 + d * d * (self.n as f64 * o.n as f64) / n as f64,
+        }
+    }
+}
+
+/// Two-sided one-sample Student t-test of a sample mean against `reference`.
+/// A sample with zero variance passes only if its mean equals the reference
+/// to within a relative 1e-5.
+pub fn t_test(sample: &MeanVar, reference: f64) -> TestResult {
+    let n = sample.n as f64;
+    let var = sample.variance();
+    if sample.n < 2 || var <= 0.0 {
+        let ok = (sample.mean() - reference).abs() <= 1e-5 * reference.abs().max(1e-6);
+        return TestResult {
+            statistic: if ok { 0.0 } else { f64::INFINITY },
+            dof: (n - 1.0).max(0.0),
+            p_value: if ok { 1.0 } else { 0.0 },
+        };
+    }
+    let t = (sample.mean() - reference) / (var / n).sqrt();
+    let dist = StudentsT::new(0.0, 1.0, n - 1.0).expect("valid t distribution");
+    TestResult {
+        statistic: t,
+        dof: n - 1.0,
+        p_value: 2.0 * (1.0 - dist.cdf(t.abs())),
+    }
+}
+
+/// Welch's two-sample t-test: do two estimators have the same mean?
+pub fn welch_t_test(a: &MeanVar, b: &MeanVar) -> TestResult {
+    let (na, nb) = (a.n as f64, b.n as f64);
+    let (va, vb) = (a.variance() / na, b.variance() / nb);
+    let se2 = va + vb;
+    if se2 <= 0.0 {
+        let ok = (a.mean() - b.mean()).abs() <= 1e-5 * a.mean().abs().max(1e-6);
+        return TestResult {
+            statistic: if ok { 0.0 } else { f64::INFINITY },
+            dof: 0.0,
+            p_value: if ok { 1.0 } else { 0.0 },
+        };
+    }
+    let t = (a.mean() - b.mean()) / se2.sqrt();
+    let dof = se2 * se2 / (va * va / (na - 1.0) + vb * vb / (nb - 1.0));
+    let dist = StudentsT::new(0.0, 1.0, dof).expect("valid t distribution");
+    TestResult {
+        statistic: t,
+        dof,
+        p_value: 2.0 * (1.0 - dist.cdf(t.abs())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Sampler;
+
+    #[test]
+    fn chi2_accepts_uniform_and_rejects_skewed() {
+        let mut s = Sampler::new(1, 2);
+        let n = 20;
+        let mut obs = vec![0.0; n];
+        let mut skew = vec![0.0; n];
+        for _ in 0..100_000 {
+            let u = s.next_1d();
+            obs[(u * n as f32) as usize] += 1.0;
+            skew[((u * u) * n as f32) as usize] += 1.0;
+        }
+        let exp = vec![100_000.0 / n as f64; n];
+        assert!(chi2_test(&obs, &exp, 5.0).passes(0.01));
+        assert!(!chi2_test(&skew, &exp, 5.0).passes(0.01));
+    }
+
+    #[test]
+    fn chi2_fails_on_impossible_samples() {
+        let r = chi2_test(&[10.0, 1.0], &[11.0, 0.0], 5.0);
+        assert_eq!(r.p_value, 0.0);
+    }
+
+    #[test]
+    fn t_test_accepts_truth_and_rejects_two_percent_bias() {
+        let mut s = Sampler::new(3, 4);
+        let mut mv = MeanVar::default();
+        for _ in 0..200_000 {
+            mv.push(s.next_1d() as f64);
+        }
+        assert!(t_test(&mv, 0.5).passes(0.01));
+        assert!(!t_test(&mv, 0.51).passes(0.01));
+    }
+
+    #[test]
+    fn merge_matches_single_pass() {
+        let xs: Vec<f64> = (0..100).map(|i| (i * i % 17) as f64).collect();
+        let mut all = MeanVar::default();
+        let (mut a, mut b) = (MeanVar::default(), MeanVar::default());
+        for (i, &x) in xs.iter().enumerate() {
+            all.push(x);
+            if i < 37 {
+                a.push(x)
+            } else {
+                b.push(x)
+            }
+        }
+        let m = a.merge(&b);
+        assert!((m.mean() - all.mean()).abs() < 1e-12);
+        assert!((m.variance() - all.variance()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn sidak_is_exact_for_one_test() {
+        assert!((sidak(0.01, 1) - 0.01).abs() < 1e-12);
+        assert!(sidak(0.01, 10) < 0.01 / 9.0);
+    }
+}
