@@ -28,6 +28,9 @@ pub struct CameraParams {
     /// Distance along the viewing axis to the plane in focus.
     pub focal_distance: f32,
     pub aperture: Aperture,
+    /// Set `focal_distance` to the depth of the first surface on the
+    /// optical axis when the scene is built.
+    pub autofocus: bool,
 }
 
 impl Default for CameraParams {
@@ -43,6 +46,7 @@ impl Default for CameraParams {
             lens_radius: 0.0,
             focal_distance: 1.0,
             aperture: Aperture::Circular,
+            autofocus: false,
         }
     }
 }
@@ -100,9 +104,7 @@ impl Camera {
     pub fn lens_point(&self, u: Vec2) -> Vec2 {
         let disk = match self.params.aperture {
             Aperture::Circular => warp::square_to_uniform_disk(u),
-            Aperture::Polygon { blades, rotation } => {
-                sample_regular_polygon(u, blades, rotation)
-            }
+            Aperture::Polygon { blades, rotation } => sample_regular_polygon(u, blades, rotation),
         };
         self.params.lens_radius * disk
     }

@@ -85,10 +85,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions, cancel: &AtomicBool) -> Rende
     let (w, h) = (scene.camera.width(), scene.camera.height());
     let tiles = tiles(w, h);
     let bar = if opts.progress {
-        let b = ProgressBar::with_draw_target(
-            Some(tiles.len() as u64),
-            ProgressDrawTarget::stderr(),
-        );
+        let b =
+            ProgressBar::with_draw_target(Some(tiles.len() as u64), ProgressDrawTarget::stderr());
         b.set_style(
             ProgressStyle::with_template(
                 "{spinner} [{elapsed_precise}] [{wide_bar}] {percent}% ETA {eta}",
@@ -113,7 +111,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions, cancel: &AtomicBool) -> Rende
     bar.finish_and_clear();
     // Merge in tile order: the sum is then independent of scheduling.
     let mut film = Film::new(w as usize, h as usize);
-    for b in blocks.into_inner().expect("lock not poisoned").iter().flatten() {
+    for b in blocks
+        .into_inner()
+        .expect("lock not poisoned")
+        .iter()
+        .flatten()
+    {
         film.merge(b);
     }
     let pixels = done_pixels.load(Ordering::Relaxed) as u64;

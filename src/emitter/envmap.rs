@@ -19,6 +19,8 @@ pub struct EnvMap {
     pub scale: f32,
     pub to_world: Transform,
     pub filter: EnvFilter,
+    /// Seen by camera rays (it lights the scene either way).
+    pub visible: bool,
 }
 
 impl EnvMap {
@@ -28,6 +30,7 @@ impl EnvMap {
             scale,
             to_world,
             filter,
+            visible: true,
         }
     }
 

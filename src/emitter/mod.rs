@@ -2,6 +2,7 @@
 //! reference point; `pdf` is the solid-angle density of doing so.
 
 mod envmap;
+pub mod sky;
 
 pub use envmap::{EnvFilter, EnvMap};
 
@@ -84,7 +85,13 @@ impl Emitter {
     }
 
     /// Samples incident illumination at `p_ref`.
-    pub fn sample(&self, ctx: &EmitterContext, p_ref: Vec3, u: Vec2, u1: f32) -> Option<LightSample> {
+    pub fn sample(
+        &self,
+        ctx: &EmitterContext,
+        p_ref: Vec3,
+        u: Vec2,
+        u1: f32,
+    ) -> Option<LightSample> {
         match self {
             Emitter::Area { shape, radiance } => {
                 let s = match &ctx.shapes[*shape as usize] {
@@ -163,7 +170,14 @@ impl Emitter {
 
     /// Solid-angle pdf that `sample` from `p_ref` produces the point `p_light`
     /// with normal `n_light` (area lights) or the direction `wi` (infinite).
-    pub fn pdf(&self, ctx: &EmitterContext, p_ref: Vec3, wi: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
+    pub fn pdf(
+        &self,
+        ctx: &EmitterContext,
+        p_ref: Vec3,
+        wi: Vec3,
+        p_light: Vec3,
+        n_light: Vec3,
+    ) -> f32 {
         match self {
             Emitter::Area { shape, .. } => {
                 let area = ctx.shapes[*shape as usize].area();

@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3A;
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
-use obvhs::{aabb::Aabb as OAabb, BvhBuildParams, Boundable};
+use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 use super::triangle::{intersect_triangle, RayShear};
 use super::{Geometry, Sphere};
@@ -132,12 +132,7 @@ impl Bvh {
     }
 
     fn oray(ray: &Ray) -> obvhs::ray::Ray {
-        obvhs::ray::Ray::new(
-            Vec3A::from(ray.o),
-            Vec3A::from(ray.d),
-            ray.tmin,
-            ray.tmax,
-        )
+        obvhs::ray::Ray::new(Vec3A::from(ray.o), Vec3A::from(ray.d), ray.tmin, ray.tmax)
     }
 
     /// Closest hit along the ray within its range.
@@ -154,37 +149,35 @@ impl Bvh {
         let mut hit = obvhs::ray::RayHit::none();
         let o = ray.o;
         let d = ray.d;
-        let found = bvh.ray_traverse(Self::oray(ray), &mut hit, |r, id| {
-            match &self.prims[id] {
-                Prim::Triangle { v } => {
-                    match intersect_triangle(o, &shear, v[0], v[1], v[2], r.tmin, r.tmax) {
-                        Some((t, b1, b2)) => {
-                            best = BvhHit {
-                                t,
-                                shape: self.refs[id].shape,
-                                index: self.refs[id].index,
-                                b1,
-                                b2,
-                            };
-                            t
-                        }
-                        None => f32::INFINITY,
-                    }
-                }
-                Prim::Sphere(s) => match s.intersect(o, d, r.tmin, r.tmax) {
-                    Some(t) => {
+        let found = bvh.ray_traverse(Self::oray(ray), &mut hit, |r, id| match &self.prims[id] {
+            Prim::Triangle { v } => {
+                match intersect_triangle(o, &shear, v[0], v[1], v[2], r.tmin, r.tmax) {
+                    Some((t, b1, b2)) => {
                         best = BvhHit {
                             t,
                             shape: self.refs[id].shape,
-                            index: 0,
-                            b1: 0.0,
-                            b2: 0.0,
+                            index: self.refs[id].index,
+                            b1,
+                            b2,
                         };
                         t
                     }
                     None => f32::INFINITY,
-                },
+                }
             }
+            Prim::Sphere(s) => match s.intersect(o, d, r.tmin, r.tmax) {
+                Some(t) => {
+                    best = BvhHit {
+                        t,
+                        shape: self.refs[id].shape,
+                        index: 0,
+                        b1: 0.0,
+                        b2: 0.0,
+                    };
+                    t
+                }
+                None => f32::INFINITY,
+            },
         });
         if found {
             Some(best)

@@ -69,9 +69,7 @@ impl TriangleMesh {
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.positions
-            .iter()
-            .fold(Aabb::EMPTY, |b, &p| b.extend(p))
+        self.positions.iter().fold(Aabb::EMPTY, |b, &p| b.extend(p))
     }
 
     pub fn triangle_bounds(&self, tri: usize) -> Aabb {

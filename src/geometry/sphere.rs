@@ -98,13 +98,17 @@ mod tests {
             center: Vec3::new(0.0, 0.0, 5.0),
             radius: 1.0,
         };
-        let t = s.intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        let t = s
+            .intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY)
+            .unwrap();
         assert!((t - 4.0).abs() < 1e-5);
         let t = s
             .intersect(Vec3::new(0.0, 0.0, 5.0), Vec3::Z, 0.0, f32::INFINITY)
             .unwrap();
         assert!((t - 1.0).abs() < 1e-5);
-        assert!(s.intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY).is_none());
+        assert!(s
+            .intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY)
+            .is_none());
     }
 
     #[test]
@@ -113,7 +117,9 @@ mod tests {
             center: Vec3::new(0.0, 0.0, 1e4),
             radius: 0.01,
         };
-        let t = s.intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY).unwrap();
+        let t = s
+            .intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY)
+            .unwrap();
         assert!((t - (1e4 - 0.01)).abs() < 2e-3);
     }
 }

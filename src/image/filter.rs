@@ -3,11 +3,22 @@
 /// A separable reconstruction filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Filter {
-    Gaussian { radius: f32, stddev: f32 },
-    Box { radius: f32 },
-    Tent { radius: f32 },
+    Gaussian {
+        radius: f32,
+        stddev: f32,
+    },
+    Box {
+        radius: f32,
+    },
+    Tent {
+        radius: f32,
+    },
     /// Mitchell-Netravali with parameters B and C.
-    Mitchell { radius: f32, b: f32, c: f32 },
+    Mitchell {
+        radius: f32,
+        b: f32,
+        c: f32,
+    },
 }
 
 impl Default for Filter {

@@ -122,10 +122,8 @@ impl Distribution2D {
     /// `weights` is row-major, `nv` rows of `nu` cells.
     pub fn new(weights: &[f32], nu: usize, nv: usize) -> Distribution2D {
         assert_eq!(weights.len(), nu * nv);
-        let conditional: Vec<Distribution1D> = weights
-            .chunks_exact(nu)
-            .map(Distribution1D::new)
-            .collect();
+        let conditional: Vec<Distribution1D> =
+            weights.chunks_exact(nu).map(Distribution1D::new).collect();
         let marg: Vec<f32> = conditional.iter().map(|d| d.integral()).collect();
         Distribution2D {
             conditional,
