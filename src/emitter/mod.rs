@@ -54,6 +54,14 @@ impl Emitter {
         matches!(self, Emitter::Constant { .. } | Emitter::Environment(_))
     }
 
+    /// False for an environment map marked invisible to camera rays.
+    pub fn visible_to_camera(&self) -> bool {
+        match self {
+            Emitter::Environment(env) => env.visible,
+            _ => true,
+        }
+    }
+
     pub fn is_delta(&self) -> bool {
         matches!(self, Emitter::Point { .. })
     }

@@ -68,6 +68,9 @@ pub fn li(
             if count_emission(specular) {
                 for &i in &scene.infinite {
                     let e = &scene.emitters[i as usize];
+                    if depth == 0 && !e.visible_to_camera() {
+                        continue;
+                    }
                     let le = e.eval_infinite(ray.d);
                     if le == Rgb::ZERO {
                         continue;

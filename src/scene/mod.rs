@@ -65,7 +65,9 @@ pub struct Scene {
 }
 
 impl Scene {
-    pub fn new(desc: SceneDesc) -> Scene {
+    /// Builds the acceleration structure and light tables. Fails only if
+    /// the camera asks for autofocus and its optical axis hits nothing.
+    pub fn new(desc: SceneDesc) -> Result<Scene, String> {
         let mut geometry = Vec::new();
         let mut bsdfs = Vec::new();
         let mut shape_emitter = Vec::new();
@@ -110,7 +112,7 @@ impl Scene {
         } else {
             None
         };
-        Scene {
+        let mut scene = Scene {
             camera: Camera::new(desc.camera),
             filter: desc.filter,
             spp: desc.spp,
@@ -125,7 +127,33 @@ impl Scene {
             bounds,
             scene_radius,
             source: desc.source,
+        };
+        if scene.camera.params.autofocus {
+            scene.autofocus()?;
         }
+        Ok(scene)
+    }
+
+    /// Sets the focal distance to the camera-space depth of the first
+    /// surface hit by the pinhole ray through the image centre.
+    fn autofocus(&mut self) -> Result<(), String> {
+        let mut params = self.camera.params.clone();
+        params.lens_radius = 0.0;
+        let pinhole = Camera::new(params.clone());
+        let centre = crate::math::Vec2::new(
+            0.5 * params.width as f32,
+            0.5 * params.height as f32,
+        );
+        let ray = pinhole.generate_ray(centre, crate::math::Vec2::ZERO);
+        let its = self.intersect(&ray).ok_or_else(|| {
+            "autofocus: the ray through the image centre hits nothing".to_string()
+        })?;
+        let p_cam = params.to_world.inverse().point(its.p);
+        let mut focused = self.camera.params.clone();
+        focused.focal_distance = p_cam.z;
+        focused.autofocus = false;
+        self.camera = Camera::new(focused);
+        Ok(())
     }
 
     pub fn emitter_context(&self) -> EmitterContext<'_> {
