@@ -97,9 +97,18 @@ impl Bvh {
                 build_time: start.elapsed(),
             };
         }
+        // obvhs's slab test is not conservatively rounded: a ray that meets a
+        // triangle exactly at its bounding box's face can be culled. Padding
+        // each box by a few ulps of its coordinates keeps the hit inside.
         let oboxes: Vec<BoundsOnly> = boxes
             .iter()
-            .map(|b| BoundsOnly(OAabb::new(Vec3A::from(b.min), Vec3A::from(b.max))))
+            .map(|b| {
+                let pad = b.min.abs().max(b.max.abs()) * 1e-5 + Vec3::splat(1e-30);
+                BoundsOnly(OAabb::new(
+                    Vec3A::from(b.min - pad),
+                    Vec3A::from(b.max + pad),
+                ))
+            })
             .collect();
         let mut core = Duration::default();
         let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);

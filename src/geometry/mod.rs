@@ -10,7 +10,7 @@ pub use bvh::Bvh;
 pub use mesh::TriangleMesh;
 pub use obj::load_obj;
 pub use sphere::Sphere;
-pub use triangle::intersect_triangle;
+pub use triangle::{intersect_triangle, RayShear};
 
 use crate::math::{Aabb, Frame, Transform, Vec2, Vec3};
 

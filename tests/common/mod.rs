@@ -1,0 +1,244 @@
+//! Scene builders and estimators shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use lente::bsdf::Bsdf;
+use lente::camera::CameraParams;
+use lente::color::{luminance, Rgb};
+use lente::emitter::Emitter;
+use lente::geometry::{Geometry, Sphere, TriangleMesh};
+use lente::image::Filter;
+use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::math::{Transform, Vec2, Vec3};
+use lente::sampling::Sampler;
+use lente::scene::{Scene, SceneDesc, ShapeDesc};
+use lente::stats::MeanVar;
+
+/// An axis-aligned box [-h, h]^3 with each face split into `n` x `n` quads
+/// sharing vertices (so the mesh is closed), triangles facing outwards.
+pub fn cube(h: f32, n: usize) -> TriangleMesh {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    // (normal axis, sign): build each face as a grid over the two other axes.
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let (a1, a2) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = positions.len() as u32;
+            for i in 0..=n {
+                for j in 0..=n {
+                    let mut p = [0.0f32; 3];
+                    p[axis] = sign * h;
+                    p[a1] = -h + 2.0 * h * i as f32 / n as f32;
+                    p[a2] = -h + 2.0 * h * j as f32 / n as f32;
+                    positions.push(Vec3::from_array(p));
+                }
+            }
+            let idx = |i: usize, j: usize| base + (i * (n + 1) + j) as u32;
+            for i in 0..n {
+                for j in 0..n {
+                    let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+                    // a1 x a2 = axis: counter-clockwise in (a1, a2) faces +axis.
+                    if sign > 0.0 {
+                        indices.push([a, b, c]);
+                        indices.push([a, c, d]);
+                    } else {
+                        indices.push([a, c, b]);
+                        indices.push([a, d, c]);
+                    }
+                }
+            }
+        }
+    }
+    weld(positions, indices)
+}
+
+/// Merges coincident vertices so faces share edges exactly.
+fn weld(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> TriangleMesh {
+    let mut map = std::collections::HashMap::new();
+    let mut out = Vec::new();
+    let mut remap = Vec::with_capacity(positions.len());
+    for p in &positions {
+        let key = (p.x.to_bits(), p.y.to_bits(), p.z.to_bits());
+        let id = *map.entry(key).or_insert_with(|| {
+            out.push(*p);
+            out.len() as u32 - 1
+        });
+        remap.push(id);
+    }
+    let indices = indices
+        .into_iter()
+        .map(|t| t.map(|i| remap[i as usize]))
+        .collect();
+    TriangleMesh::new(out, Vec::new(), Vec::new(), indices)
+}
+
+/// Reverses the winding (and normals) of a mesh.
+pub fn flipped(mut m: TriangleMesh) -> TriangleMesh {
+    for t in &mut m.indices {
+        t.swap(1, 2);
+    }
+    for n in &mut m.normals {
+        *n = -*n;
+    }
+    TriangleMesh::new(m.positions, m.normals, m.uvs, m.indices)
+}
+
+/// Icosphere of radius `r` with `levels` subdivisions, vertices shared.
+pub fn icosphere(r: f32, levels: usize) -> TriangleMesh {
+    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        let mut midpoint = |a: u32, b: u32, v: &mut Vec<Vec3>| -> u32 {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
+                v.len() as u32 - 1
+            })
+        };
+        for [a, b, c] in f {
+            let ab = midpoint(a, b, &mut v);
+            let bc = midpoint(b, c, &mut v);
+            let ca = midpoint(c, a, &mut v);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    let normals = v.clone();
+    let positions = v.iter().map(|p| *p * r).collect();
+    TriangleMesh::new(positions, normals, Vec::new(), f)
+}
+
+pub fn path(strategy: Strategy) -> Integrator {
+    Integrator::Path {
+        strategy,
+        params: PathParams::default(),
+    }
+}
+
+/// A camera at `origin` looking at `target` with +y up (Nori's lookat with
+/// the usual `scale -1,1,1`).
+pub fn look_at(origin: Vec3, target: Vec3, fov: f32, w: u32, h: u32) -> CameraParams {
+    let dir = (target - origin).normalize();
+    let left = Vec3::Y.cross(dir).normalize();
+    let up = dir.cross(left);
+    let m = lente::math::Mat4::from_cols(
+        left.extend(0.0),
+        up.extend(0.0),
+        dir.extend(0.0),
+        origin.extend(1.0),
+    ) * lente::math::Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    CameraParams {
+        width: w,
+        height: h,
+        fov_x_deg: fov,
+        to_world: Transform::new(m).unwrap(),
+        ..Default::default()
+    }
+}
+
+pub fn desc(camera: CameraParams, integrator: Integrator) -> SceneDesc {
+    SceneDesc {
+        camera,
+        filter: Filter::Box { radius: 0.5 },
+        spp: 1,
+        integrator,
+        shapes: Vec::new(),
+        emitters: Vec::new(),
+        source: PathBuf::from("test.xml"),
+    }
+}
+
+pub fn shape(geometry: Geometry, bsdf: Bsdf, radiance: Option<Rgb>) -> ShapeDesc {
+    ShapeDesc {
+        geometry,
+        bsdf,
+        area_radiance: radiance,
+    }
+}
+
+pub fn diffuse(a: f32) -> Bsdf {
+    Bsdf::Diffuse {
+        albedo: Rgb::splat(a),
+    }
+}
+
+pub fn sphere(center: Vec3, radius: f32) -> Geometry {
+    Geometry::Sphere(Sphere { center, radius })
+}
+
+/// Nori's `ttest` estimator: `n` camera rays through uniformly random image
+/// positions (and aperture samples), mean and variance of the luminance.
+pub fn estimate(scene: &Scene, n: usize, seed: u64) -> MeanVar {
+    let (w, h) = (scene.camera.width() as f32, scene.camera.height() as f32);
+    let mut mv = MeanVar::default();
+    for i in 0..n {
+        let mut s = Sampler::new(seed, i as u64);
+        let film = s.next_2d() * Vec2::new(w, h);
+        let ray = scene.camera.generate_ray(film, s.next_2d());
+        let l = scene.integrator.li(scene, &ray, &mut s);
+        mv.push(luminance(l) as f64);
+    }
+    mv
+}
+
+/// Like [`estimate`] but restricted to a sub-rectangle of the image
+/// (fractions of width and height).
+pub fn estimate_region(scene: &Scene, n: usize, seed: u64, lo: Vec2, hi: Vec2) -> MeanVar {
+    let (w, h) = (scene.camera.width() as f32, scene.camera.height() as f32);
+    let mut mv = MeanVar::default();
+    for i in 0..n {
+        let mut s = Sampler::new(seed, i as u64);
+        let f = lo + s.next_2d() * (hi - lo);
+        let ray = scene.camera.generate_ray(f * Vec2::new(w, h), s.next_2d());
+        let l = scene.integrator.li(scene, &ray, &mut s);
+        mv.push(luminance(l) as f64);
+    }
+    mv
+}
+
+pub fn point_light(position: Vec3, power: Rgb) -> Emitter {
+    Emitter::Point {
+        position,
+        intensity: power / (4.0 * std::f32::consts::PI),
+    }
+}

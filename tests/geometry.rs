@@ -1,0 +1,110 @@
+//! Geometry: the BVH with the watertight triangle test lets no ray escape a
+//! closed mesh; robust offsets avoid self-intersection.
+
+mod common;
+
+use common::*;
+use lente::geometry::{Bvh, Geometry};
+use lente::math::{offset_ray_origin, Ray, Vec3};
+use lente::sampling::{warp, Sampler};
+
+fn escapes(bvh: &Bvh, rays: impl Iterator<Item = Ray>) -> (usize, usize) {
+    let mut n = 0;
+    let mut lost = 0;
+    for r in rays {
+        n += 1;
+        if bvh.intersect(&r).is_none() {
+            lost += 1;
+        }
+    }
+    (lost, n)
+}
+
+#[test]
+fn a_million_rays_from_inside_closed_meshes_never_escape() {
+    let meshes = [
+        Geometry::Mesh(icosphere(1.0, 4)),
+        Geometry::Mesh(cube(1.0, 7)),
+    ];
+    for (k, g) in meshes.into_iter().enumerate() {
+        let vertices = match &g {
+            Geometry::Mesh(m) => m.positions.clone(),
+            _ => unreachable!(),
+        };
+        let bvh = Bvh::build(std::slice::from_ref(&g));
+        let mut s = Sampler::new(42 + k as u64, 0);
+        // Random origins and directions, half of them aimed exactly at
+        // vertices (where several triangles meet) from random interior points.
+        let rays = (0..500_000).map(|i| {
+            let o = warp::square_to_uniform_sphere(s.next_2d()) * 0.5 * s.next_1d().sqrt();
+            let d = if i % 2 == 0 {
+                warp::square_to_uniform_sphere(s.next_2d())
+            } else {
+                let v = vertices[(s.next_u32() as usize) % vertices.len()];
+                (v - o).normalize()
+            };
+            Ray::new(o, d)
+        });
+        let (lost, n) = escapes(&bvh, rays);
+        assert_eq!(lost, 0, "mesh {k}: {lost} of {n} rays escaped");
+    }
+}
+
+#[test]
+fn rays_along_shared_edges_from_the_centre_hit() {
+    // Rays from the centre through midpoints of every edge of the icosphere.
+    let g = Geometry::Mesh(icosphere(1.0, 3));
+    let edges: Vec<Vec3> = match &g {
+        Geometry::Mesh(m) => m
+            .indices
+            .iter()
+            .flat_map(|t| {
+                let p = t.map(|i| m.positions[i as usize]);
+                [(p[0] + p[1]) * 0.5, (p[1] + p[2]) * 0.5, (p[2] + p[0]) * 0.5]
+            })
+            .collect(),
+        _ => unreachable!(),
+    };
+    let bvh = Bvh::build(std::slice::from_ref(&g));
+    let (lost, n) = escapes(&bvh, edges.iter().map(|&e| Ray::new(Vec3::ZERO, e.normalize())));
+    assert_eq!(lost, 0, "{lost} of {n} edge rays escaped");
+}
+
+#[test]
+fn offset_origins_do_not_self_intersect() {
+    // Far from the origin, where a fixed epsilon would fail, spawned rays
+    // leaving a surface must not hit it again.
+    for scale in [1.0f32, 1e3, 1e5] {
+        let mut g = Geometry::Mesh(icosphere(scale, 2));
+        g.transform(
+            &lente::math::Transform::new(lente::math::Mat4::from_translation(Vec3::splat(
+                3.0 * scale,
+            )))
+            .unwrap(),
+        )
+        .unwrap();
+        let bvh = Bvh::build(std::slice::from_ref(&g));
+        let centre = Vec3::splat(3.0 * scale);
+        let mut s = Sampler::new(9, 9);
+        let mut self_hits = 0;
+        for _ in 0..20_000 {
+            let d = warp::square_to_uniform_sphere(s.next_2d());
+            let r = Ray::new(centre, d);
+            let Some(h) = bvh.intersect(&r) else { continue };
+            let p = r.at(h.t);
+            let ng = match &g {
+                Geometry::Mesh(m) => m.geometric_normal(h.index as usize),
+                _ => unreachable!(),
+            };
+            // Leave outwards: nothing else is there, so any hit is a self-hit.
+            let mut out = warp::square_to_cosine_hemisphere(s.next_2d());
+            let f = lente::math::Frame::from_normal(ng);
+            out = f.to_world(out);
+            let o = offset_ray_origin(p, ng, out);
+            if bvh.intersect(&Ray::new(o, out)).is_some() {
+                self_hits += 1;
+            }
+        }
+        assert_eq!(self_hits, 0, "scale {scale}: {self_hits} self-intersections");
+    }
+}
