@@ -48,7 +48,11 @@ fn dielectric_conserves_energy_and_obeys_snell() {
                     assert!(b.wo.x * wi.x <= 1e-6 && b.wo.y * wi.y <= 1e-6);
                 }
             }
-            assert!((energy.mean() - 1.0).abs() < 1e-5, "energy {}", energy.mean());
+            assert!(
+                (energy.mean() - 1.0).abs() < 1e-5,
+                "energy {}",
+                energy.mean()
+            );
             let r = t_test(&refl, f as f64);
             if f < 1.0 && f > 0.0 {
                 assert!(

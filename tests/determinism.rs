@@ -25,7 +25,11 @@ fn small_scene() -> Scene {
         diffuse(0.6),
         None,
     ));
-    d.shapes.push(shape(sphere(Vec3::new(-0.4, -0.6, 0.2), 0.35), Bsdf::Mirror, None));
+    d.shapes.push(shape(
+        sphere(Vec3::new(-0.4, -0.6, 0.2), 0.35),
+        Bsdf::Mirror,
+        None,
+    ));
     d.shapes.push(shape(
         sphere(Vec3::new(0.45, -0.6, -0.2), 0.35),
         Bsdf::dielectric(1.5, 1.0),
@@ -59,7 +63,11 @@ fn one_and_two_threads_render_identical_bits() {
     let b = render_with(2, &scene, 4, 5);
     assert!(a.mean().x > 0.0, "image is black");
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
-        assert_eq!(p.to_array().map(f32::to_bits), q.to_array().map(f32::to_bits), "pixel {i}");
+        assert_eq!(
+            p.to_array().map(f32::to_bits),
+            q.to_array().map(f32::to_bits),
+            "pixel {i}"
+        );
     }
 }
 

@@ -97,17 +97,17 @@ fn white_furnace_all_strategies() {
         {
             let mut geom = geom;
             if let Geometry::Mesh(_) = geom {
-                geom.transform(&lente::math::Transform::new(
-                    lente::math::Mat4::from_translation(Vec3::new(0.0, 0.0, 4.0)),
+                geom.transform(
+                    &lente::math::Transform::new(lente::math::Mat4::from_translation(Vec3::new(
+                        0.0, 0.0, 4.0,
+                    )))
+                    .unwrap(),
                 )
-                .unwrap())
                 .unwrap();
             }
             let mut d = desc(look_at(Vec3::ZERO, Vec3::Z, 20.0, 16, 16), path(s));
             d.shapes.push(shape(geom, diffuse(rho), None));
-            d.emitters.push(Emitter::Constant {
-                radiance: Rgb::ONE,
-            });
+            d.emitters.push(Emitter::Constant { radiance: Rgb::ONE });
             let scene = Scene::new(d).unwrap();
             // fov 20 at distance 4: the sphere of radius 1 fills the view.
             let mv = estimate(&scene, 20_000, (10 * i + j) as u64);

@@ -60,13 +60,20 @@ fn rays_along_shared_edges_from_the_centre_hit() {
             .iter()
             .flat_map(|t| {
                 let p = t.map(|i| m.positions[i as usize]);
-                [(p[0] + p[1]) * 0.5, (p[1] + p[2]) * 0.5, (p[2] + p[0]) * 0.5]
+                [
+                    (p[0] + p[1]) * 0.5,
+                    (p[1] + p[2]) * 0.5,
+                    (p[2] + p[0]) * 0.5,
+                ]
             })
             .collect(),
         _ => unreachable!(),
     };
     let bvh = Bvh::build(std::slice::from_ref(&g));
-    let (lost, n) = escapes(&bvh, edges.iter().map(|&e| Ray::new(Vec3::ZERO, e.normalize())));
+    let (lost, n) = escapes(
+        &bvh,
+        edges.iter().map(|&e| Ray::new(Vec3::ZERO, e.normalize())),
+    );
     assert_eq!(lost, 0, "{lost} of {n} edge rays escaped");
 }
 
@@ -105,6 +112,9 @@ fn offset_origins_do_not_self_intersect() {
                 self_hits += 1;
             }
         }
-        assert_eq!(self_hits, 0, "scale {scale}: {self_hits} self-intersections");
+        assert_eq!(
+            self_hits, 0,
+            "scale {scale}: {self_hits} self-intersections"
+        );
     }
 }

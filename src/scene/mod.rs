@@ -140,10 +140,7 @@ impl Scene {
         let mut params = self.camera.params.clone();
         params.lens_radius = 0.0;
         let pinhole = Camera::new(params.clone());
-        let centre = crate::math::Vec2::new(
-            0.5 * params.width as f32,
-            0.5 * params.height as f32,
-        );
+        let centre = crate::math::Vec2::new(0.5 * params.width as f32, 0.5 * params.height as f32);
         let ray = pinhole.generate_ray(centre, crate::math::Vec2::ZERO);
         let its = self.intersect(&ray).ok_or_else(|| {
             "autofocus: the ray through the image centre hits nothing".to_string()
