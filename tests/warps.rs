@@ -32,8 +32,7 @@ fn square() {
     let h = plane_histogram(
         20,
         20,
-        0.0,
-        1.0,
+        (0.0, 1.0),
         N,
         1,
         |s| Some(warp::square_to_uniform_square(s.next_2d())),
@@ -47,8 +46,7 @@ fn tent() {
     let h = plane_histogram(
         30,
         30,
-        -1.0,
-        1.0,
+        (-1.0, 1.0),
         N,
         2,
         |s| Some(warp::square_to_tent(s.next_2d())),
@@ -62,8 +60,7 @@ fn disk() {
     let h = plane_histogram(
         30,
         30,
-        -1.0,
-        1.0,
+        (-1.0, 1.0),
         N,
         3,
         |s| Some(warp::square_to_uniform_disk(s.next_2d())),
@@ -94,8 +91,7 @@ fn polygon_apertures() {
         let h = plane_histogram(
             30,
             30,
-            -1.0,
-            1.0,
+            (-1.0, 1.0),
             N,
             4 + i as u64,
             |s| Some(sample_regular_polygon(s.next_2d(), blades, rot)),
@@ -221,8 +217,7 @@ fn chi2_rejects_slightly_shrunken_disk() {
     let h = plane_histogram(
         30,
         30,
-        -1.0,
-        1.0,
+        (-1.0, 1.0),
         N,
         14,
         |s| Some(0.98 * warp::square_to_uniform_disk(s.next_2d())),

@@ -5,6 +5,7 @@
 
 mod dielectric;
 mod fresnel;
+mod microfacet;
 
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
@@ -20,6 +21,15 @@ pub enum Bsdf {
     Mirror,
     /// Smooth dielectric interface; `eta` = interior IOR / exterior IOR.
     Dielectric { eta: f32 },
+    /// Nori's rough plastic-like model: Beckmann specular lobe (roughness
+    /// `alpha`, Fresnel with relative IOR `eta`) weighted by `ks` = 1 - max(kd)
+    /// over a Lambertian base `kd`.
+    Microfacet {
+        alpha: f32,
+        eta: f32,
+        kd: Rgb,
+        ks: f32,
+    },
 }
 
 /// Result of sampling a BSDF.
@@ -53,15 +63,26 @@ impl Bsdf {
         }
     }
 
+    /// Nori's microfacet from its parameters.
+    pub fn microfacet(alpha: f32, int_ior: f32, ext_ior: f32, kd: Rgb) -> Bsdf {
+        Bsdf::Microfacet {
+            alpha,
+            eta: int_ior / ext_ior,
+            kd,
+            ks: 1.0 - crate::color::max_component(kd),
+        }
+    }
+
     /// True if every lobe is a delta: NEE is pointless on it.
     pub fn is_specular(&self) -> bool {
-        !matches!(self, Bsdf::Diffuse { .. })
+        matches!(self, Bsdf::Mirror | Bsdf::Dielectric { .. })
     }
 
     /// Diffuse albedo for the `ao`/visualisation paths, if any.
     pub fn albedo(&self) -> Option<Rgb> {
         match self {
             Bsdf::Diffuse { albedo } => Some(*albedo),
+            Bsdf::Microfacet { kd, .. } => Some(*kd),
             _ => None,
         }
     }
@@ -75,6 +96,9 @@ impl Bsdf {
                 } else {
                     *albedo * crate::math::INV_PI
                 }
+            }
+            Bsdf::Microfacet { alpha, eta, kd, ks } => {
+                microfacet::eval(*alpha, *eta, *kd, *ks, wi, wo)
             }
             Bsdf::Mirror | Bsdf::Dielectric { .. } => Rgb::ZERO,
         }
@@ -90,6 +114,7 @@ impl Bsdf {
                     crate::sampling::warp::square_to_cosine_hemisphere_pdf(wo)
                 }
             }
+            Bsdf::Microfacet { alpha, ks, .. } => microfacet::pdf(*alpha, *ks, wi, wo),
             Bsdf::Mirror | Bsdf::Dielectric { .. } => 0.0,
         }
     }
@@ -126,6 +151,9 @@ impl Bsdf {
                 })
             }
             Bsdf::Dielectric { eta } => Some(dielectric::sample(*eta, wi, u_lobe)),
+            Bsdf::Microfacet { alpha, eta, kd, ks } => {
+                microfacet::sample(*alpha, *eta, *kd, *ks, wi, u, u_lobe)
+            }
         }
     }
 }

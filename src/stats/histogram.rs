@@ -82,8 +82,7 @@ pub fn sphere_histogram(
 pub fn plane_histogram(
     rows: usize,
     cols: usize,
-    lo: f32,
-    hi: f32,
+    (lo, hi): (f32, f32),
     n: usize,
     seed: u64,
     mut sample: impl FnMut(&mut Sampler) -> Option<Vec2>,
