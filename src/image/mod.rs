@@ -9,3 +9,4 @@ pub mod io;
 pub use bitmap::Bitmap;
 pub use film::{Film, FilmBlock};
 pub use filter::Filter;
+pub use io::{load_image, save_image, ImageError};
