@@ -5,8 +5,10 @@ mod bitmap;
 mod film;
 mod filter;
 pub mod io;
+pub mod tonemap;
 
 pub use bitmap::Bitmap;
 pub use film::{Film, FilmBlock};
 pub use filter::Filter;
 pub use io::{load_image, save_image, ImageError};
+pub use tonemap::{save_png_tonemapped, tonemap, Tonemap};
