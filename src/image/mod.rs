@@ -2,10 +2,15 @@
 //! bitmaps with their file formats.
 
 mod bitmap;
+pub mod compare;
 mod film;
 mod filter;
 pub mod io;
+pub mod tonemap;
 
 pub use bitmap::Bitmap;
+pub use compare::{compare, difference_image, Comparison};
 pub use film::{Film, FilmBlock};
 pub use filter::Filter;
+pub use io::{load_image, save_image, ImageError};
+pub use tonemap::{save_png_tonemapped, tonemap, Tonemap};

@@ -1,0 +1,346 @@
+//! OpenEXR through the `exr` crate.
+//!
+//! Reading takes the first layer (part) that has `R`, `G` and `B` channels,
+//! or else a `Y` channel (read as grey). Channels named with a prefix
+//! (`diffuse.R`) count as well, the unprefixed set first. Alpha and any other
+//! channels are ignored. Writing produces one 32-bit float RGB layer with
+//! ZIP compression.
+
+use std::io::Cursor;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use exr::prelude::{
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, ReadChannels,
+    ReadLayers, SpecificChannels, Vec2, WritableImage,
+};
+
+use super::RawImage;
+use crate::image::Bitmap;
+
+type AnyLayer = Layer<AnyChannels<FlatSamples>>;
+
+fn samples_as_f32(samples: &FlatSamples) -> Vec<f32> {
+    match samples {
+        FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
+        FlatSamples::F32(v) => v.clone(),
+        FlatSamples::U32(v) => v.iter().map(|&u| u as f32).collect(),
+    }
+}
+
+/// The channels to read from one layer: indices of R, G, B, or of Y.
+enum Pick {
+    Rgb([usize; 3]),
+    Y(usize),
+}
+
+fn pick_channels(layer: &AnyLayer) -> Option<Pick> {
+    let list = &layer.channel_data.list;
+    let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+    // Prefixes in order of first appearance, the empty prefix first.
+    let mut prefixes: Vec<&str> = vec![""];
+    for name in &names {
+        if let Some(dot) = name.rfind('.') {
+            let prefix = &name[..=dot];
+            if !prefixes.contains(&prefix) {
+                prefixes.push(prefix);
+            }
+        }
+    }
+    let find = |prefix: &str, suffix: &str| {
+        names.iter().position(|n| {
+            n.strip_prefix(prefix)
+                .is_some_and(|rest| rest.eq_ignore_ascii_case(suffix))
+        })
+    };
+    for prefix in prefixes {
+        if let (Some(r), Some(g), Some(b)) =
+            (find(prefix, "R"), find(prefix, "G"), find(prefix, "B"))
+        {
+            return Some(Pick::Rgb([r, g, b]));
+        }
+        if let Some(y) = find(prefix, "Y") {
+            return Some(Pick::Y(y));
+        }
+    }
+    None
+}
+
+fn channel_values(layer: &AnyLayer, index: usize, pixels: usize) -> Result<Vec<f32>, String> {
+    let channel: &AnyChannel<FlatSamples> = &layer.channel_data.list[index];
+    let values = samples_as_f32(&channel.sample_data);
+    if values.len() != pixels {
+        return Err(format!(
+            "OpenEXR channel '{}' is subsampled ({}x{}), which is not supported",
+            channel.name, channel.sampling.0, channel.sampling.1
+        ));
+    }
+    Ok(values)
+}
+
+pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
+    // The exr crate reports bad files as errors; catching a panic as well
+    // keeps any bug of its on hostile input from taking lente down.
+    let read = catch_unwind(AssertUnwindSafe(|| {
+        exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_buffered(Cursor::new(bytes))
+    }));
+    let image = match read {
+        Ok(Ok(image)) => image,
+        Ok(Err(e)) => return Err(format!("cannot decode OpenEXR: {e}")),
+        Err(_) => return Err("cannot decode OpenEXR: the decoder failed on this file".into()),
+    };
+    for layer in &image.layer_data {
+        let Some(pick) = pick_channels(layer) else {
+            continue;
+        };
+        let (width, height) = (layer.size.width(), layer.size.height());
+        let pixels = width * height;
+        return Ok(match pick {
+            Pick::Rgb(idx) => {
+                let [r, g, b] = idx.map(|i| channel_values(layer, i, pixels));
+                let (r, g, b) = (r?, g?, b?);
+                let mut data = Vec::with_capacity(pixels * 3);
+                for i in 0..pixels {
+                    data.extend_from_slice(&[r[i], g[i], b[i]]);
+                }
+                RawImage {
+                    width,
+                    height,
+                    channels: 3,
+                    data,
+                }
+            }
+            Pick::Y(i) => RawImage {
+                width,
+                height,
+                channels: 1,
+                data: channel_values(layer, i, pixels)?,
+            },
+        });
+    }
+    let found: Vec<String> = image
+        .layer_data
+        .iter()
+        .flat_map(|l| l.channel_data.list.iter().map(|c| c.name.to_string()))
+        .collect();
+    Err(format!(
+        "no OpenEXR layer has R, G, B or Y channels (found: {})",
+        if found.is_empty() {
+            "none".to_string()
+        } else {
+            found.join(", ")
+        }
+    ))
+}
+
+/// One layer of 32-bit float R, G, B; ZIP compression, increasing scanlines.
+pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, String> {
+    let w = image.width;
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let p = image.pixels[pos.y() * w + pos.x()];
+        (p.x, p.y, p.z)
+    });
+    let layer = Layer::new(
+        (image.width, image.height),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    let mut out = Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut out)
+        .map_err(|e| format!("cannot encode OpenEXR: {e}"))?;
+    Ok(out.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use exr::prelude::{
+        f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, Image, ImageAttributes,
+        IntegerBounds, Layer, LayerAttributes, SmallVec, WritableImage,
+    };
+
+    use super::super::test_util::{test_image, TempDir};
+    use super::super::{load_image, save_image};
+    use crate::color::Rgb;
+    use crate::image::Bitmap;
+
+    fn encoding(compression: Compression) -> Encoding {
+        Encoding {
+            compression,
+            ..Encoding::SMALL_LOSSLESS
+        }
+    }
+
+    fn channel(name: &str, values: Vec<f32>, half: bool) -> AnyChannel<FlatSamples> {
+        let samples = if half {
+            FlatSamples::F16(values.into_iter().map(f16::from_f32).collect())
+        } else {
+            FlatSamples::F32(values)
+        };
+        AnyChannel::new(name, samples)
+    }
+
+    fn layer(
+        img: &Bitmap,
+        names: &[&str],
+        half: bool,
+        compression: Compression,
+    ) -> Layer<AnyChannels<FlatSamples>> {
+        let list: Vec<AnyChannel<FlatSamples>> = names
+            .iter()
+            .map(|name| {
+                let last = name.rsplit('.').next().unwrap();
+                let values = img
+                    .pixels
+                    .iter()
+                    .map(|p| match last {
+                        "R" => p.x,
+                        "G" => p.y,
+                        "B" => p.z,
+                        "Y" => crate::color::luminance(*p),
+                        "A" => 0.25,
+                        _ => 7.0,
+                    })
+                    .collect();
+                channel(name, values, half)
+            })
+            .collect();
+        Layer::new(
+            (img.width, img.height),
+            match names[0].rsplit_once('.') {
+                Some((prefix, _)) => LayerAttributes::named(prefix),
+                None => LayerAttributes::default(),
+            },
+            encoding(compression),
+            AnyChannels::sort(SmallVec::from_vec(list)),
+        )
+    }
+
+    fn write(path: &std::path::Path, layers: Vec<Layer<AnyChannels<FlatSamples>>>) {
+        let size = layers[0].size;
+        let image = Image::new(
+            ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+            SmallVec::from_vec(layers),
+        );
+        image.write().to_file(path).unwrap();
+    }
+
+    fn assert_close(a: &Bitmap, b: &Bitmap, rel: f32, what: &str) {
+        assert_eq!((a.width, a.height), (b.width, b.height), "{what}");
+        for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+            let tol = rel * p.abs().max(q.abs()) + 1e-6;
+            assert!(
+                (*p - *q).abs().cmple(tol).all(),
+                "{what}: pixel {i}: {p} vs {q}"
+            );
+        }
+    }
+
+    #[test]
+    fn exr_round_trip_is_exact() {
+        let dir = TempDir::new("exr-rt");
+        let mut img = test_image(13, 7);
+        img.set(12, 6, Rgb::new(1e-30, 3.0e30, 0.1));
+        let path = dir.path("rt.exr");
+        save_image(&path, &img).unwrap();
+        let (back, warnings) = load_image(&path).unwrap();
+        assert!(warnings.is_empty());
+        assert_eq!(back, img);
+    }
+
+    #[test]
+    fn exr_reads_half_float_rgba_and_compressions() {
+        let dir = TempDir::new("exr-kinds");
+        let img = test_image(41, 19);
+        let path = dir.path("k.exr");
+        let cases = [
+            (&["R", "G", "B"][..], true, Compression::ZIP16, 1e-3),
+            (&["R", "G", "B"][..], false, Compression::ZIP1, 0.0),
+            (&["R", "G", "B"][..], false, Compression::PIZ, 0.0),
+            (&["R", "G", "B"][..], true, Compression::PIZ, 1e-3),
+            (&["R", "G", "B"][..], true, Compression::RLE, 1e-3),
+            (&["R", "G", "B"][..], false, Compression::Uncompressed, 0.0),
+            (&["R", "G", "B", "A"][..], true, Compression::ZIP16, 1e-3),
+            (&["R", "G", "B", "A"][..], false, Compression::ZIP16, 0.0),
+            (&["A", "B", "G", "R", "Z"][..], false, Compression::PIZ, 0.0),
+            (&["R", "G", "B"][..], true, Compression::DWAB(None), 0.05),
+        ];
+        for (names, half, compression, rel) in cases {
+            write(&path, vec![layer(&img, names, half, compression)]);
+            let what = format!("{names:?} half={half} {compression:?}");
+            let (back, _) = load_image(&path).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_close(&img, &back, rel, &what);
+        }
+    }
+
+    #[test]
+    fn exr_reads_luminance_only_as_grey() {
+        let dir = TempDir::new("exr-y");
+        let img = test_image(10, 6);
+        let path = dir.path("y.exr");
+        for half in [true, false] {
+            write(&path, vec![layer(&img, &["Y"], half, Compression::ZIP16)]);
+            let (back, _) = load_image(&path).unwrap();
+            let grey = Bitmap {
+                width: img.width,
+                height: img.height,
+                pixels: img
+                    .pixels
+                    .iter()
+                    .map(|p| Rgb::splat(crate::color::luminance(*p)))
+                    .collect(),
+            };
+            assert_close(&grey, &back, if half { 1e-3 } else { 0.0 }, "Y");
+        }
+    }
+
+    #[test]
+    fn exr_uses_first_layer_with_colour() {
+        let dir = TempDir::new("exr-layers");
+        let img = test_image(8, 5);
+        let path = dir.path("l.exr");
+        // Layer 1 has only depth; layer 2 has prefixed colour channels.
+        write(
+            &path,
+            vec![
+                layer(&img, &["depth.Z"], false, Compression::ZIP16),
+                layer(
+                    &img,
+                    &["diffuse.R", "diffuse.G", "diffuse.B"],
+                    false,
+                    Compression::ZIP16,
+                ),
+            ],
+        );
+        let (back, _) = load_image(&path).unwrap();
+        assert_eq!(back, img);
+        // No colour anywhere: an error that lists what was found.
+        write(&path, vec![layer(&img, &["Z"], false, Compression::ZIP16)]);
+        let err = load_image(&path).unwrap_err().to_string();
+        assert!(err.contains("l.exr") && err.contains("found: Z"), "{err}");
+    }
+
+    #[test]
+    fn exr_half_negative_values_warn_once() {
+        let dir = TempDir::new("exr-neg");
+        let mut img = test_image(6, 4);
+        for x in 0..6 {
+            img.set(x, 1, Rgb::new(-0.5, 0.25, -2.0));
+        }
+        let path = dir.path("n.exr");
+        write(
+            &path,
+            vec![layer(&img, &["R", "G", "B"], true, Compression::PIZ)],
+        );
+        let (back, warnings) = load_image(&path).unwrap();
+        assert_eq!(warnings, ["clamped 12 negative texel values to zero"]);
+        assert_eq!(back.get(3, 1), Rgb::new(0.0, 0.25, 0.0));
+    }
+}

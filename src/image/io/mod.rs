@@ -1,0 +1,572 @@
+//! Reading and writing image files: OpenEXR, Radiance HDR, PFM and PNG.
+//!
+//! The format is chosen by the file extension (case-insensitive). Loaders
+//! return linear RGB with the top row first; bad input never panics but
+//! gives an [`ImageError`] naming the file and what was wrong. Savers encode
+//! the whole file in memory, write it to a temporary file in the target
+//! folder and rename it into place, so a failed save never leaves a
+//! half-written file under the final name.
+
+mod exr;
+mod hdr;
+mod pfm;
+mod png;
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::Bitmap;
+use crate::color::Rgb;
+
+/// An image file that could not be read or written.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {message}")]
+pub struct ImageError {
+    pub path: PathBuf,
+    pub message: String,
+}
+
+impl ImageError {
+    fn new(path: &Path, message: impl Into<String>) -> ImageError {
+        ImageError {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+}
+
+/// The file formats lente reads and writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Exr,
+    Hdr,
+    Pfm,
+    Png,
+}
+
+const SUPPORTED: &str = ".exr, .hdr, .pfm, .png";
+
+impl Format {
+    fn from_path(path: &Path) -> Result<Format, ImageError> {
+        let ext = match path.extension().and_then(|e| e.to_str()) {
+            Some(ext) => ext.to_ascii_lowercase(),
+            None => {
+                return Err(ImageError::new(
+                    path,
+                    format!("no file extension to tell the image format (supported: {SUPPORTED})"),
+                ))
+            }
+        };
+        match ext.as_str() {
+            "exr" => Ok(Format::Exr),
+            "hdr" => Ok(Format::Hdr),
+            "pfm" => Ok(Format::Pfm),
+            "png" => Ok(Format::Png),
+            _ => Err(ImageError::new(
+                path,
+                format!("unsupported image extension '.{ext}' (supported: {SUPPORTED})"),
+            )),
+        }
+    }
+}
+
+/// Decoded texels before validation: `channels` is 1 (grey) or 3 (RGB),
+/// interleaved, top row first.
+pub(crate) struct RawImage {
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub data: Vec<f32>,
+}
+
+/// Loads a linear RGB image, choosing the format by extension (`.exr`,
+/// `.hdr`, `.pfm`, `.png`). Returns the image and any warnings (e.g. how
+/// many negative texels were clamped to zero).
+///
+/// - EXR: half, float or uint samples; the first layer (part) with `R`,
+///   `G`, `B` channels, or else a `Y` channel (read as grey); alpha and other
+///   channels are ignored. Any compression the `exr` crate reads.
+/// - HDR: Radiance RGBE, run-length encoded or flat scanlines, any of the
+///   eight orientations of the resolution line.
+/// - PFM: colour (`PF`) or greyscale (`Pf`), either byte order.
+/// - PNG: 8 or 16 bit, any colour type; decoded from sRGB to linear.
+///
+/// Negative texels are clamped to zero with one warning that counts them;
+/// NaN or infinite texels and empty images are errors.
+pub fn load_image(path: &Path) -> Result<(Bitmap, Vec<String>), ImageError> {
+    let format = Format::from_path(path)?;
+    let bytes = fs::read(path)
+        .map_err(|e| ImageError::new(path, format!("cannot read image file: {e}")))?;
+    let raw = match format {
+        Format::Exr => exr::decode(&bytes),
+        Format::Hdr => hdr::decode(&bytes),
+        Format::Pfm => pfm::decode(&bytes),
+        Format::Png => png::decode(&bytes),
+    }
+    .map_err(|message| ImageError::new(path, message))?;
+    finish(raw).map_err(|message| ImageError::new(path, message))
+}
+
+/// Checks decoded texels and turns them into a bitmap: rejects empty images
+/// and non-finite values, clamps negative values to zero (one warning).
+fn finish(raw: RawImage) -> Result<(Bitmap, Vec<String>), String> {
+    let RawImage {
+        width,
+        height,
+        channels,
+        mut data,
+    } = raw;
+    if width == 0 || height == 0 {
+        return Err(format!("image is empty ({width}x{height} pixels)"));
+    }
+    let n = width * height;
+    if data.len() != n * channels || !(channels == 1 || channels == 3) {
+        return Err(format!(
+            "internal decoder error: {} values for {width}x{height}x{channels}",
+            data.len()
+        ));
+    }
+    let non_finite = data.iter().filter(|v| !v.is_finite()).count();
+    if non_finite > 0 {
+        return Err(format!(
+            "{non_finite} texel {} NaN or infinite",
+            if non_finite == 1 {
+                "value is"
+            } else {
+                "values are"
+            }
+        ));
+    }
+    let mut negative = 0usize;
+    for v in &mut data {
+        if v.is_sign_negative() {
+            // -0.0 becomes +0.0 silently; only true negatives are counted.
+            negative += usize::from(*v < 0.0);
+            *v = 0.0;
+        }
+    }
+    let pixels: Vec<Rgb> = if channels == 3 {
+        data.chunks_exact(3)
+            .map(|c| Rgb::new(c[0], c[1], c[2]))
+            .collect()
+    } else {
+        data.iter().map(|&v| Rgb::splat(v)).collect()
+    };
+    let mut warnings = Vec::new();
+    if negative > 0 {
+        warnings.push(format!(
+            "clamped {negative} negative texel {} to zero",
+            if negative == 1 { "value" } else { "values" }
+        ));
+    }
+    Ok((
+        Bitmap {
+            width,
+            height,
+            pixels,
+        },
+        warnings,
+    ))
+}
+
+/// Saves an image, choosing the format by extension:
+///
+/// - `.exr`: 32-bit float RGB, linear, ZIP compression;
+/// - `.png`: 8-bit sRGB-encoded, clamped to [0, 1];
+/// - `.hdr`: Radiance RGBE, run-length encoded;
+/// - `.pfm`: colour, little-endian.
+///
+/// Written atomically: to a temporary file in the same folder, then renamed.
+pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
+    let format = Format::from_path(path)?;
+    if image.width == 0 || image.height == 0 {
+        return Err(ImageError::new(
+            path,
+            format!(
+                "cannot save an empty image ({}x{} pixels)",
+                image.width, image.height
+            ),
+        ));
+    }
+    if image.width.checked_mul(image.height) != Some(image.pixels.len()) {
+        return Err(ImageError::new(
+            path,
+            format!(
+                "bitmap has {} pixels but claims to be {}x{}",
+                image.pixels.len(),
+                image.width,
+                image.height
+            ),
+        ));
+    }
+    let bytes = match format {
+        Format::Exr => exr::encode(image),
+        Format::Hdr => hdr::encode(image),
+        Format::Pfm => Ok(pfm::encode(image)),
+        Format::Png => png::encode(image),
+    }
+    .map_err(|message| ImageError::new(path, message))?;
+    write_atomically(path, &bytes)
+}
+
+/// Writes `bytes` to a temporary file beside `path`, then renames it to
+/// `path`. On failure the temporary file is removed.
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let Some(name) = path.file_name() else {
+        return Err(ImageError::new(path, "not a file name"));
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let tmp_name = format!(
+        ".{}.tmp-{}-{}",
+        name.to_string_lossy(),
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    );
+    let tmp = dir.join(tmp_name);
+    let result = (|| -> Result<(), String> {
+        let mut file = fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| format!("cannot create temporary file {}: {e}", tmp.display()))?;
+        file.write_all(bytes)
+            .and_then(|()| file.sync_all())
+            .map_err(|e| format!("cannot write temporary file {}: {e}", tmp.display()))?;
+        drop(file);
+        fs::rename(&tmp, path)
+            .map_err(|e| format!("cannot rename {} into place: {e}", tmp.display()))
+    })();
+    result.map_err(|message| {
+        let _ = fs::remove_file(&tmp);
+        ImageError::new(path, message)
+    })
+}
+
+#[cfg(test)]
+pub(crate) mod test_util {
+    use std::path::{Path, PathBuf};
+    use std::sync::atomic::{AtomicU64, Ordering};
+
+    use crate::color::Rgb;
+    use crate::image::Bitmap;
+
+    /// A fresh, empty folder under the system temp dir, removed on drop.
+    pub struct TempDir(pub PathBuf);
+
+    impl TempDir {
+        pub fn new(tag: &str) -> TempDir {
+            static N: AtomicU64 = AtomicU64::new(0);
+            let nanos = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_nanos())
+                .unwrap_or(0);
+            let dir = std::env::temp_dir().join(format!(
+                "lente-imageio-{tag}-{}-{}-{nanos}",
+                std::process::id(),
+                N.fetch_add(1, Ordering::Relaxed)
+            ));
+            std::fs::create_dir_all(&dir).unwrap();
+            TempDir(dir)
+        }
+
+        pub fn path(&self, name: &str) -> PathBuf {
+            self.0.join(name)
+        }
+
+        pub fn dir(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// A small test image with varied, positive values over a wide range;
+    /// width != height so transposition or flips show up.
+    pub fn test_image(width: usize, height: usize) -> Bitmap {
+        let mut b = Bitmap::new(width, height);
+        for y in 0..height {
+            for x in 0..width {
+                let t = (x + 3 * y) as f32;
+                b.set(
+                    x,
+                    y,
+                    Rgb::new(
+                        0.01 + x as f32 * 0.37,
+                        (y as f32 * 0.61 + 0.05).powi(2),
+                        (1.3f32).powf(t * 0.5) * 0.02,
+                    ),
+                );
+            }
+        }
+        b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_util::{test_image, TempDir};
+    use super::*;
+
+    #[test]
+    fn unknown_extension_is_an_error_listing_formats() {
+        let dir = TempDir::new("ext");
+        let path = dir.path("picture.jpg");
+        fs::write(&path, b"whatever").unwrap();
+        let err = load_image(&path).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("picture.jpg"), "{msg}");
+        for ext in [".exr", ".hdr", ".pfm", ".png"] {
+            assert!(msg.contains(ext), "{msg}");
+        }
+        let err = save_image(&path, &test_image(2, 2)).unwrap_err();
+        assert!(err.to_string().contains(".pfm"), "{err}");
+        let err = load_image(&dir.path("noext")).unwrap_err();
+        assert!(err.to_string().contains("extension"), "{err}");
+    }
+
+    #[test]
+    fn extension_is_case_insensitive() {
+        let dir = TempDir::new("case");
+        let img = test_image(3, 2);
+        for name in ["a.PFM", "b.Exr", "c.HDR", "d.PnG"] {
+            let path = dir.path(name);
+            save_image(&path, &img).unwrap();
+            let (back, _) = load_image(&path).unwrap();
+            assert_eq!((back.width, back.height), (3, 2), "{name}");
+        }
+    }
+
+    #[test]
+    fn missing_file_is_an_error_naming_the_path() {
+        let dir = TempDir::new("missing");
+        for name in ["nothere.exr", "nothere.hdr", "nothere.pfm", "nothere.png"] {
+            let path = dir.path(name);
+            let err = load_image(&path).unwrap_err();
+            assert_eq!(err.path, path);
+            assert!(err.to_string().contains(name), "{err}");
+        }
+    }
+
+    #[test]
+    fn truncated_files_are_errors_not_panics() {
+        let dir = TempDir::new("trunc");
+        let img = test_image(37, 23);
+        for name in ["t.exr", "t.hdr", "t.pfm", "t.png"] {
+            let path = dir.path(name);
+            save_image(&path, &img).unwrap();
+            let bytes = fs::read(&path).unwrap();
+            // Cut at many places, including inside the header. A PNG whose
+            // pixel data are complete but whose 12-byte end marker (IEND) is
+            // cut still loads, so cut PNGs before it.
+            let end = if name.ends_with("png") {
+                bytes.len() - 12
+            } else {
+                bytes.len()
+            };
+            let cuts = [0, 1, 5, 11, 20, bytes.len() / 3, bytes.len() / 2]
+                .into_iter()
+                .chain([end - 7, end - 1]);
+            for cut in cuts {
+                fs::write(&path, &bytes[..cut]).unwrap();
+                let result = load_image(&path);
+                assert!(
+                    result.is_err(),
+                    "{name} cut at {cut} of {} loaded",
+                    bytes.len()
+                );
+                let msg = result.unwrap_err().to_string();
+                assert!(msg.contains(name), "{msg}");
+            }
+        }
+    }
+
+    #[test]
+    fn garbage_files_are_errors_not_panics() {
+        let dir = TempDir::new("garbage");
+        // A simple deterministic byte generator.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state as u8
+        };
+        for name in ["g.exr", "g.hdr", "g.pfm", "g.png"] {
+            let path = dir.path(name);
+            for len in [3usize, 64, 1000] {
+                let bytes: Vec<u8> = (0..len).map(|_| next()).collect();
+                fs::write(&path, &bytes).unwrap();
+                assert!(load_image(&path).is_err(), "{name}");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_image_is_an_error() {
+        let dir = TempDir::new("empty");
+        let path = dir.path("e.pfm");
+        fs::write(&path, b"PF\n0 0\n-1\n").unwrap();
+        let err = load_image(&path).unwrap_err();
+        assert!(err.to_string().contains("empty"), "{err}");
+        let err = save_image(&path, &Bitmap::new(0, 0)).unwrap_err();
+        assert!(err.to_string().contains("empty"), "{err}");
+    }
+
+    #[test]
+    fn negative_texels_give_one_counting_warning() {
+        let dir = TempDir::new("neg");
+        let mut img = test_image(5, 4);
+        img.set(0, 0, Rgb::new(-1.0, 0.5, -2.0));
+        img.set(3, 2, Rgb::new(0.5, -0.25, 0.5));
+        img.set(4, 3, Rgb::new(-0.0, 0.0, 0.0)); // negative zero is not negative
+        for name in ["n.pfm", "n.exr"] {
+            let path = dir.path(name);
+            save_image(&path, &img).unwrap();
+            let (back, warnings) = load_image(&path).unwrap();
+            assert_eq!(
+                warnings,
+                vec!["clamped 3 negative texel values to zero".to_string()],
+                "{name}"
+            );
+            assert_eq!(back.get(0, 0), Rgb::new(0.0, 0.5, 0.0));
+            assert_eq!(back.get(3, 2), Rgb::new(0.5, 0.0, 0.5));
+            assert!(back.pixels.iter().all(|p| p.min_element() >= 0.0));
+        }
+        let (_, warnings) = load_image(&{
+            let p = dir.path("clean.pfm");
+            save_image(&p, &test_image(5, 4)).unwrap();
+            p
+        })
+        .unwrap();
+        assert!(warnings.is_empty());
+    }
+
+    #[test]
+    fn nan_and_infinite_texels_are_errors_with_a_count() {
+        let dir = TempDir::new("nan");
+        let mut img = test_image(4, 3);
+        img.set(1, 1, Rgb::new(f32::NAN, 0.0, 0.0));
+        img.set(2, 1, Rgb::new(0.0, f32::INFINITY, f32::NEG_INFINITY));
+        for name in ["nan.pfm", "nan.exr"] {
+            let path = dir.path(name);
+            save_image(&path, &img).unwrap();
+            let err = load_image(&path).unwrap_err();
+            let msg = err.to_string();
+            assert!(msg.contains(name), "{msg}");
+            assert!(msg.contains("3 texel values are NaN or infinite"), "{msg}");
+        }
+    }
+
+    fn leftover_temp_files(dir: &Path) -> Vec<String> {
+        fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains(".tmp-"))
+            .collect()
+    }
+
+    #[test]
+    fn atomic_save_leaves_no_temp_files() {
+        let dir = TempDir::new("atomic");
+        let img = test_image(16, 9);
+        for name in ["a.exr", "a.hdr", "a.pfm", "a.png"] {
+            let path = dir.path(name);
+            save_image(&path, &img).unwrap();
+            // Overwriting an existing file works too.
+            save_image(&path, &img).unwrap();
+            assert!(load_image(&path).is_ok());
+        }
+        assert_eq!(leftover_temp_files(dir.dir()), Vec::<String>::new());
+        let mut names: Vec<String> = fs::read_dir(dir.dir())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["a.exr", "a.hdr", "a.pfm", "a.png"]);
+    }
+
+    #[test]
+    fn failed_save_leaves_nothing_behind() {
+        let dir = TempDir::new("failsave");
+        // Renaming a file onto an existing non-empty directory fails after
+        // the temporary file was written: it must be cleaned up.
+        let target = dir.path("taken.pfm");
+        fs::create_dir(&target).unwrap();
+        fs::write(target.join("keep"), b"x").unwrap();
+        let err = save_image(&target, &test_image(3, 3)).unwrap_err();
+        assert_eq!(err.path, target);
+        assert_eq!(leftover_temp_files(dir.dir()), Vec::<String>::new());
+        // A missing folder is an error naming the path.
+        let path = dir.path("no/such/folder/x.png");
+        let err = save_image(&path, &test_image(3, 3)).unwrap_err();
+        assert!(err.to_string().contains("x.png"), "{err}");
+        // A bitmap whose pixel count does not match its size is refused.
+        let bad = Bitmap {
+            width: 4,
+            height: 4,
+            pixels: vec![Rgb::ZERO; 3],
+        };
+        assert!(save_image(&dir.path("bad.exr"), &bad).is_err());
+        assert!(!dir.path("bad.exr").exists());
+        assert_eq!(leftover_temp_files(dir.dir()), Vec::<String>::new());
+    }
+
+    /// Loads the shared light probes when they are present (optional).
+    #[test]
+    fn shared_envmaps_load_with_sensible_values() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/envmaps");
+        if !dir.is_dir() {
+            println!("skipped: {} not found", dir.display());
+            return;
+        }
+        let mut found = 0;
+        let mut entries: Vec<PathBuf> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        entries.sort();
+        for path in entries {
+            let ext = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .unwrap_or("")
+                .to_ascii_lowercase();
+            if !["exr", "hdr", "pfm", "png"].contains(&ext.as_str()) {
+                continue;
+            }
+            let start = std::time::Instant::now();
+            let (img, warnings) =
+                load_image(&path).unwrap_or_else(|e| panic!("failed to load: {e}"));
+            let elapsed = start.elapsed();
+            let mean = img.mean();
+            let max = img
+                .pixels
+                .iter()
+                .map(|p| p.max_element())
+                .fold(0.0f32, f32::max);
+            println!(
+                "{}: {}x{} mean {:?} max {max} {warnings:?} in {:.1} ms",
+                path.display(),
+                img.width,
+                img.height,
+                mean,
+                elapsed.as_secs_f64() * 1e3
+            );
+            assert_eq!(img.width, 2 * img.height, "lat-long maps are 2:1");
+            assert!(mean.min_element() > 1e-4 && mean.max_element() < 100.0);
+            assert!(max > mean.max_element() && max < 1e6);
+            found += 1;
+        }
+        assert!(found > 0);
+    }
+}

@@ -1,0 +1,186 @@
+//! Tone mapping: scene-referred linear RGB to display-referred linear RGB in
+//! [0, 1], ready for the sRGB-encoding PNG writer.
+
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+
+use super::io::{save_image, ImageError};
+use super::Bitmap;
+use crate::color::Rgb;
+
+/// A tone-mapping operator, applied per channel after the exposure scale.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Tonemap {
+    /// Clip to [0, 1].
+    #[default]
+    Clamp,
+    /// Reinhard's simple global operator, x / (1 + x).
+    Reinhard,
+    /// Krzysztof Narkowicz's fit of the ACES filmic curve,
+    /// x (2.51 x + 0.03) / (x (2.43 x + 0.59) + 0.14), clipped to [0, 1].
+    Aces,
+}
+
+impl Tonemap {
+    /// Maps one scaled linear value to [0, 1]. Negative values and NaN
+    /// become 0; +infinity becomes 1.
+    pub fn map(self, x: f32) -> f32 {
+        if x.is_nan() || x <= 0.0 {
+            return 0.0;
+        }
+        if x == f32::INFINITY {
+            return 1.0;
+        }
+        let y = match self {
+            Tonemap::Clamp => x,
+            Tonemap::Reinhard => x / (1.0 + x),
+            Tonemap::Aces => {
+                // Beyond ~1e4 the ratio is 1 to f32 precision; avoid x*x
+                // overflowing to inf/inf = NaN.
+                let x = x.min(1e6);
+                (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
+            }
+        };
+        y.clamp(0.0, 1.0)
+    }
+
+    pub const NAMES: [&'static str; 3] = ["clamp", "reinhard", "aces"];
+}
+
+impl fmt::Display for Tonemap {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Tonemap::Clamp => "clamp",
+            Tonemap::Reinhard => "reinhard",
+            Tonemap::Aces => "aces",
+        })
+    }
+}
+
+impl FromStr for Tonemap {
+    type Err = String;
+
+    /// Parses `clamp`, `reinhard` or `aces` (case-insensitive).
+    fn from_str(s: &str) -> Result<Tonemap, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "clamp" => Ok(Tonemap::Clamp),
+            "reinhard" => Ok(Tonemap::Reinhard),
+            "aces" => Ok(Tonemap::Aces),
+            _ => Err(format!(
+                "unknown tone mapping operator '{s}' (expected one of: {})",
+                Tonemap::NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+/// Multiplies by 2^`exposure_stops`, then applies `op` per channel. The
+/// result is linear, in [0, 1].
+pub fn tonemap(image: &Bitmap, exposure_stops: f32, op: Tonemap) -> Bitmap {
+    let scale = exposure_stops.exp2();
+    let scale = if scale.is_finite() { scale } else { 1.0 };
+    Bitmap {
+        width: image.width,
+        height: image.height,
+        pixels: image
+            .pixels
+            .iter()
+            .map(|&p| {
+                let q = p * scale;
+                Rgb::new(op.map(q.x), op.map(q.y), op.map(q.z))
+            })
+            .collect(),
+    }
+}
+
+/// Tone maps and saves as an 8-bit sRGB PNG (atomically, like
+/// [`save_image`]). The path must end in `.png`.
+pub fn save_png_tonemapped(
+    path: &Path,
+    image: &Bitmap,
+    exposure_stops: f32,
+    op: Tonemap,
+) -> Result<(), ImageError> {
+    let is_png = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if !is_png {
+        return Err(ImageError {
+            path: path.to_path_buf(),
+            message: "a tone-mapped image is saved as PNG: the file name must end in .png".into(),
+        });
+    }
+    save_image(path, &tonemap(image, exposure_stops, op))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::io::load_image;
+
+    #[test]
+    fn operators_map_into_unit_interval_monotonically() {
+        for op in [Tonemap::Clamp, Tonemap::Reinhard, Tonemap::Aces] {
+            let mut prev = 0.0;
+            for i in 0..=2000 {
+                let x = (i as f32 * 0.01 - 5.0).exp2() - 0.05;
+                let y = op.map(x);
+                assert!((0.0..=1.0).contains(&y), "{op} {x} -> {y}");
+                assert!(y >= prev, "{op} not monotonic at {x}");
+                prev = y;
+            }
+            assert_eq!(op.map(-3.0), 0.0);
+            assert_eq!(op.map(f32::NAN), 0.0);
+            assert_eq!(op.map(f32::INFINITY), 1.0);
+            assert!(op.map(f32::MAX) > 0.99);
+        }
+        assert_eq!(Tonemap::Clamp.map(0.3), 0.3);
+        assert_eq!(Tonemap::Clamp.map(7.0), 1.0);
+        assert_eq!(Tonemap::Reinhard.map(1.0), 0.5);
+        // Narkowicz: f(1) = 2.54 / 3.16.
+        assert!((Tonemap::Aces.map(1.0) - 2.54 / 3.16).abs() < 1e-6);
+        assert_eq!(Tonemap::Aces.map(100.0), 1.0);
+    }
+
+    #[test]
+    fn exposure_scales_by_powers_of_two() {
+        let mut img = Bitmap::new(2, 1);
+        img.set(0, 0, Rgb::new(0.1, 0.2, 0.4));
+        img.set(1, 0, Rgb::new(1.0, f32::NAN, -1.0));
+        let out = tonemap(&img, 1.0, Tonemap::Clamp);
+        assert_eq!(out.get(0, 0), Rgb::new(0.2, 0.4, 0.8));
+        assert_eq!(out.get(1, 0), Rgb::new(1.0, 0.0, 0.0));
+        let out = tonemap(&img, -2.0, Tonemap::Reinhard);
+        assert!((out.get(0, 0).z - 0.1 / 1.1).abs() < 1e-6);
+    }
+
+    #[test]
+    fn names_parse() {
+        for op in [Tonemap::Clamp, Tonemap::Reinhard, Tonemap::Aces] {
+            assert_eq!(op.to_string().parse::<Tonemap>(), Ok(op));
+        }
+        assert_eq!("ACES".parse::<Tonemap>(), Ok(Tonemap::Aces));
+        let err = "filmic".parse::<Tonemap>().unwrap_err();
+        assert!(err.contains("clamp, reinhard, aces"), "{err}");
+    }
+
+    #[test]
+    fn save_png_tonemapped_writes_png() {
+        let dir = crate::image::io::test_util::TempDir::new("tonemap");
+        let mut img = Bitmap::new(3, 2);
+        img.set(0, 0, Rgb::splat(1.0));
+        img.set(2, 1, Rgb::splat(1e5));
+        let path = dir.path("t.png");
+        save_png_tonemapped(&path, &img, 0.0, Tonemap::Reinhard).unwrap();
+        let (back, _) = load_image(&path).unwrap();
+        // 0.5 survives the sRGB round trip within one 8-bit step.
+        assert!((back.get(0, 0).x - 0.5).abs() < 0.005);
+        assert!(back.get(2, 1).x > 0.99);
+        assert_eq!(back.get(1, 0), Rgb::ZERO);
+        let err = save_png_tonemapped(&dir.path("t.exr"), &img, 0.0, Tonemap::Aces).unwrap_err();
+        assert!(err.to_string().contains(".png"));
+        assert!(!dir.path("t.exr").exists());
+    }
+}
