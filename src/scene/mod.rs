@@ -8,7 +8,7 @@ pub mod nori;
 pub mod props;
 pub mod xml;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
@@ -19,6 +19,128 @@ use crate::image::Filter;
 use crate::integrator::Integrator;
 use crate::math::{Aabb, Frame, Ray, Vec3};
 use crate::sampling::Distribution1D;
+
+/// A scene file that cannot be loaded: where, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneError {
+    pub file: PathBuf,
+    /// 1-based; 0 only if the problem has no place in the file.
+    pub line: u32,
+    pub col: u32,
+    pub message: String,
+}
+
+impl SceneError {
+    pub fn new(file: &Path, pos: xml::Pos, message: impl Into<String>) -> SceneError {
+        SceneError {
+            file: file.to_path_buf(),
+            line: pos.line,
+            col: pos.col,
+            message: message.into(),
+        }
+    }
+}
+
+impl std::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}: {}",
+            self.file.display(),
+            self.line,
+            self.col,
+            self.message
+        )
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Something suspicious in a scene file that does not stop it loading.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    pub file: PathBuf,
+    pub line: u32,
+    pub col: u32,
+    pub message: String,
+}
+
+impl Warning {
+    pub fn new(file: &Path, pos: xml::Pos, message: impl Into<String>) -> Warning {
+        Warning {
+            file: file.to_path_buf(),
+            line: pos.line,
+            col: pos.col,
+            message: message.into(),
+        }
+    }
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}: warning: {}",
+            self.file.display(),
+            self.line,
+            self.col,
+            self.message
+        )
+    }
+}
+
+/// Reads a scene file (Nori's XML dialect; Mitsuba 3 is recognised but not
+/// supported yet).
+pub fn load_scene(path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    let bytes = std::fs::read(path).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        line: 0,
+        col: 0,
+        message: format!("cannot read the scene file: {e}"),
+    })?;
+    let text = match String::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+            let line = valid.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
+            let line_start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+            let col = String::from_utf8_lossy(&valid[line_start..])
+                .chars()
+                .count() as u32
+                + 1;
+            return Err(SceneError::new(
+                path,
+                xml::Pos::new(line, col),
+                "the scene file is not valid UTF-8",
+            ));
+        }
+    };
+    load_scene_str(&text, path)
+}
+
+/// Reads a scene from text; `path` names it in messages and is the base of
+/// relative file names inside it.
+pub fn load_scene_str(text: &str, path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    let root = xml::parse(text).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        line: e.pos.map_or(0, |p| p.line),
+        col: e.pos.map_or(0, |p| p.col),
+        message: e.message,
+    })?;
+    match root.tag.as_str() {
+        "scene" if root.attr("version").is_some() => Err(SceneError::new(
+            path,
+            root.pos,
+            "Mitsuba scenes (<scene version=...>) are not supported yet; only Nori scenes are",
+        )),
+        "scene" => nori::load(&root, path),
+        other => Err(SceneError::new(
+            path,
+            root.pos,
+            format!("expected <scene> as the root element, found <{other}>"),
+        )),
+    }
+}
 
 /// A shape as a scene file describes it.
 #[derive(Clone, Debug)]

@@ -1,1 +1,1099 @@
 //! Nori's XML dialect.
+//!
+//! Maps wjakob/nori's element and property names, with Nori's defaults,
+//! onto lente's scene objects. The rules of the file format (which object
+//! may stand where, how properties and transforms are written) are Nori's;
+//! the emitters Nori leaves to its students (point, area, environment) use
+//! the names its assignments use, plus lente's own `sky`.
+
+use std::path::{Path, PathBuf};
+
+use super::props::{self, Props, Value};
+use super::xml::{Attribute, Pos, SceneNode};
+use super::{SceneDesc, SceneError, ShapeDesc, Warning};
+use crate::bsdf::Bsdf;
+use crate::camera::{Aperture, CameraParams};
+use crate::color::Rgb;
+use crate::emitter::sky::{bake_sky, SkyParams};
+use crate::emitter::{Emitter, EnvFilter, EnvMap};
+use crate::geometry::{load_obj, Geometry, Sphere};
+use crate::image::Filter;
+use crate::integrator::{Integrator, PathParams, Strategy};
+use crate::math::{Mat3, Mat4, Transform, Vec3, Vec4, PI};
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// Element tags that create objects.
+const OBJECT_TAGS: &[&str] = &[
+    "scene",
+    "mesh",
+    "bsdf",
+    "emitter",
+    "camera",
+    "integrator",
+    "sampler",
+    "rfilter",
+    "test",
+    "medium",
+    "phase",
+];
+
+/// Element tags that set a property of the enclosing object.
+const PROPERTY_TAGS: &[&str] = &[
+    "boolean",
+    "integer",
+    "float",
+    "string",
+    "point",
+    "vector",
+    "color",
+    "transform",
+];
+
+/// Operations inside `<transform>`.
+const TRANSFORM_OPS: &[&str] = &["translate", "matrix", "rotate", "scale", "lookat"];
+
+const CAMERA_TYPES: &[&str] = &["perspective", "thinlens"];
+const SAMPLER_TYPES: &[&str] = &["independent"];
+const INTEGRATOR_TYPES: &[&str] = &["normals", "ao", "path_mats", "path_ems", "path_mis", "path"];
+const MESH_TYPES: &[&str] = &["obj", "sphere"];
+const BSDF_TYPES: &[&str] = &["diffuse", "mirror", "dielectric"];
+const EMITTER_TYPES: &[&str] = &["area", "point", "environment", "envmap", "constant", "sky"];
+const RFILTER_TYPES: &[&str] = &["gaussian", "box", "tent", "mitchell"];
+
+/// Builds a scene from a Nori `<scene>` element.
+pub fn load(root: &SceneNode, file: &Path) -> Result<(SceneDesc, Vec<Warning>)> {
+    let dir = match file.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut ctx = Ctx {
+        file,
+        dir,
+        warnings: Vec::new(),
+    };
+    let desc = ctx.scene(root)?;
+    Ok((desc, ctx.warnings))
+}
+
+struct Ctx<'a> {
+    file: &'a Path,
+    /// Relative file names are resolved against this folder.
+    dir: PathBuf,
+    warnings: Vec<Warning>,
+}
+
+/// `<camera type="perspective">`, or `<scene>` for an untyped element.
+fn describe(node: &SceneNode) -> String {
+    match node.attr_value("type") {
+        Some(t) => format!("<{} type=\"{t}\">", node.tag),
+        None => format!("<{}>", node.tag),
+    }
+}
+
+/// A camera with its filter and the sampler nested in it, if any.
+type CameraDesc = (CameraParams, Filter, Option<(u32, Pos)>);
+
+/// An emitter read from the file, before it is placed.
+enum EmitterDesc {
+    Area(Rgb),
+    Free { emitter: Emitter, environment: bool },
+}
+
+impl<'a> Ctx<'a> {
+    fn err(&self, pos: Pos, message: impl Into<String>) -> SceneError {
+        SceneError::new(self.file, pos, message)
+    }
+
+    fn warn(&mut self, pos: Pos, message: impl Into<String>) {
+        self.warnings.push(Warning::new(self.file, pos, message));
+    }
+
+    /// Only `allowed` attributes, and all of `required`.
+    fn check_attributes(
+        &self,
+        node: &SceneNode,
+        allowed: &[&str],
+        required: &[&str],
+    ) -> Result<()> {
+        for a in &node.attributes {
+            if !allowed.contains(&a.name.as_str()) {
+                let expected = if allowed.is_empty() {
+                    "it takes none".to_string()
+                } else {
+                    format!("it takes {}", quoted_list(allowed))
+                };
+                return Err(self.err(
+                    a.pos,
+                    format!(
+                        "unexpected attribute '{}' on <{}> ({expected})",
+                        a.name, node.tag
+                    ),
+                ));
+            }
+        }
+        for r in required {
+            if node.attr(r).is_none() {
+                return Err(self.err(node.pos, format!("<{}> needs a '{r}' attribute", node.tag)));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks an object element's attributes and returns its type.
+    fn object_type<'n>(&self, node: &'n SceneNode, known: &[&str]) -> Result<&'n str> {
+        for a in &node.attributes {
+            if a.name != "type" {
+                return Err(self.err(
+                    a.pos,
+                    format!(
+                        "unexpected attribute '{}' on <{}> (it takes only 'type')",
+                        a.name, node.tag
+                    ),
+                ));
+            }
+        }
+        let Some(t) = node.attr("type") else {
+            return Err(self.err(
+                node.pos,
+                format!(
+                    "<{}> needs a 'type' attribute (one of: {})",
+                    node.tag,
+                    known.join(", ")
+                ),
+            ));
+        };
+        if !known.contains(&t.value.as_str()) {
+            return Err(self.err(
+                t.value_pos,
+                format!(
+                    "unknown <{}> type '{}'; known types: {}",
+                    node.tag,
+                    t.value,
+                    known.join(", ")
+                ),
+            ));
+        }
+        Ok(&t.value)
+    }
+
+    /// Reads an object's property elements; returns them and its child
+    /// objects in document order.
+    fn read_object<'n>(
+        &mut self,
+        node: &'n SceneNode,
+        owner: &str,
+    ) -> Result<(Props<'a>, Vec<&'n SceneNode>)> {
+        if let Some(t) = node.text.first() {
+            return Err(self.err(
+                t.pos,
+                format!("unexpected text '{}' inside {owner}", shorten(&t.text)),
+            ));
+        }
+        let mut props = Props::new(self.file, owner, node.pos);
+        let mut objects = Vec::new();
+        for ch in &node.children {
+            let tag = ch.tag.as_str();
+            if PROPERTY_TAGS.contains(&tag) {
+                self.read_property(ch, &mut props)?;
+            } else if OBJECT_TAGS.contains(&tag) {
+                objects.push(ch);
+            } else if TRANSFORM_OPS.contains(&tag) {
+                return Err(self.err(
+                    ch.pos,
+                    format!("<{tag}> may only stand inside a <transform>"),
+                ));
+            } else {
+                return Err(self.unknown_element(ch));
+            }
+        }
+        Ok((props, objects))
+    }
+
+    fn unknown_element(&self, node: &SceneNode) -> SceneError {
+        let all: Vec<&str> = OBJECT_TAGS
+            .iter()
+            .chain(PROPERTY_TAGS)
+            .chain(TRANSFORM_OPS)
+            .copied()
+            .collect();
+        let hint = all
+            .iter()
+            .map(|k| (props::edit_distance(&node.tag, k), k))
+            .filter(|(d, _)| *d <= 2)
+            .min_by_key(|(d, _)| *d)
+            .map(|(_, k)| format!(" (did you mean <{k}>?)"))
+            .unwrap_or_default();
+        self.err(node.pos, format!("unknown element <{}>{hint}", node.tag))
+    }
+
+    fn read_property(&mut self, node: &SceneNode, props: &mut Props) -> Result<()> {
+        let tag = node.tag.as_str();
+        let file = self.file;
+        if tag == "transform" {
+            self.check_attributes(node, &["name"], &["name"])?;
+        } else {
+            self.check_attributes(node, &["name", "value"], &["name", "value"])?;
+            if let Some(ch) = node.children.first() {
+                return Err(self.err(
+                    ch.pos,
+                    format!("<{}> cannot stand inside a <{tag}> property", ch.tag),
+                ));
+            }
+            if let Some(t) = node.text.first() {
+                return Err(self.err(
+                    t.pos,
+                    format!("unexpected text '{}' inside <{tag}>", shorten(&t.text)),
+                ));
+            }
+        }
+        let name = node.attr_value("name").unwrap_or_default();
+        let value_attr = node.attr("value");
+        let value = match (tag, value_attr) {
+            ("transform", _) => Value::Transform(self.read_transform(node)?),
+            ("boolean", Some(v)) => Value::Bool(props::parse_bool(file, v)?),
+            ("integer", Some(v)) => Value::Int(props::parse_int(file, v)?),
+            ("float", Some(v)) => Value::Float(props::parse_float(file, v)?),
+            ("string", Some(v)) => Value::String(v.value.clone()),
+            ("point", Some(v)) => Value::Point(props::parse_vec3(file, v, false)?),
+            ("vector", Some(v)) => Value::Vector(props::parse_vec3(file, v, false)?),
+            ("color", Some(v)) => Value::Color(props::parse_vec3(file, v, true)?),
+            _ => unreachable!("attributes were checked"),
+        };
+        let value_pos = value_attr.map_or(node.pos, |a| a.value_pos);
+        props.insert(name, value, node.pos, value_pos);
+        Ok(())
+    }
+
+    /// Three finite numbers (or one, repeated, if `allow_one`).
+    fn finite_vec3(&self, attr: &Attribute, allow_one: bool) -> Result<Vec3> {
+        let v = props::parse_vec3(self.file, attr, allow_one)?;
+        if !v.is_finite() {
+            return Err(self.err(
+                attr.value_pos,
+                format!("expected finite numbers, found '{}'", attr.value.trim()),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// `<transform>`: its operations in document order, each applied after
+    /// the ones before it (M = op * M).
+    fn read_transform(&mut self, node: &SceneNode) -> Result<Transform> {
+        if let Some(t) = node.text.first() {
+            return Err(self.err(
+                t.pos,
+                format!("unexpected text '{}' inside <transform>", shorten(&t.text)),
+            ));
+        }
+        let mut m = Mat4::IDENTITY;
+        for op in &node.children {
+            let tag = op.tag.as_str();
+            if !TRANSFORM_OPS.contains(&tag) {
+                if PROPERTY_TAGS.contains(&tag) || OBJECT_TAGS.contains(&tag) {
+                    return Err(self.err(
+                        op.pos,
+                        format!(
+                            "<transform> may only contain {}, not <{tag}>",
+                            TRANSFORM_OPS
+                                .iter()
+                                .map(|t| format!("<{t}>"))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    ));
+                }
+                return Err(self.unknown_element(op));
+            }
+            if let Some(ch) = op.children.first() {
+                return Err(self.err(ch.pos, format!("<{}> cannot stand inside <{tag}>", ch.tag)));
+            }
+            if let Some(t) = op.text.first() {
+                return Err(self.err(
+                    t.pos,
+                    format!("unexpected text '{}' inside <{tag}>", shorten(&t.text)),
+                ));
+            }
+            let a = |name: &str| op.attr(name).expect("attributes were checked");
+            let om = match tag {
+                "translate" => {
+                    self.check_attributes(op, &["value"], &["value"])?;
+                    Mat4::from_translation(self.finite_vec3(a("value"), false)?)
+                }
+                "scale" => {
+                    self.check_attributes(op, &["value"], &["value"])?;
+                    let s = self.finite_vec3(a("value"), true)?;
+                    if s.x * s.y * s.z == 0.0 {
+                        return Err(self.err(
+                            a("value").value_pos,
+                            "a scale by zero cannot be undone (the transform would be singular)",
+                        ));
+                    }
+                    Mat4::from_scale(s)
+                }
+                "rotate" => {
+                    self.check_attributes(op, &["axis", "angle"], &["axis", "angle"])?;
+                    let axis = self.finite_vec3(a("axis"), false)?;
+                    let angle_attr = a("angle");
+                    let angle = props::parse_float(self.file, angle_attr)?;
+                    if !angle.is_finite() {
+                        return Err(self.err(
+                            angle_attr.value_pos,
+                            format!("the angle must be a finite number, found {angle}"),
+                        ));
+                    }
+                    let len = axis.length();
+                    if !len.is_finite() || len <= 0.0 {
+                        return Err(
+                            self.err(a("axis").value_pos, "the rotation axis must not be zero")
+                        );
+                    }
+                    Mat4::from_axis_angle(axis / len, angle.to_radians())
+                }
+                "matrix" => {
+                    self.check_attributes(op, &["value"], &["value"])?;
+                    let attr = a("value");
+                    let v = props::parse_n(self.file, attr, 16)?;
+                    if v.iter().any(|x| !x.is_finite()) {
+                        return Err(self.err(attr.value_pos, "the matrix must hold finite numbers"));
+                    }
+                    let mut cols = [0.0f32; 16];
+                    cols.copy_from_slice(&v);
+                    // Written row by row; glam stores columns.
+                    let mm = Mat4::from_cols_array(&cols).transpose();
+                    if (mm.row(3) - Vec4::W).abs().max_element() > 1e-6 {
+                        return Err(self.err(
+                            attr.value_pos,
+                            "the last row of a <matrix> must be 0 0 0 1 (projective transforms are not supported)",
+                        ));
+                    }
+                    if Transform::new(mm).is_none() {
+                        return Err(self.err(op.pos, "this <matrix> is singular"));
+                    }
+                    mm
+                }
+                "lookat" => {
+                    self.check_attributes(
+                        op,
+                        &["origin", "target", "up"],
+                        &["origin", "target", "up"],
+                    )?;
+                    let origin = self.finite_vec3(a("origin"), false)?;
+                    let target = self.finite_vec3(a("target"), false)?;
+                    let up = self.finite_vec3(a("up"), false)?;
+                    look_at(origin, target, up).map_err(|msg| self.err(op.pos, msg))?
+                }
+                _ => unreachable!(),
+            };
+            m = om * m;
+        }
+        Transform::new(m).ok_or_else(|| {
+            self.err(
+                node.pos,
+                "this transform is singular or not finite (it cannot be inverted)",
+            )
+        })
+    }
+
+    fn scene(&mut self, root: &SceneNode) -> Result<SceneDesc> {
+        self.check_attributes(root, &[], &[])?;
+        let (props, objects) = self.read_object(root, "<scene>")?;
+        props.finish(&mut self.warnings);
+
+        let mut camera: Option<(CameraParams, Filter, Pos)> = None;
+        let mut sampler: Option<(u32, Pos)> = None;
+        let mut integrator: Option<(Integrator, Pos)> = None;
+        let mut shapes = Vec::new();
+        let mut emitters = Vec::new();
+        let mut environment: Option<Pos> = None;
+        for node in objects {
+            match node.tag.as_str() {
+                "camera" => {
+                    if let Some((_, _, first)) = &camera {
+                        return Err(self.err(
+                            node.pos,
+                            format!("a scene can have only one <camera> (the first is at {first})"),
+                        ));
+                    }
+                    let (params, filter, nested) = self.camera(node)?;
+                    if let Some((spp, pos)) = nested {
+                        set_sampler(self, &mut sampler, spp, pos)?;
+                    }
+                    camera = Some((params, filter, node.pos));
+                }
+                "sampler" => {
+                    let spp = self.sampler(node)?;
+                    set_sampler(self, &mut sampler, spp, node.pos)?;
+                }
+                "integrator" => {
+                    if let Some((_, first)) = &integrator {
+                        return Err(self.err(
+                            node.pos,
+                            format!(
+                                "a scene can have only one <integrator> (the first is at {first})"
+                            ),
+                        ));
+                    }
+                    integrator = Some((self.integrator(node)?, node.pos));
+                }
+                "mesh" => shapes.push(self.mesh(node)?),
+                "emitter" => match self.emitter(node, false)? {
+                    EmitterDesc::Free {
+                        emitter,
+                        environment: env,
+                    } => {
+                        if env {
+                            if let Some(first) = environment {
+                                return Err(self.err(
+                                    node.pos,
+                                    format!(
+                                        "a scene can have at most one environment emitter \
+                                         (environment, envmap, sky or constant); the first is at {first}"
+                                    ),
+                                ));
+                            }
+                            environment = Some(node.pos);
+                        }
+                        emitters.push(emitter);
+                    }
+                    EmitterDesc::Area(_) => unreachable!("checked by emitter()"),
+                },
+                _ => return Err(self.misplaced(node, "<scene>")),
+            }
+        }
+        let Some((camera, filter, _)) = camera else {
+            return Err(self.err(root.pos, "the scene has no <camera>"));
+        };
+        let Some((integrator, _)) = integrator else {
+            return Err(self.err(root.pos, "the scene has no <integrator>"));
+        };
+        Ok(SceneDesc {
+            camera,
+            filter,
+            spp: sampler.map_or(1, |s| s.0),
+            integrator,
+            shapes,
+            emitters,
+            source: self.file.to_path_buf(),
+        })
+    }
+
+    /// The error for an object element that may not stand inside `parent`.
+    fn misplaced(&self, node: &SceneNode, parent: &str) -> SceneError {
+        let hint = match node.tag.as_str() {
+            "bsdf" => "; a <bsdf> belongs inside a <mesh>",
+            "rfilter" => "; an <rfilter> belongs inside the <camera>",
+            "scene" => "; <scene> can only be the root element",
+            "test" => "; <test> can only be the root element of a test file",
+            "medium" | "phase" => "; participating media are not supported",
+            "camera" | "integrator" | "mesh" => "; it belongs directly inside <scene>",
+            "sampler" => "; it belongs inside <scene> or the <camera>",
+            "emitter" => {
+                "; an area emitter belongs inside a <mesh>, others directly inside <scene>"
+            }
+            _ => "",
+        };
+        self.err(
+            node.pos,
+            format!("{} cannot stand inside {parent}{hint}", describe(node)),
+        )
+    }
+
+    fn camera(&mut self, node: &SceneNode) -> Result<CameraDesc> {
+        let ty = self.object_type(node, CAMERA_TYPES)?;
+        let owner = format!("<camera type=\"{ty}\">");
+        let (mut p, objects) = self.read_object(node, &owner)?;
+        let d = CameraParams::default();
+        let width = int_in(&mut p, "width", 1280, 1, 65536)? as u32;
+        let height = int_in(&mut p, "height", 720, 1, 65536)? as u32;
+        let fov = p.get_float("fov", 30.0)?;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(p.error(
+                "fov",
+                format!("'fov' must be between 0 and 180 degrees (exclusive), found {fov}"),
+            ));
+        }
+        let near_clip = p.get_float("nearClip", 1e-4)?;
+        let far_clip = p.get_float("farClip", 1e4)?;
+        if near_clip < 0.0 {
+            return Err(p.error(
+                "nearClip",
+                format!("'nearClip' must not be negative, found {near_clip}"),
+            ));
+        }
+        if far_clip <= near_clip {
+            return Err(p.error(
+                "farClip",
+                format!("'farClip' ({far_clip}) must be greater than 'nearClip' ({near_clip})"),
+            ));
+        }
+        let to_world = p.get_transform("toWorld", Transform::IDENTITY)?;
+        let lens_radius = p.get_float("lensRadius", 0.0)?;
+        if lens_radius < 0.0 {
+            return Err(p.error(
+                "lensRadius",
+                format!("'lensRadius' must not be negative, found {lens_radius}"),
+            ));
+        }
+        let focal_distance = p.opt_float("focalDistance")?;
+        if let Some(f) = focal_distance {
+            if f <= 0.0 {
+                return Err(p.error(
+                    "focalDistance",
+                    format!("'focalDistance' must be positive, found {f}"),
+                ));
+            }
+        }
+        let autofocus = p.get_bool("autofocus", false)?;
+        let blades = p.get_int("apertureBlades", 0)?;
+        if blades != 0 && !(3..=1024).contains(&blades) {
+            return Err(p.error(
+                "apertureBlades",
+                format!(
+                    "'apertureBlades' must be 0 (a circular aperture) or between 3 and 1024, found {blades}"
+                ),
+            ));
+        }
+        let rotation = p.get_float("apertureRotation", 0.0)?;
+        if lens_radius > 0.0 && focal_distance.is_none() && !autofocus {
+            return Err(p.object_error(format!(
+                "{owner} has lensRadius {lens_radius} > 0 and so needs 'focalDistance' \
+                 (or <boolean name=\"autofocus\" value=\"true\"/>)"
+            )));
+        }
+        if autofocus && focal_distance.is_some() {
+            p.warn(
+                "focalDistance",
+                "'focalDistance' is ignored because 'autofocus' is true",
+            );
+        }
+        p.finish(&mut self.warnings);
+
+        let mut filter: Option<(Filter, Pos)> = None;
+        let mut sampler: Option<(u32, Pos)> = None;
+        for ch in objects {
+            match ch.tag.as_str() {
+                "rfilter" => {
+                    if let Some((_, first)) = filter {
+                        return Err(self.err(
+                            ch.pos,
+                            format!(
+                                "a camera can have only one <rfilter> (the first is at {first})"
+                            ),
+                        ));
+                    }
+                    filter = Some((self.rfilter(ch)?, ch.pos));
+                }
+                "sampler" => {
+                    let spp = self.sampler(ch)?;
+                    set_sampler(self, &mut sampler, spp, ch.pos)?;
+                }
+                _ => return Err(self.misplaced(ch, &owner)),
+            }
+        }
+        let params = CameraParams {
+            width,
+            height,
+            fov_x_deg: fov,
+            near_clip,
+            far_clip,
+            to_world,
+            lens_radius,
+            focal_distance: focal_distance.unwrap_or(d.focal_distance),
+            aperture: if blades == 0 {
+                Aperture::Circular
+            } else {
+                Aperture::Polygon {
+                    blades: blades as u32,
+                    rotation: rotation.to_radians(),
+                }
+            },
+            autofocus,
+        };
+        Ok((
+            params,
+            filter.map_or_else(Filter::default, |f| f.0),
+            sampler,
+        ))
+    }
+
+    fn rfilter(&mut self, node: &SceneNode) -> Result<Filter> {
+        let ty = self.object_type(node, RFILTER_TYPES)?;
+        let owner = format!("<rfilter type=\"{ty}\">");
+        let (mut p, objects) = self.read_object(node, &owner)?;
+        let filter = match ty {
+            "gaussian" => Filter::Gaussian {
+                radius: positive(&mut p, "radius", 2.0)?,
+                stddev: positive(&mut p, "stddev", 0.5)?,
+            },
+            "box" => Filter::Box {
+                radius: positive(&mut p, "radius", 0.5)?,
+            },
+            "tent" => Filter::Tent {
+                radius: positive(&mut p, "radius", 1.0)?,
+            },
+            "mitchell" => Filter::Mitchell {
+                radius: positive(&mut p, "radius", 2.0)?,
+                b: p.get_float("B", 1.0 / 3.0)?,
+                c: p.get_float("C", 1.0 / 3.0)?,
+            },
+            _ => unreachable!(),
+        };
+        p.finish(&mut self.warnings);
+        self.no_children(objects, &owner)?;
+        Ok(filter)
+    }
+
+    fn no_children(&self, objects: Vec<&SceneNode>, owner: &str) -> Result<()> {
+        match objects.first() {
+            Some(ch) => Err(self.misplaced(ch, owner)),
+            None => Ok(()),
+        }
+    }
+
+    fn sampler(&mut self, node: &SceneNode) -> Result<u32> {
+        let ty = self.object_type(node, SAMPLER_TYPES)?;
+        let owner = format!("<sampler type=\"{ty}\">");
+        let (mut p, objects) = self.read_object(node, &owner)?;
+        let spp = int_in(&mut p, "sampleCount", 1, 1, u32::MAX as i64)? as u32;
+        p.finish(&mut self.warnings);
+        self.no_children(objects, &owner)?;
+        Ok(spp)
+    }
+
+    fn integrator(&mut self, node: &SceneNode) -> Result<Integrator> {
+        let ty = self.object_type(node, INTEGRATOR_TYPES)?;
+        let owner = format!("<integrator type=\"{ty}\">");
+        let (mut p, objects) = self.read_object(node, &owner)?;
+        let strategy = match ty {
+            "path_mats" => Some(Strategy::Mats),
+            "path_ems" => Some(Strategy::Ems),
+            "path_mis" | "path" => Some(Strategy::Mis),
+            _ => None,
+        };
+        let integrator = match (ty, strategy) {
+            ("normals", _) => Integrator::Normals,
+            ("ao", _) => {
+                let length = p.get_float_or_inf("length", f32::INFINITY)?;
+                if length <= 0.0 {
+                    return Err(p.error(
+                        "length",
+                        format!("'length' must be positive, found {length}"),
+                    ));
+                }
+                Integrator::Ao { length }
+            }
+            (_, Some(strategy)) => {
+                let max_depth = match p.opt_int("maxDepth")? {
+                    None => None,
+                    Some(d) if (1..=u32::MAX as i64).contains(&d) => Some(d as u32),
+                    Some(d) => {
+                        return Err(p.error(
+                            "maxDepth",
+                            format!("'maxDepth' must be at least 1, found {d}"),
+                        ))
+                    }
+                };
+                let rr_depth = int_in(&mut p, "rrDepth", 3, 0, u32::MAX as i64)? as u32;
+                Integrator::Path {
+                    strategy,
+                    params: PathParams {
+                        max_depth,
+                        rr_depth,
+                        hide_emitters: false,
+                    },
+                }
+            }
+            _ => unreachable!(),
+        };
+        p.finish(&mut self.warnings);
+        self.no_children(objects, &owner)?;
+        Ok(integrator)
+    }
+
+    fn mesh(&mut self, node: &SceneNode) -> Result<ShapeDesc> {
+        let ty = self.object_type(node, MESH_TYPES)?;
+        let owner = format!("<mesh type=\"{ty}\">");
+        let (mut p, objects) = self.read_object(node, &owner)?;
+        let mut bsdf: Option<(Bsdf, Pos)> = None;
+        let mut area: Option<(Rgb, Pos)> = None;
+
+        enum Source {
+            Obj(PathBuf),
+            Sphere(Sphere),
+        }
+        let source = match ty {
+            "obj" => {
+                let name = p.require_string("filename")?;
+                if name.trim().is_empty() {
+                    return Err(p.error("filename", "'filename' is empty"));
+                }
+                Source::Obj(self.dir.join(name))
+            }
+            "sphere" => {
+                let center = p.get_point("center", Vec3::ZERO)?;
+                let radius = positive(&mut p, "radius", 1.0)?;
+                Source::Sphere(Sphere { center, radius })
+            }
+            _ => unreachable!(),
+        };
+        let to_world = p.opt_transform("toWorld")?;
+        let to_world_pos = p.value_pos("toWorld");
+        p.finish(&mut self.warnings);
+
+        for ch in objects {
+            match ch.tag.as_str() {
+                "bsdf" => {
+                    if let Some((_, first)) = bsdf {
+                        return Err(self.err(
+                            ch.pos,
+                            format!("a mesh can have only one <bsdf> (the first is at {first})"),
+                        ));
+                    }
+                    bsdf = Some((self.bsdf(ch)?, ch.pos));
+                }
+                "emitter" => {
+                    if let Some((_, first)) = area {
+                        return Err(self.err(
+                            ch.pos,
+                            format!("a mesh can have only one <emitter> (the first is at {first})"),
+                        ));
+                    }
+                    match self.emitter(ch, true)? {
+                        EmitterDesc::Area(radiance) => area = Some((radiance, ch.pos)),
+                        EmitterDesc::Free { .. } => unreachable!("checked by emitter()"),
+                    }
+                }
+                _ => return Err(self.misplaced(ch, &owner)),
+            }
+        }
+
+        let geometry = match source {
+            Source::Obj(path) => {
+                let mut g = Geometry::Mesh(load_obj(&path).map_err(|e| self.err(node.pos, e))?);
+                if let Some(t) = &to_world {
+                    g.transform(t).map_err(|e| self.err(to_world_pos, e))?;
+                }
+                g
+            }
+            Source::Sphere(s) => {
+                let mut g = Geometry::Sphere(s);
+                if let Some(t) = &to_world {
+                    if !is_similarity(t) {
+                        return Err(self.err(
+                            to_world_pos,
+                            "a sphere's toWorld must be a similarity (rotations, translations \
+                             and uniform scales only)",
+                        ));
+                    }
+                    g.transform(t).map_err(|e| self.err(to_world_pos, e))?;
+                }
+                g
+            }
+        };
+        Ok(ShapeDesc {
+            geometry,
+            bsdf: bsdf.map_or_else(Bsdf::default, |b| b.0),
+            area_radiance: area.map(|a| a.0),
+        })
+    }
+
+    fn bsdf(&mut self, node: &SceneNode) -> Result<Bsdf> {
+        let ty = self.object_type(node, BSDF_TYPES)?;
+        let owner = format!("<bsdf type=\"{ty}\">");
+        let (mut p, objects) = self.read_object(node, &owner)?;
+        let bsdf = match ty {
+            "diffuse" => {
+                let albedo = p.get_rgb("albedo", Rgb::splat(0.5))?;
+                if albedo.max_element() > 1.0 {
+                    p.warn(
+                        "albedo",
+                        format!(
+                            "albedo {} {} {} is above 1: the surface reflects more light than it receives",
+                            albedo.x, albedo.y, albedo.z
+                        ),
+                    );
+                }
+                Bsdf::Diffuse { albedo }
+            }
+            "mirror" => Bsdf::Mirror,
+            "dielectric" => {
+                let int_ior = positive(&mut p, "intIOR", 1.5046)?;
+                let ext_ior = positive(&mut p, "extIOR", 1.000277)?;
+                Bsdf::dielectric(int_ior, ext_ior)
+            }
+            _ => unreachable!(),
+        };
+        p.finish(&mut self.warnings);
+        self.no_children(objects, &owner)?;
+        Ok(bsdf)
+    }
+
+    fn emitter(&mut self, node: &SceneNode, in_mesh: bool) -> Result<EmitterDesc> {
+        let ty = self.object_type(node, EMITTER_TYPES)?;
+        let owner = format!("<emitter type=\"{ty}\">");
+        if in_mesh && ty != "area" {
+            return Err(self.err(
+                node.pos,
+                format!(
+                    "{owner} cannot stand inside a <mesh>; only area emitters can, \
+                     a {ty} emitter belongs directly inside <scene>"
+                ),
+            ));
+        }
+        if !in_mesh && ty == "area" {
+            return Err(self.err(
+                node.pos,
+                format!(
+                    "{owner} cannot stand inside <scene>; an area emitter belongs inside a <mesh>"
+                ),
+            ));
+        }
+        let (mut p, objects) = self.read_object(node, &owner)?;
+        self.no_children(objects, &owner)?;
+        let desc = match ty {
+            "area" => EmitterDesc::Area(p.require_rgb("radiance")?),
+            "point" => {
+                let position = p.require_point("position")?;
+                let power = p.require_rgb("power")?;
+                EmitterDesc::Free {
+                    emitter: Emitter::Point {
+                        position,
+                        intensity: power / (4.0 * PI),
+                    },
+                    environment: false,
+                }
+            }
+            "constant" => EmitterDesc::Free {
+                emitter: Emitter::Constant {
+                    radiance: p.require_rgb("radiance")?,
+                },
+                environment: true,
+            },
+            "environment" | "envmap" => {
+                let name = p.require_string("filename")?;
+                if name.trim().is_empty() {
+                    return Err(p.error("filename", "'filename' is empty"));
+                }
+                let scale = non_negative(&mut p, "scale", 1.0)?;
+                let to_world = p.get_transform("toWorld", Transform::IDENTITY)?;
+                if !is_rotation(&to_world) {
+                    return Err(p.error(
+                        "toWorld",
+                        "an environment map's toWorld must be a rotation (an orthogonal matrix)",
+                    ));
+                }
+                let filter = match p.get_string("filter", "bilinear".into())?.as_str() {
+                    "bilinear" => EnvFilter::Bilinear,
+                    "nearest" => EnvFilter::Nearest,
+                    other => {
+                        return Err(p.error(
+                            "filter",
+                            format!("unknown filter '{other}'; known filters: bilinear, nearest"),
+                        ))
+                    }
+                };
+                let visible = p.get_bool("visible", true)?;
+                p.finish(&mut self.warnings);
+                let path = self.dir.join(name);
+                let (image, image_warnings) = crate::image::io::load_image(&path).map_err(|e| {
+                    self.err(node.pos, format!("cannot load the environment map: {e}"))
+                })?;
+                for w in image_warnings {
+                    self.warn(node.pos, format!("{}: {w}", path.display()));
+                }
+                let mut env = EnvMap::new(image, scale, to_world, filter);
+                env.visible = visible;
+                return Ok(EmitterDesc::Free {
+                    emitter: Emitter::Environment(Box::new(env)),
+                    environment: true,
+                });
+            }
+            "sky" => {
+                let turbidity = p.get_float("turbidity", 3.0)?;
+                if !(1.0..=10.0).contains(&turbidity) {
+                    return Err(p.error(
+                        "turbidity",
+                        format!("'turbidity' must be between 1 and 10, found {turbidity}"),
+                    ));
+                }
+                let elevation = p.get_float("sunElevation", 45.0)?;
+                if !(-90.0..=90.0).contains(&elevation) {
+                    return Err(p.error(
+                        "sunElevation",
+                        format!(
+                            "'sunElevation' must be between -90 and 90 degrees, found {elevation}"
+                        ),
+                    ));
+                }
+                let azimuth = p.get_float("sunAzimuth", 0.0)?;
+                let scale = non_negative(&mut p, "scale", 1.0)?;
+                let resolution = int_in(&mut p, "resolution", 1024, 4, 16384)? as usize;
+                let visible = p.get_bool("visible", true)?;
+                p.finish(&mut self.warnings);
+                let image = bake_sky(&SkyParams {
+                    turbidity,
+                    sun_elevation_deg: elevation,
+                    sun_azimuth_deg: azimuth,
+                    scale,
+                    resolution,
+                });
+                let mut env = EnvMap::new(image, 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
+                env.visible = visible;
+                return Ok(EmitterDesc::Free {
+                    emitter: Emitter::Environment(Box::new(env)),
+                    environment: true,
+                });
+            }
+            _ => unreachable!(),
+        };
+        p.finish(&mut self.warnings);
+        Ok(desc)
+    }
+}
+
+fn set_sampler(ctx: &Ctx, slot: &mut Option<(u32, Pos)>, spp: u32, pos: Pos) -> Result<()> {
+    if let Some((_, first)) = slot {
+        return Err(ctx.err(
+            pos,
+            format!("a scene can have only one <sampler> (the first is at {first})"),
+        ));
+    }
+    *slot = Some((spp, pos));
+    Ok(())
+}
+
+/// Integer property within [min, max].
+fn int_in(p: &mut Props, name: &str, default: i64, min: i64, max: i64) -> Result<i64> {
+    let v = p.get_int(name, default)?;
+    if v < min || v > max {
+        return Err(p.error(
+            name,
+            format!("'{name}' must be between {min} and {max}, found {v}"),
+        ));
+    }
+    Ok(v)
+}
+
+fn positive(p: &mut Props, name: &str, default: f32) -> Result<f32> {
+    let v = p.get_float(name, default)?;
+    if v <= 0.0 {
+        return Err(p.error(name, format!("'{name}' must be positive, found {v}")));
+    }
+    Ok(v)
+}
+
+fn non_negative(p: &mut Props, name: &str, default: f32) -> Result<f32> {
+    let v = p.get_float(name, default)?;
+    if v < 0.0 {
+        return Err(p.error(name, format!("'{name}' must not be negative, found {v}")));
+    }
+    Ok(v)
+}
+
+/// Nori's lookAt: columns (left, up, dir, origin).
+fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> std::result::Result<Mat4, String> {
+    let to = target - origin;
+    if !to.length().is_finite() || to.length() <= 0.0 {
+        return Err("<lookat> target equals origin: there is no viewing direction".into());
+    }
+    let dir = to.normalize();
+    if !up.length().is_finite() || up.length() <= 0.0 {
+        return Err("<lookat> up vector is zero".into());
+    }
+    let left = up.normalize().cross(dir);
+    if !left.is_finite() || left.length() <= 1e-6 {
+        return Err("<lookat> up vector is parallel to the viewing direction".into());
+    }
+    let left = left.normalize();
+    let new_up = dir.cross(left).normalize();
+    Ok(Mat4::from_cols(
+        left.extend(0.0),
+        new_up.extend(0.0),
+        dir.extend(0.0),
+        origin.extend(1.0),
+    ))
+}
+
+fn linear_part(t: &Transform) -> Mat3 {
+    Mat3::from_mat4(t.m)
+}
+
+/// Orthogonal columns of equal length (and an affine last row).
+fn is_similarity(t: &Transform) -> bool {
+    let m = linear_part(t);
+    let s2 = m.x_axis.length_squared();
+    if !s2.is_finite() || s2 <= 0.0 || (t.m.row(3) - Vec4::W).abs().max_element() > 1e-6 {
+        return false;
+    }
+    let g = m.transpose() * m;
+    let tol = 1e-4 * s2;
+    (g - Mat3::from_diagonal(Vec3::splat(s2)))
+        .to_cols_array()
+        .iter()
+        .all(|x| x.abs() <= tol)
+}
+
+/// Orthonormal linear part (rotations, possibly with a mirror).
+fn is_rotation(t: &Transform) -> bool {
+    let m = linear_part(t);
+    let g = m.transpose() * m;
+    (g - Mat3::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .all(|x| x.abs() <= 1e-4)
+}
+
+fn quoted_list(names: &[&str]) -> String {
+    names
+        .iter()
+        .map(|n| format!("'{n}'"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn shorten(s: &str) -> String {
+    let mut out: String = s.chars().take(30).collect();
+    if s.chars().count() > 30 {
+        out.push_str("...");
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn look_at_builds_an_orthonormal_frame() {
+        let m = look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y).unwrap();
+        assert!((m.transform_vector3(Vec3::Z) - Vec3::NEG_Z).length() < 1e-6);
+        assert!((m.transform_vector3(Vec3::Y) - Vec3::Y).length() < 1e-6);
+        // left = up x dir = Y x -Z = -X
+        assert!((m.transform_vector3(Vec3::X) - Vec3::NEG_X).length() < 1e-6);
+        assert!(look_at(Vec3::ZERO, Vec3::Y, Vec3::Y).is_err());
+        assert!(look_at(Vec3::ZERO, Vec3::ZERO, Vec3::Y).is_err());
+    }
+
+    #[test]
+    fn similarity_and_rotation_checks() {
+        let rot = Transform::new(Mat4::from_axis_angle(
+            Vec3::new(1.0, 2.0, 3.0).normalize(),
+            0.7,
+        ))
+        .unwrap();
+        assert!(is_rotation(&rot));
+        assert!(is_similarity(&rot));
+        let sim = Transform::new(Mat4::from_scale(Vec3::splat(2.0)) * rot.m).unwrap();
+        assert!(is_similarity(&sim));
+        assert!(!is_rotation(&sim));
+        let shear = Transform::new(Mat4::from_cols(
+            Vec4::new(1.0, 0.0, 0.0, 0.0),
+            Vec4::new(0.6, 0.8, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, 1.0, 0.0),
+            Vec4::W,
+        ))
+        .unwrap();
+        assert!(!is_similarity(&shear));
+    }
+}
