@@ -2,6 +2,7 @@
 
 mod path;
 mod simple;
+mod whitted;
 
 use crate::color::Rgb;
 use crate::math::Ray;
@@ -48,11 +49,19 @@ pub enum Integrator {
     /// Ambient occlusion: fraction of the cosine-weighted hemisphere that is
     /// unoccluded within `length`.
     Ao { length: f32 },
+    /// Average visibility of the uniform hemisphere within `length`.
+    AverageVisibility { length: f32 },
+    /// Nori's `simple`: one point light, white diffuse shading, shadows.
+    Simple { position: crate::math::Vec3, energy: Rgb },
+    /// Emitter sampling on diffuse surfaces, recursion through specular ones.
+    Whitted,
     /// Unidirectional path tracing.
     Path {
         strategy: Strategy,
         params: PathParams,
     },
+    /// Direct illumination only (paths of two segments) with one strategy.
+    Direct { strategy: Strategy },
 }
 
 impl Integrator {
@@ -61,8 +70,23 @@ impl Integrator {
         match self {
             Integrator::Normals => simple::normals(scene, ray),
             Integrator::Ao { length } => simple::ao(scene, ray, sampler, *length),
+            Integrator::AverageVisibility { length } => {
+                simple::average_visibility(scene, ray, sampler, *length)
+            }
+            Integrator::Simple { position, energy } => {
+                simple::simple_point(scene, ray, *position, *energy)
+            }
+            Integrator::Whitted => whitted::li(scene, ray, sampler),
             Integrator::Path { strategy, params } => {
                 path::li(scene, ray, sampler, *strategy, params)
+            }
+            Integrator::Direct { strategy } => {
+                let params = PathParams {
+                    max_depth: Some(2),
+                    rr_depth: u32::MAX,
+                    hide_emitters: false,
+                };
+                path::li(scene, ray, sampler, *strategy, &params)
             }
         }
     }
@@ -72,6 +96,14 @@ impl Integrator {
         match self {
             Integrator::Normals => "normals",
             Integrator::Ao { .. } => "ao",
+            Integrator::AverageVisibility { .. } => "av",
+            Integrator::Simple { .. } => "simple",
+            Integrator::Whitted => "whitted",
+            Integrator::Direct { strategy } => match strategy {
+                Strategy::Mats => "direct_mats",
+                Strategy::Ems => "direct_ems",
+                Strategy::Mis => "direct_mis",
+            },
             Integrator::Path { strategy, .. } => match strategy {
                 Strategy::Mats => "path_mats",
                 Strategy::Ems => "path_ems",

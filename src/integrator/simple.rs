@@ -1,7 +1,8 @@
-//! Visualisation integrators: normals and ambient occlusion.
+//! Small integrators: normals, ambient occlusion, average visibility and
+//! Nori's `simple` point-light shader.
 
 use crate::color::Rgb;
-use crate::math::{offset_ray_origin, Ray};
+use crate::math::{offset_ray_origin, Ray, Vec3, PI};
 use crate::sampling::{warp, Sampler};
 use crate::scene::Scene;
 
@@ -27,4 +28,44 @@ pub fn ao(scene: &Scene, ray: &Ray, sampler: &mut Sampler, length: f32) -> Rgb {
     } else {
         Rgb::ONE
     }
+}
+
+/// Average visibility: 1 if a uniformly sampled hemisphere direction around
+/// the shading normal is unoccluded within `length`, 1 for rays that miss.
+pub fn average_visibility(scene: &Scene, ray: &Ray, sampler: &mut Sampler, length: f32) -> Rgb {
+    let Some(its) = scene.intersect(ray) else {
+        return Rgb::ONE;
+    };
+    let local = warp::square_to_uniform_hemisphere(sampler.next_2d());
+    let d = its.shading.to_world(local);
+    let o = offset_ray_origin(its.p, its.ng, d);
+    if scene.bvh.occluded(&Ray::with_range(o, d, 0.0, length)) {
+        Rgb::ZERO
+    } else {
+        Rgb::ONE
+    }
+}
+
+/// Nori's `simple` integrator: a point light of power `energy` at
+/// `position` shading every surface as white diffuse (albedo 1), with a
+/// shadow ray.
+pub fn simple_point(scene: &Scene, ray: &Ray, position: Vec3, energy: Rgb) -> Rgb {
+    let Some(its) = scene.intersect(ray) else {
+        return Rgb::ZERO;
+    };
+    let to = position - its.p;
+    let d2 = to.length_squared();
+    if d2 <= 0.0 {
+        return Rgb::ZERO;
+    }
+    let wi = to / d2.sqrt();
+    let cos = its.shading.n.dot(wi);
+    if cos <= 0.0 {
+        return Rgb::ZERO;
+    }
+    let o = offset_ray_origin(its.p, its.ng, wi);
+    if scene.occluded_segment(o, position) {
+        return Rgb::ZERO;
+    }
+    energy * (cos / (4.0 * PI * PI * d2))
 }
