@@ -995,11 +995,13 @@ fn non_negative(p: &mut Props, name: &str, default: f32) -> Result<f32> {
 fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> std::result::Result<Mat4, String> {
     let to = target - origin;
     if !to.length().is_finite() || to.length() <= 0.0 {
-        return Err("<lookat> target equals origin: there is no viewing direction".into());
+        return Err(
+            "<lookat> target must differ from origin (and the distance must be finite)".into(),
+        );
     }
     let dir = to.normalize();
     if !up.length().is_finite() || up.length() <= 0.0 {
-        return Err("<lookat> up vector is zero".into());
+        return Err("<lookat> up vector must be non-zero and finite".into());
     }
     let left = up.normalize().cross(dir);
     if !left.is_finite() || left.length() <= 1e-6 {

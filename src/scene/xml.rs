@@ -112,37 +112,77 @@ pub fn parse(text: &str) -> Result<SceneNode, XmlError> {
         Ok(doc) => doc,
         Err(e) => return Err(describe_error(text, &e)),
     };
-    let mapper = PosMapper::new(&doc);
-    Ok(convert(&doc, &mapper, doc.root_element()))
+    let mapper = PosMapper::new(text);
+    convert(&doc, &mapper, doc.root_element(), 0)
 }
 
-/// Turns byte offsets into line:col, correcting for a byte-order mark
-/// (which roxmltree skips but still counts as a column of line 1).
-struct PosMapper<'a, 'input> {
-    doc: &'a roxmltree::Document<'input>,
-    bom: bool,
+/// Deepest element nesting accepted (the tree is built recursively).
+pub const MAX_DEPTH: usize = 256;
+
+/// Turns byte offsets into line:col in O(log lines + distance from the
+/// previous query), where roxmltree's `text_pos_at` rescans the text each
+/// time. Columns count characters; a byte-order mark is not a column.
+struct PosMapper<'t> {
+    text: &'t str,
+    line_starts: Vec<usize>,
+    /// The last answer: (byte, pos), to count on from it.
+    last: std::cell::Cell<(usize, Pos)>,
 }
 
-impl<'a, 'input> PosMapper<'a, 'input> {
-    fn new(doc: &'a roxmltree::Document<'input>) -> Self {
+impl<'t> PosMapper<'t> {
+    fn new(text: &'t str) -> Self {
+        let mut line_starts = vec![0];
+        line_starts.extend(
+            text.bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| i + 1),
+        );
+        // A byte-order mark is skipped, not counted.
+        let first = if text.starts_with('\u{feff}') { 3 } else { 0 };
         PosMapper {
-            doc,
-            bom: doc.input_text().starts_with('\u{feff}'),
+            text,
+            line_starts,
+            last: std::cell::Cell::new((first, Pos::new(1, 1))),
         }
     }
 
     fn pos(&self, byte: usize) -> Pos {
-        let p = self.doc.text_pos_at(byte);
-        let col = if self.bom && p.row == 1 && p.col > 1 {
-            p.col - 1
+        let mut byte = byte.min(self.text.len());
+        while !self.text.is_char_boundary(byte) {
+            byte -= 1;
+        }
+        let line = self.line_starts.partition_point(|&s| s <= byte);
+        let line_start = self.line_starts[line - 1];
+        let (last_byte, last_pos) = self.last.get();
+        let (from, col0) = if last_pos.line as usize == line && last_byte <= byte {
+            (last_byte, last_pos.col)
         } else {
-            p.col
+            let bom = line == 1 && self.text.starts_with('\u{feff}');
+            (line_start + if bom { 3 } else { 0 }, 1)
         };
-        Pos::new(p.row, col)
+        let from = from.min(byte);
+        let col = col0 + self.text[from..byte].chars().count() as u32;
+        let pos = Pos::new(line as u32, col);
+        self.last.set((byte, pos));
+        pos
     }
 }
 
-fn convert(doc: &roxmltree::Document, m: &PosMapper, node: roxmltree::Node) -> SceneNode {
+fn convert(
+    doc: &roxmltree::Document,
+    m: &PosMapper,
+    node: roxmltree::Node,
+    depth: usize,
+) -> Result<SceneNode, XmlError> {
+    if depth >= MAX_DEPTH {
+        return Err(XmlError {
+            pos: Some(m.pos(node.range().start)),
+            message: format!("elements are nested more than {MAX_DEPTH} levels deep"),
+        });
+    }
+    // Positions are asked for in document order, which keeps them cheap.
+    let pos = m.pos(node.range().start);
     let input = doc.input_text();
     let attributes = node
         .attributes()
@@ -165,7 +205,7 @@ fn convert(doc: &roxmltree::Document, m: &PosMapper, node: roxmltree::Node) -> S
     let mut text = Vec::new();
     for ch in node.children() {
         if ch.is_element() {
-            children.push(convert(doc, m, ch));
+            children.push(convert(doc, m, ch, depth + 1)?);
         } else if ch.is_text() {
             let t = ch.text().unwrap_or("");
             if !t.trim().is_empty() {
@@ -184,13 +224,13 @@ fn convert(doc: &roxmltree::Document, m: &PosMapper, node: roxmltree::Node) -> S
             }
         }
     }
-    SceneNode {
+    Ok(SceneNode {
         tag: node.tag_name().name().to_string(),
-        pos: m.pos(node.range().start),
+        pos,
         attributes,
         children,
         text,
-    }
+    })
 }
 
 /// Byte offset of a roxmltree text position.
@@ -215,15 +255,7 @@ fn byte_offset(text: &str, pos: roxmltree::TextPos) -> usize {
 }
 
 fn text_pos(text: &str, byte: usize) -> Pos {
-    let byte = byte.min(text.len());
-    let before = &text[..byte];
-    let line = before.bytes().filter(|&b| b == b'\n').count() as u32 + 1;
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-    let mut col = before[line_start..].chars().count() as u32 + 1;
-    if line == 1 && text.starts_with('\u{feff}') && col > 1 {
-        col -= 1;
-    }
-    Pos::new(line, col)
+    PosMapper::new(text).pos(byte)
 }
 
 fn describe_error(text: &str, e: &roxmltree::Error) -> XmlError {
@@ -422,6 +454,30 @@ mod tests {
         assert_eq!(e.pos, Some(Pos::new(2, 2)), "{}", e.message);
         let e = parse("<a>\n <b x=\"1").unwrap_err();
         assert_eq!(e.pos, Some(Pos::new(2, 2)), "{}", e.message);
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_stack_overflow() {
+        let n = 100_000;
+        let doc = "<a>".repeat(n) + &"</a>".repeat(n);
+        let e = parse(&doc).unwrap_err();
+        assert_eq!(e.pos, Some(Pos::new(1, 3 * MAX_DEPTH as u32 + 1)));
+        assert!(e.message.contains("nested"));
+    }
+
+    #[test]
+    fn positions_agree_with_roxmltree() {
+        let text = "<a>\n  <b x=\"\u{e9}\u{e9}\" y='1'>t\u{1f600}xt</b>\r\n\n<c/></a>\n";
+        let doc = roxmltree::Document::parse(text).unwrap();
+        let m = PosMapper::new(text);
+        let bytes: Vec<usize> = (0..=text.len())
+            .filter(|&b| text.is_char_boundary(b))
+            .collect();
+        // In order (uses the cursor), then backwards (does not).
+        for &b in bytes.iter().chain(bytes.iter().rev()) {
+            let r = doc.text_pos_at(b);
+            assert_eq!(m.pos(b), Pos::new(r.row, r.col), "byte {b}");
+        }
     }
 
     #[test]
