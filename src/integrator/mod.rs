@@ -52,7 +52,10 @@ pub enum Integrator {
     /// Average visibility of the uniform hemisphere within `length`.
     AverageVisibility { length: f32 },
     /// Nori's `simple`: one point light, white diffuse shading, shadows.
-    Simple { position: crate::math::Vec3, energy: Rgb },
+    Simple {
+        position: crate::math::Vec3,
+        energy: Rgb,
+    },
     /// Emitter sampling on diffuse surfaces, recursion through specular ones.
     Whitted,
     /// Unidirectional path tracing.

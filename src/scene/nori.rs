@@ -55,9 +55,22 @@ const TRANSFORM_OPS: &[&str] = &["translate", "matrix", "rotate", "scale", "look
 
 const CAMERA_TYPES: &[&str] = &["perspective", "thinlens"];
 const SAMPLER_TYPES: &[&str] = &["independent"];
-const INTEGRATOR_TYPES: &[&str] = &["normals", "ao", "path_mats", "path_ems", "path_mis", "path"];
+const INTEGRATOR_TYPES: &[&str] = &[
+    "normals",
+    "ao",
+    "av",
+    "simple",
+    "whitted",
+    "direct_ems",
+    "direct_mats",
+    "direct_mis",
+    "path_mats",
+    "path_ems",
+    "path_mis",
+    "path",
+];
 const MESH_TYPES: &[&str] = &["obj", "sphere"];
-const BSDF_TYPES: &[&str] = &["diffuse", "mirror", "dielectric"];
+const BSDF_TYPES: &[&str] = &["diffuse", "mirror", "dielectric", "microfacet"];
 const EMITTER_TYPES: &[&str] = &["area", "point", "environment", "envmap", "constant", "sky"];
 const RFILTER_TYPES: &[&str] = &["gaussian", "box", "tent", "mitchell"];
 
@@ -673,7 +686,7 @@ impl<'a> Ctx<'a> {
         };
         let integrator = match (ty, strategy) {
             ("normals", _) => Integrator::Normals,
-            ("ao", _) => {
+            ("ao", _) | ("av", _) => {
                 let length = p.get_float_or_inf("length", f32::INFINITY)?;
                 if length <= 0.0 {
                     return Err(p.error(
@@ -681,8 +694,27 @@ impl<'a> Ctx<'a> {
                         format!("'length' must be positive, found {length}"),
                     ));
                 }
-                Integrator::Ao { length }
+                if ty == "ao" {
+                    Integrator::Ao { length }
+                } else {
+                    Integrator::AverageVisibility { length }
+                }
             }
+            ("simple", _) => {
+                let position = p.require_point("position")?;
+                let energy = p.require_rgb("energy")?;
+                Integrator::Simple { position, energy }
+            }
+            ("whitted", _) => Integrator::Whitted,
+            ("direct_ems", _) => Integrator::Direct {
+                strategy: Strategy::Ems,
+            },
+            ("direct_mats", _) => Integrator::Direct {
+                strategy: Strategy::Mats,
+            },
+            ("direct_mis", _) => Integrator::Direct {
+                strategy: Strategy::Mis,
+            },
             (_, Some(strategy)) => {
                 let max_depth = match p.opt_int("maxDepth")? {
                     None => None,
@@ -821,6 +853,22 @@ impl<'a> Ctx<'a> {
                 let int_ior = positive(&mut p, "intIOR", 1.5046)?;
                 let ext_ior = positive(&mut p, "extIOR", 1.000277)?;
                 Bsdf::dielectric(int_ior, ext_ior)
+            }
+            "microfacet" => {
+                let alpha = positive(&mut p, "alpha", 0.1)?;
+                let int_ior = positive(&mut p, "intIOR", 1.5046)?;
+                let ext_ior = positive(&mut p, "extIOR", 1.000277)?;
+                let kd = p.get_rgb("kd", Rgb::splat(0.5))?;
+                if kd.max_element() > 1.0 {
+                    return Err(p.error(
+                        "kd",
+                        format!(
+                            "'kd' must be at most 1 in every channel, found {} {} {}",
+                            kd.x, kd.y, kd.z
+                        ),
+                    ));
+                }
+                Bsdf::microfacet(alpha, int_ior, ext_ior, kd)
             }
             _ => unreachable!(),
         };
