@@ -405,7 +405,7 @@ mod tests {
 
     /// Number of chi-square tests in this module that must pass; Sidak
     /// splits the family-wise alpha = 0.01 between them.
-    const N_CHI2_TESTS: usize = 8;
+    const N_CHI2_TESTS: usize = 9;
     /// Bins in cos(theta) and in phi.
     const NC: usize = 40;
     const NP: usize = 80;
@@ -748,6 +748,23 @@ mod tests {
     fn chi2_sun_rotated_mirrored() {
         let env = EnvMap::new(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear);
         assert_passes(chi2_local(&env, 18), "sun rotated");
+    }
+
+    #[test]
+    fn chi2_baked_sky() {
+        let p = crate::emitter::sky::SkyParams {
+            resolution: 128,
+            sun_elevation_deg: 30.0,
+            sun_azimuth_deg: 60.0,
+            ..Default::default()
+        };
+        let env = EnvMap::new(
+            crate::emitter::sky::bake_sky(&p),
+            1.0,
+            rot_a(),
+            EnvFilter::Bilinear,
+        );
+        assert_passes(chi2_local(&env, 19), "baked sky");
     }
 
     /// The chi-square machinery must be able to fail.
