@@ -163,7 +163,7 @@ impl EnvMap {
         }
     }
 
-    /// Local direction (need not be normalised) to (u, v) in [0,1) x [0,1].
+    /// Local direction (need not be normalised) to (u, v) in `[0, 1) x [0, 1]`.
     pub fn dir_to_uv(d: Vec3) -> Vec2 {
         dir_to_uv_sin(d).0
     }
