@@ -163,7 +163,7 @@ impl EnvMap {
         }
     }
 
-    /// Local direction (need not be normalised) to (u, v) in [0,1) x [0,1].
+    /// Local direction (need not be normalised) to (u, v) in `[0, 1) x [0, 1]`.
     pub fn dir_to_uv(d: Vec3) -> Vec2 {
         dir_to_uv_sin(d).0
     }
@@ -839,6 +839,64 @@ mod tests {
                     assert!((w - want).length() <= 1e-6 * want.length(), "{w} vs {want}");
                 }
             }
+        }
+    }
+
+    /// Irradiance on a plane with normal `n`, integrated in (u, v) on a grid
+    /// of `sub` x `sub` points per texel (the bilinear radiance is
+    /// continuous, so the midpoint rule converges fast).
+    fn irradiance_reference(env: &EnvMap, n: Vec3, sub: usize) -> f64 {
+        let (w, h) = (env.image.width * sub, env.image.height * sub);
+        let pi = std::f64::consts::PI;
+        let mut sum = 0.0;
+        for j in 0..h {
+            let v = (j as f64 + 0.5) / h as f64;
+            for i in 0..w {
+                let uv = Vec2::new(((i as f64 + 0.5) / w as f64) as f32, v as f32);
+                let d = env.to_world.vector(EnvMap::uv_to_dir(uv));
+                let c = n.dot(d).max(0.0) as f64;
+                sum += luminance(env.eval(d)) as f64 * c * (pi * v).sin();
+            }
+        }
+        sum * 2.0 * pi * pi / (w * h) as f64
+    }
+
+    /// Estimating an integral with `sample` is unbiased (Student t-test), and
+    /// the test notices a 2% error.
+    #[test]
+    fn sampled_irradiance_is_unbiased() {
+        use crate::stats::{t_test, MeanVar};
+        let cases = [
+            (sun_map(128, 64), rot_mirror(), EnvFilter::Bilinear),
+            (gradient(96, 48), rot_a(), EnvFilter::Nearest),
+            (
+                one_hot(24, 12, &[(7, 3), (0, 11)]),
+                rot_a(),
+                EnvFilter::Bilinear,
+            ),
+        ];
+        let alpha = sidak(0.01, cases.len());
+        for (k, (img, t, filter)) in cases.into_iter().enumerate() {
+            let env = EnvMap::new(img, 2.0, t, filter);
+            let n = Vec3::new(0.3, 1.0, -0.2).normalize();
+            let reference = irradiance_reference(&env, n, 16);
+            let mut s = Sampler::new(31, k as u64);
+            let mut mv = MeanVar::default();
+            for _ in 0..1_500_000 {
+                let e = match env.sample(s.next_2d()) {
+                    Some((d, w, _)) => luminance(w) as f64 * n.dot(d).max(0.0) as f64,
+                    None => 0.0,
+                };
+                mv.push(e);
+            }
+            let r = t_test(&mv, reference);
+            assert!(
+                r.passes(alpha),
+                "case {k}: {} vs {reference}: {r:?}",
+                mv.mean()
+            );
+            let r = t_test(&mv, reference * 1.02);
+            assert!(!r.passes(alpha), "case {k}: 2% bias not detected: {r:?}");
         }
     }
 
