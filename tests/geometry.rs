@@ -99,15 +99,27 @@ fn offset_origins_do_not_self_intersect() {
             let r = Ray::new(centre, d);
             let Some(h) = bvh.intersect(&r) else { continue };
             let p = r.at(h.t);
-            let ng = match &g {
-                Geometry::Mesh(m) => m.geometric_normal(h.index as usize),
+            let (ng, tri) = match &g {
+                Geometry::Mesh(m) => (
+                    m.geometric_normal(h.index as usize),
+                    m.vertices(h.index as usize),
+                ),
                 _ => unreachable!(),
             };
             // Leave outwards: nothing else is there, so any hit is a self-hit.
             let mut out = warp::square_to_cosine_hemisphere(s.next_2d());
             let f = lente::math::Frame::from_normal(ng);
             out = f.to_world(out);
-            let o = offset_ray_origin(p, ng, out);
+            let err = lente::math::barycentric_error(
+                1.0 - h.b1 - h.b2,
+                h.b1,
+                h.b2,
+                tri[0],
+                tri[1],
+                tri[2],
+            );
+            let p = tri[0] * (1.0 - h.b1 - h.b2) + tri[1] * h.b1 + tri[2] * h.b2;
+            let o = offset_ray_origin(p, err, ng, out);
             if bvh.intersect(&Ray::new(o, out)).is_some() {
                 self_hits += 1;
             }
@@ -117,4 +129,44 @@ fn offset_origins_do_not_self_intersect() {
             "scale {scale}: {self_hits} self-intersections"
         );
     }
+}
+
+/// Points on a huge ground quad near the origin: the error of the
+/// barycentric hit point scales with the vertices (1000 units), not with the
+/// point, and the offset must follow it.
+#[test]
+fn huge_triangles_do_not_shadow_themselves() {
+    let m = lente::geometry::TriangleMesh::new(
+        vec![
+            Vec3::new(-1000.0, 0.0, -1000.0),
+            Vec3::new(1000.0, 0.0, -1000.0),
+            Vec3::new(1000.0, 0.0, 1000.0),
+            Vec3::new(-1000.0, 0.0, 1000.0),
+        ],
+        Vec::new(),
+        Vec::new(),
+        vec![[0, 2, 1], [0, 3, 2]],
+    );
+    let mut d = common::desc(
+        common::look_at(Vec3::new(0.0, 2.0, 5.0), Vec3::ZERO, 40.0, 8, 8),
+        common::path(lente::integrator::Strategy::Mis),
+    );
+    d.shapes
+        .push(common::shape(Geometry::Mesh(m), common::diffuse(0.5), None));
+    let scene = lente::scene::Scene::new(d).unwrap();
+    let mut s = Sampler::new(3, 3);
+    let mut self_hits = 0;
+    for _ in 0..100_000 {
+        let target = Vec3::new(s.next_1d() * 6.0 - 3.0, 0.0, s.next_1d() * 6.0 - 3.0);
+        let o = Vec3::new(0.0, 2.0, 5.0);
+        let Some(its) = scene.intersect(&Ray::new(o, (target - o).normalize())) else {
+            continue;
+        };
+        let f = lente::math::Frame::from_normal(its.ng);
+        let d = f.to_world(warp::square_to_cosine_hemisphere(s.next_2d()));
+        if scene.intersect(&Ray::new(its.spawn(d), d)).is_some() {
+            self_hits += 1;
+        }
+    }
+    assert_eq!(self_hits, 0, "{self_hits} rays re-hit the ground they left");
 }

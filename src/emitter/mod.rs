@@ -30,6 +30,8 @@ pub struct LightSample {
     pub wi: Vec3,
     /// Point on the light (far away for infinite lights).
     pub p: Vec3,
+    /// Floating-point error bound of `p` (zero where `p` is exact).
+    pub err: Vec3,
     /// Normal at the light point (zero for points and infinite lights).
     pub n: Vec3,
     /// Distance to the light point (infinity for infinite lights).
@@ -121,6 +123,7 @@ impl Emitter {
                 Some(LightSample {
                     wi,
                     p: s.p,
+                    err: s.err,
                     n: s.n,
                     dist,
                     weight: *radiance / pdf,
@@ -141,6 +144,7 @@ impl Emitter {
                 Some(LightSample {
                     wi: to / dist,
                     p: *position,
+                    err: Vec3::ZERO,
                     n: Vec3::ZERO,
                     dist,
                     weight: *intensity / d2,
@@ -154,6 +158,7 @@ impl Emitter {
                 Some(LightSample {
                     wi,
                     p: p_ref + wi * (2.0 * ctx.scene_radius),
+                    err: Vec3::ZERO,
                     n: Vec3::ZERO,
                     dist: f32::INFINITY,
                     weight: *radiance / pdf,
@@ -166,6 +171,7 @@ impl Emitter {
                 Some(LightSample {
                     wi,
                     p: p_ref + wi * (2.0 * ctx.scene_radius),
+                    err: Vec3::ZERO,
                     n: Vec3::ZERO,
                     dist: f32::INFINITY,
                     weight,

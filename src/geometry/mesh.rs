@@ -135,12 +135,14 @@ impl TriangleMesh {
         let b = warp::square_to_uniform_triangle(u);
         let [a, bb, c] = self.vertices(tri);
         let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;
+        let err = crate::math::barycentric_error(1.0 - b.x - b.y, b.x, b.y, a, bb, c);
         let (n, _) = self.shading(tri, b.x, b.y);
         let ng = self.geometric_normal(tri);
         // Emission is defined on the geometric side the shading normal agrees with.
         let n = if n.dot(ng) < 0.0 { -ng } else { ng };
         SurfaceSample {
             p,
+            err,
             n,
             pdf_area: 1.0 / self.area,
         }

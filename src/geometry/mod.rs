@@ -63,6 +63,8 @@ pub struct Intersection {
     /// Ray parameter of the hit.
     pub t: f32,
     pub p: Vec3,
+    /// Floating-point error bound of `p` (per axis).
+    pub err: Vec3,
     /// Unit geometric normal (facing as the shape defines it, not the ray).
     pub ng: Vec3,
     /// Shading frame (interpolated normal).
@@ -72,10 +74,19 @@ pub struct Intersection {
     pub shape: u32,
 }
 
+impl Intersection {
+    /// Origin for a ray leaving the surface in direction `w`.
+    pub fn spawn(&self, w: Vec3) -> Vec3 {
+        crate::math::offset_ray_origin(self.p, self.err, self.ng, w)
+    }
+}
+
 /// A point sampled on a surface, with its area density.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceSample {
     pub p: Vec3,
+    /// Floating-point error bound of `p`.
+    pub err: Vec3,
     pub n: Vec3,
     /// Density with respect to area.
     pub pdf_area: f32,

@@ -77,11 +77,17 @@ impl Sphere {
         (n, Vec2::new(phi / (2.0 * PI), theta / PI))
     }
 
+    /// Error bound of the point `center + radius * n`.
+    pub fn point_error(&self, n: Vec3) -> Vec3 {
+        (self.center.abs() + (self.radius * n).abs()) * crate::math::gamma(6)
+    }
+
     /// Uniform point on the whole sphere.
     pub fn sample_area(&self, u: Vec2) -> SurfaceSample {
         let n = warp::square_to_uniform_sphere(u);
         SurfaceSample {
             p: self.center + self.radius * n,
+            err: self.point_error(n),
             n,
             pdf_area: 1.0 / self.area(),
         }

@@ -126,14 +126,14 @@ pub fn li(
                     let wo = frame.to_local(ls.wi);
                     let f = bsdf.eval(wi, wo);
                     if f != Rgb::ZERO && ls.weight != Rgb::ZERO {
-                        let from = offset_ray_origin(its.p, its.ng, ls.wi);
+                        let from = its.spawn(ls.wi);
                         let blocked = if ls.dist.is_infinite() {
                             scene.occluded_ray(from, ls.wi)
                         } else {
                             let to = if ls.n == Vec3::ZERO {
                                 ls.p
                             } else {
-                                offset_ray_origin(ls.p, ls.n, -ls.wi)
+                                offset_ray_origin(ls.p, ls.err, ls.n, -ls.wi)
                             };
                             scene.occluded_segment(from, to)
                         };
@@ -180,7 +180,7 @@ pub fn li(
             beta /= q;
         }
 
-        let o = offset_ray_origin(its.p, its.ng, wo_world);
+        let o = its.spawn(wo_world);
         ray = Ray::new(o, wo_world);
     }
     l

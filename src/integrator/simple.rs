@@ -2,7 +2,7 @@
 //! Nori's `simple` point-light shader.
 
 use crate::color::Rgb;
-use crate::math::{offset_ray_origin, Ray, Vec3, PI};
+use crate::math::{Ray, Vec3, PI};
 use crate::sampling::{warp, Sampler};
 use crate::scene::Scene;
 
@@ -21,7 +21,7 @@ pub fn ao(scene: &Scene, ray: &Ray, sampler: &mut Sampler, length: f32) -> Rgb {
     };
     let local = warp::square_to_cosine_hemisphere(sampler.next_2d());
     let d = its.shading.to_world(local);
-    let o = offset_ray_origin(its.p, its.ng, d);
+    let o = its.spawn(d);
     let shadow = Ray::with_range(o, d, 0.0, length);
     if scene.bvh.occluded(&shadow) {
         Rgb::ZERO
@@ -38,7 +38,7 @@ pub fn average_visibility(scene: &Scene, ray: &Ray, sampler: &mut Sampler, lengt
     };
     let local = warp::square_to_uniform_hemisphere(sampler.next_2d());
     let d = its.shading.to_world(local);
-    let o = offset_ray_origin(its.p, its.ng, d);
+    let o = its.spawn(d);
     if scene.bvh.occluded(&Ray::with_range(o, d, 0.0, length)) {
         Rgb::ZERO
     } else {
@@ -63,7 +63,7 @@ pub fn simple_point(scene: &Scene, ray: &Ray, position: Vec3, energy: Rgb) -> Rg
     if cos <= 0.0 {
         return Rgb::ZERO;
     }
-    let o = offset_ray_origin(its.p, its.ng, wi);
+    let o = its.spawn(wi);
     if scene.occluded_segment(o, position) {
         return Rgb::ZERO;
     }

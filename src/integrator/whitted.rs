@@ -40,13 +40,16 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
                     let wo = its.shading.to_local(ls.wi);
                     let f = bsdf.eval(wi, wo);
                     if f != Rgb::ZERO {
-                        let from = offset_ray_origin(its.p, its.ng, ls.wi);
+                        let from = its.spawn(ls.wi);
                         let blocked = if ls.dist.is_infinite() {
                             scene.occluded_ray(from, ls.wi)
                         } else if ls.n == Vec3::ZERO {
                             scene.occluded_segment(from, ls.p)
                         } else {
-                            scene.occluded_segment(from, offset_ray_origin(ls.p, ls.n, -ls.wi))
+                            scene.occluded_segment(
+                                from,
+                                offset_ray_origin(ls.p, ls.err, ls.n, -ls.wi),
+                            )
                         };
                         if !blocked {
                             l += beta * f * wo.z.abs() * ls.weight / p;
@@ -64,6 +67,6 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         };
         beta *= bs.weight / CONTINUE;
         let d = its.shading.to_world(bs.wo);
-        ray = Ray::new(offset_ray_origin(its.p, its.ng, d), d);
+        ray = Ray::new(its.spawn(d), d);
     }
 }

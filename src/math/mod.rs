@@ -6,7 +6,7 @@ mod transform;
 
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
-pub use ray::{offset_ray_origin, Ray};
+pub use ray::{barycentric_error, gamma, offset_ray_origin, Ray};
 pub use transform::Transform;
 
 /// Axis-aligned bounding box.

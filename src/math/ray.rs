@@ -30,35 +30,42 @@ impl Ray {
     }
 }
 
-/// Moves a surface point off its surface along the geometric normal, towards
-/// the side `w` points to, by an amount that scales with the point's
-/// floating-point magnitude (Wächter and Binder, Ray Tracing Gems ch. 6).
-/// This avoids self-intersection without a scene-dependent epsilon.
-pub fn offset_ray_origin(p: Vec3, n: Vec3, w: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let n = if n.dot(w) < 0.0 { -n } else { n };
-    let of_i = [
-        (INT_SCALE * n.x) as i32,
-        (INT_SCALE * n.y) as i32,
-        (INT_SCALE * n.z) as i32,
-    ];
-    let pi = |v: f32, o: i32| -> f32 {
-        let bits = v.to_bits() as i32;
-        f32::from_bits((bits + if v < 0.0 { -o } else { o }) as u32)
-    };
-    let p_i = Vec3::new(pi(p.x, of_i[0]), pi(p.y, of_i[1]), pi(p.z, of_i[2]));
-    let pick = |v: f32, vi: f32, nv: f32| {
-        if v.abs() < ORIGIN {
-            v + FLOAT_SCALE * nv
+/// gamma(n) of Higham's floating-point error analysis: a bound on the
+/// relative error of n chained f32 operations.
+pub const fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5 * n as f32;
+    e / (1.0 - e)
+}
+
+/// Moves a surface point off its surface, towards the side `w` points to,
+/// by just more than its floating-point error bound `err` projected on the
+/// normal `n`, then one ulp further away (pbrt's spawned-ray origins). No
+/// scene-dependent epsilon: points far from the origin or on huge
+/// triangles get proportionally larger offsets, tiny ones tiny offsets.
+pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    let d = n.abs().dot(err);
+    let mut offset = d * n;
+    if w.dot(n) < 0.0 {
+        offset = -offset;
+    }
+    let po = p + offset;
+    let away = |v: f32, o: f32| {
+        if o > 0.0 {
+            v.next_up()
+        } else if o < 0.0 {
+            v.next_down()
         } else {
-            vi
+            v
         }
     };
     Vec3::new(
-        pick(p.x, p_i.x, n.x),
-        pick(p.y, p_i.y, n.y),
-        pick(p.z, p_i.z, n.z),
+        away(po.x, offset.x),
+        away(po.y, offset.y),
+        away(po.z, offset.z),
     )
+}
+
+/// Error bound of a point computed as b0 p0 + b1 p1 + b2 p2.
+pub fn barycentric_error(b0: f32, b1: f32, b2: f32, p0: Vec3, p1: Vec3, p2: Vec3) -> Vec3 {
+    ((b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs()) * gamma(7)
 }

@@ -286,21 +286,23 @@ impl Scene {
     pub fn intersect(&self, ray: &Ray) -> Option<Intersection> {
         let h = self.bvh.intersect(ray)?;
         let p = ray.at(h.t);
-        let (ng, ns, uv, p) = match &self.geometry[h.shape as usize] {
+        let (ng, ns, uv, p, err) = match &self.geometry[h.shape as usize] {
             Geometry::Mesh(m) => {
                 let tri = h.index as usize;
                 let ng = m.geometric_normal(tri);
                 let (ns, uv) = m.shading(tri, h.b1, h.b2);
                 // Recompute the point from barycentrics: more precise than o + t d.
                 let [a, b, c] = m.vertices(tri);
-                let pb = a * (1.0 - h.b1 - h.b2) + b * h.b1 + c * h.b2;
-                (ng, ns, uv, pb)
+                let b0 = 1.0 - h.b1 - h.b2;
+                let pb = a * b0 + b * h.b1 + c * h.b2;
+                let err = crate::math::barycentric_error(b0, h.b1, h.b2, a, b, c);
+                (ng, ns, uv, pb, err)
             }
             Geometry::Sphere(s) => {
                 let (n, uv) = s.normal_uv(p);
                 // Reproject onto the surface to remove the error of o + t d.
                 let pp = s.center + n * s.radius;
-                (n, n, uv, pp)
+                (n, n, uv, pp, s.point_error(n))
             }
         };
         // The geometric normal defines the front side; orient it to agree
@@ -309,6 +311,7 @@ impl Scene {
         Some(Intersection {
             t: h.t,
             p,
+            err,
             ng,
             shading: Frame::from_normal(ns),
             uv,
