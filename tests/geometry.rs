@@ -98,7 +98,6 @@ fn offset_origins_do_not_self_intersect() {
             let d = warp::square_to_uniform_sphere(s.next_2d());
             let r = Ray::new(centre, d);
             let Some(h) = bvh.intersect(&r) else { continue };
-            let p = r.at(h.t);
             let (ng, tri) = match &g {
                 Geometry::Mesh(m) => (
                     m.geometric_normal(h.index as usize),

@@ -1,7 +1,7 @@
 //! Watertight ray/triangle intersection (Woop, Benthin and Wald, JCGT 2013):
 //! rays through shared edges or vertices hit exactly one of the triangles.
 
-use crate::math::Vec3;
+use crate::math::{gamma, Vec3};
 
 /// Per-ray precomputation for the watertight test: the axis permutation and
 /// shear that map the ray direction onto +z.
@@ -101,6 +101,23 @@ pub fn intersect_triangle(
     let t = t_scaled * inv_det;
     if !(t > tmin && t < tmax) {
         return None;
+    }
+    // Reject hits whose t is within its own rounding error of zero (pbrt's
+    // conservative bound): a ray spawned on this very triangle.
+    {
+        let max_zt = az.abs().max(bz.abs()).max(cz.abs());
+        let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
+        let max_yt = ay.abs().max(by.abs()).max(cy.abs());
+        let delta_z = gamma(3) * max_zt;
+        let delta_x = gamma(5) * (max_xt + max_zt);
+        let delta_y = gamma(5) * (max_yt + max_zt);
+        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = u.abs().max(v.abs()).max(w.abs());
+        let delta_t =
+            3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
+        if t <= delta_t {
+            return None;
+        }
     }
     Some((t, v * inv_det, w * inv_det))
 }
