@@ -238,16 +238,7 @@ fn cmd_info(scene_path: &Path) -> Result<()> {
         scene.geometry.len(),
         scene.triangle_count()
     );
-    let names: Vec<&str> = scene
-        .emitters
-        .iter()
-        .map(|e| match e {
-            lente::emitter::Emitter::Area { .. } => "area",
-            lente::emitter::Emitter::Point { .. } => "point",
-            lente::emitter::Emitter::Constant { .. } => "constant",
-            lente::emitter::Emitter::Environment(_) => "environment",
-        })
-        .collect();
+    let names: Vec<&str> = scene.emitters.iter().map(|e| e.name()).collect();
     println!("emitters    {} [{}]", names.len(), names.join(", "));
     let b = scene.bounds;
     if b.is_empty() {

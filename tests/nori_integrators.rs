@@ -206,3 +206,40 @@ fn whitted_agrees_with_path_tracing_in_a_furnace() {
         );
     }
 }
+
+/// A directional light of irradiance E on a white diffuse plane facing it
+/// at angle theta gives radiance E cos(theta) / pi.
+#[test]
+fn directional_light_on_a_diffuse_plane() {
+    let e = 3.0f32;
+    let dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let mut d = desc(
+        look_at(
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.01),
+            20.0,
+            8,
+            8,
+        ),
+        Integrator::Direct {
+            strategy: Strategy::Mis,
+        },
+    );
+    d.shapes.push(shape(
+        Geometry::Mesh(quad(Vec3::ZERO, 50.0, true)),
+        diffuse(1.0),
+        None,
+    ));
+    d.emitters.push(lente::emitter::Emitter::Directional {
+        direction: dir,
+        irradiance: Rgb::splat(e),
+    });
+    let scene = Scene::new(d).unwrap();
+    let mv = estimate(&scene, 1000, 9);
+    let expect = (e * -dir.y / std::f32::consts::PI) as f64;
+    assert!(
+        (mv.mean() - expect).abs() < 1e-4 * expect,
+        "{} vs {expect}",
+        mv.mean()
+    );
+}

@@ -17,6 +17,9 @@ pub enum Emitter {
     Area { shape: u32, radiance: Rgb },
     /// Isotropic point light with radiant intensity `intensity` (W/sr).
     Point { position: Vec3, intensity: Rgb },
+    /// Parallel light arriving along `direction` (unit, the way the light
+    /// travels) with `irradiance` on a surface facing it.
+    Directional { direction: Vec3, irradiance: Rgb },
     /// Uniform radiance from every direction at infinity.
     Constant { radiance: Rgb },
     /// An image-based light at infinity.
@@ -52,6 +55,17 @@ pub struct EmitterContext<'a> {
 }
 
 impl Emitter {
+    /// Short name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Emitter::Area { .. } => "area",
+            Emitter::Point { .. } => "point",
+            Emitter::Directional { .. } => "directional",
+            Emitter::Constant { .. } => "constant",
+            Emitter::Environment(_) => "environment",
+        }
+    }
+
     pub fn is_infinite(&self) -> bool {
         matches!(self, Emitter::Constant { .. } | Emitter::Environment(_))
     }
@@ -65,7 +79,7 @@ impl Emitter {
     }
 
     pub fn is_delta(&self) -> bool {
-        matches!(self, Emitter::Point { .. })
+        matches!(self, Emitter::Point { .. } | Emitter::Directional { .. })
     }
 
     /// Estimated emitted power (luminance), for choosing lights.
@@ -75,6 +89,9 @@ impl Emitter {
                 PI * ctx.shapes[*shape as usize].area() * luminance(*radiance)
             }
             Emitter::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
+            Emitter::Directional { irradiance, .. } => {
+                PI * ctx.scene_radius * ctx.scene_radius * luminance(*irradiance)
+            }
             Emitter::Constant { radiance } => {
                 PI * ctx.scene_radius * ctx.scene_radius * PI * luminance(*radiance)
             }
@@ -152,6 +169,19 @@ impl Emitter {
                     delta: true,
                 })
             }
+            Emitter::Directional {
+                direction,
+                irradiance,
+            } => Some(LightSample {
+                wi: -*direction,
+                p: p_ref - *direction * (2.0 * ctx.scene_radius),
+                err: Vec3::ZERO,
+                n: Vec3::ZERO,
+                dist: f32::INFINITY,
+                weight: *irradiance,
+                pdf: 0.0,
+                delta: true,
+            }),
             Emitter::Constant { radiance } => {
                 let wi = crate::sampling::warp::square_to_uniform_sphere(u);
                 let pdf = crate::sampling::warp::square_to_uniform_sphere_pdf(wi);
@@ -202,7 +232,7 @@ impl Emitter {
                 }
                 d2 / (cos_l * area)
             }
-            Emitter::Point { .. } => 0.0,
+            Emitter::Point { .. } | Emitter::Directional { .. } => 0.0,
             Emitter::Constant { .. } => crate::sampling::warp::square_to_uniform_sphere_pdf(wi),
             Emitter::Environment(env) => env.pdf(wi),
         }
