@@ -10,6 +10,7 @@ pub mod geometry;
 pub mod image;
 pub mod integrator;
 pub mod math;
+pub mod preview;
 pub mod render;
 pub mod sampling;
 pub mod scene;

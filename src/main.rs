@@ -5,13 +5,16 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use std::io::IsTerminal;
 
 use lente::image::io::save_image;
-use lente::render::{render, RenderOptions};
+use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
+use lente::preview::{Checkpointer, PreviewServer, PreviewState};
+use lente::render::{render_with_passes, PassInfo, RenderOptions};
 use lente::scene::{load_scene, Scene, SceneDesc};
 
 #[derive(Parser)]
@@ -28,35 +31,83 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to OUT.exr (linear float) and OUT.png (sRGB).
-    Render {
-        /// Scene file (Nori XML).
-        scene: PathBuf,
-        /// Output path without extension (default: next to the scene file,
-        /// with its name). A given .exr or .png extension is dropped.
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-        /// Samples per pixel (overrides the scene's sampler).
-        #[arg(long)]
-        spp: Option<u32>,
-        /// Image size as WxH (overrides the scene's camera).
-        #[arg(long, value_parser = parse_resolution)]
-        resolution: Option<(u32, u32)>,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Seed of the random number streams; different seeds give
-        /// independent renders.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// No progress bar.
-        #[arg(short, long)]
-        quiet: bool,
-    },
+    Render(RenderArgs),
     /// Load a scene and print what it contains, without rendering.
     Info {
         /// Scene file (Nori XML).
         scene: PathBuf,
     },
+    /// Compare an image with a reference: MSE, relative MSE and PSNR.
+    Compare {
+        /// The image to measure (.exr, .hdr, .pfm or .png).
+        image: PathBuf,
+        /// The reference image, of the same size.
+        reference: PathBuf,
+        /// Also write a false-colour map of the per-pixel luminance error
+        /// (blue: none, red: the largest) to this file.
+        #[arg(long, value_name = "OUT.png")]
+        diff: Option<PathBuf>,
+    },
+    /// Convert an image between EXR, HDR, PFM and PNG (by extension).
+    Convert {
+        /// Input image (.exr, .hdr, .pfm or .png).
+        input: PathBuf,
+        /// Output image (.exr, .hdr, .pfm or .png).
+        output: PathBuf,
+        /// Scale by 2^STOPS before writing.
+        #[arg(
+            long,
+            value_name = "STOPS",
+            default_value_t = 0.0,
+            allow_negative_numbers = true
+        )]
+        exposure: f32,
+        /// Tone mapping: clamp, reinhard or aces. PNG output is always
+        /// tone mapped (default clamp); float outputs (EXR, HDR, PFM) only
+        /// when this is given.
+        #[arg(long)]
+        tonemap: Option<Tonemap>,
+    },
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// Scene file (Nori XML).
+    scene: PathBuf,
+    /// Output path without extension (default: next to the scene file,
+    /// with its name). A given .exr or .png extension is dropped.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Samples per pixel (overrides the scene's sampler).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Image size as WxH (overrides the scene's camera).
+    #[arg(long, value_parser = parse_resolution)]
+    resolution: Option<(u32, u32)>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Seed of the random number streams; different seeds give
+    /// independent renders.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Serve a live preview page on 127.0.0.1:PORT (default 8642; 0 picks
+    /// a free port) showing the image pass by pass. Put it after the scene
+    /// file or write --preview=PORT.
+    #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "8642")]
+    preview: Option<u16>,
+    /// With --preview: keep serving the final image this many seconds
+    /// after the outputs are written (Ctrl-C ends it early).
+    #[arg(long, value_name = "SECONDS", requires = "preview", value_parser = parse_seconds)]
+    preview_linger: Option<Duration>,
+    /// Write the image in progress to the output files after a pass when
+    /// at least SECONDS have passed since the last checkpoint (0: after
+    /// every pass).
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    checkpoint: Option<Duration>,
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
@@ -77,19 +128,33 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+fn parse_seconds(s: &str) -> Result<Duration, String> {
+    let secs: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a number of seconds, found '{s}'"))?;
+    if !(0.0..=1e9).contains(&secs) {
+        return Err(format!("'{s}' seconds is out of range (0..1e9)"));
+    }
+    Duration::try_from_secs_f64(secs).map_err(|e| format!("'{s}': {e}"))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render {
-            scene,
-            output,
-            spp,
-            resolution,
-            threads,
-            seed,
-            quiet,
-        } => cmd_render(&scene, output, spp, resolution, threads, seed, quiet),
+        Command::Render(args) => cmd_render(args),
         Command::Info { scene } => cmd_info(&scene),
+        Command::Compare {
+            image,
+            reference,
+            diff,
+        } => cmd_compare(&image, &reference, diff.as_deref()),
+        Command::Convert {
+            input,
+            output,
+            exposure,
+            tonemap,
+        } => cmd_convert(&input, &output, exposure, tonemap),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -138,36 +203,61 @@ fn with_ext(base: &Path, ext: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
-fn cmd_render(
-    scene_path: &Path,
-    output: Option<PathBuf>,
-    spp: Option<u32>,
-    resolution: Option<(u32, u32)>,
-    threads: Option<usize>,
-    seed: u64,
-    quiet: bool,
-) -> Result<()> {
+fn cmd_render(args: RenderArgs) -> Result<()> {
+    let RenderArgs {
+        scene: scene_path,
+        output,
+        spp,
+        resolution,
+        threads,
+        seed,
+        quiet,
+        preview,
+        preview_linger,
+        checkpoint,
+    } = args;
     if let Some(0) = spp {
         bail!("--spp must be at least 1");
     }
     if let Some(0) = threads {
         bail!("--threads must be at least 1");
     }
-    let mut desc = load(scene_path)?;
+    let mut desc = load(&scene_path)?;
     if let Some((w, h)) = resolution {
         desc.camera.width = w;
         desc.camera.height = h;
     }
     let spp = spp.unwrap_or(desc.spp);
     let scene = build(desc)?;
-    let base = output_base(scene_path, output);
+    let base = output_base(&scene_path, output);
+    let (width, height) = (scene.camera.width(), scene.camera.height());
+
+    let preview = match preview {
+        Some(port) => {
+            let state = PreviewState::new(width as usize, height as usize, spp, &base);
+            let server = PreviewServer::start(port, state.clone())?;
+            eprintln!("preview: {}", server.url());
+            Some((state, server))
+        }
+        None => None,
+    };
+    let mut checkpointer = checkpoint.map(|every| Checkpointer::new(every, &base));
 
     let cancel = Arc::new(AtomicBool::new(false));
+    // Set while lingering after the render: Ctrl-C then just ends it.
+    let lingering = Arc::new(AtomicBool::new(false));
+    let stop_linger = Arc::new(AtomicBool::new(false));
     {
         let cancel = cancel.clone();
+        let lingering = lingering.clone();
+        let stop_linger = stop_linger.clone();
         let presses = AtomicUsize::new(0);
         // A second Ctrl-C quits at once.
         let _ = ctrlc::set_handler(move || {
+            if lingering.load(Ordering::SeqCst) {
+                stop_linger.store(true, Ordering::SeqCst);
+                return;
+            }
             if presses.fetch_add(1, Ordering::SeqCst) > 0 {
                 std::process::exit(130);
             }
@@ -185,7 +275,28 @@ fn cmd_render(
         .num_threads(threads)
         .build()
         .context("cannot start the worker threads")?;
-    let out = pool.install(|| render(&scene, &opts, &cancel));
+    // The pass callback only reads the film: the image is the same bit for
+    // bit with or without a preview or checkpoints.
+    let on_pass = |info: &PassInfo| {
+        if let Some((state, _)) = &preview {
+            state.publish(info);
+        }
+        if let Some(c) = checkpointer.as_mut() {
+            match c.after_pass(info) {
+                Ok(Some(spp)) if !quiet => {
+                    let (exr, png) = c.paths();
+                    eprintln!(
+                        "checkpoint: wrote {} and {} ({spp} spp)",
+                        exr.display(),
+                        png.display()
+                    );
+                }
+                Ok(_) => {}
+                Err(e) => eprintln!("warning: checkpoint failed: {e}"),
+            }
+        }
+    };
+    let out = pool.install(|| render_with_passes(&scene, &opts, &cancel, on_pass));
 
     let exr = with_ext(&base, "exr");
     let png = with_ext(&base, "png");
@@ -194,8 +305,8 @@ fn cmd_render(
     let secs = out.elapsed.as_secs_f64();
     println!(
         "{}x{} pixels, {} spp{}, {} threads, {:.2} s, {:.3} M samples/s",
-        scene.camera.width(),
-        scene.camera.height(),
+        width,
+        height,
         out.spp,
         if out.cancelled {
             " (interrupted: partial image)"
@@ -207,7 +318,122 @@ fn cmd_render(
         out.samples as f64 / secs.max(1e-9) / 1e6,
     );
     println!("wrote {} and {}", exr.display(), png.display());
+
+    if let Some((state, server)) = preview {
+        // From here on Ctrl-C ends the lingering, not the render.
+        lingering.store(true, Ordering::SeqCst);
+        state.finish(out.cancelled, vec![exr, png]);
+        let linger = preview_linger.unwrap_or(Duration::ZERO);
+        if linger.is_zero() {
+            eprintln!("preview: render done");
+        } else {
+            eprintln!(
+                "preview: render done; serving the final image at {} for {:.0} s (Ctrl-C to quit)",
+                server.url(),
+                linger.as_secs_f64()
+            );
+            let until = Instant::now() + linger;
+            while Instant::now() < until && !stop_linger.load(Ordering::SeqCst) {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        }
+        server.stop();
+    }
     Ok(())
+}
+
+fn cmd_compare(image: &Path, reference: &Path, diff: Option<&Path>) -> Result<()> {
+    if let Some(d) = diff {
+        check_image_extension(d)?;
+    }
+    let a = load_bitmap(image)?;
+    let b = load_bitmap(reference)?;
+    let c = compare(&a, &b).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot compare {} with {}: {e}",
+            image.display(),
+            reference.display()
+        )
+    })?;
+    println!("MSE           {:.6e}", c.mse);
+    println!("relative MSE  {:.6e}", c.relative_mse);
+    if c.psnr.is_finite() {
+        println!("PSNR          {:.2} dB", c.psnr);
+    } else {
+        println!("PSNR          inf dB (identical)");
+    }
+    if let Some(d) = diff {
+        save_image(d, &difference_image(&a, &b))?;
+        println!("wrote {}", d.display());
+    }
+    Ok(())
+}
+
+fn cmd_convert(input: &Path, output: &Path, exposure: f32, op: Option<Tonemap>) -> Result<()> {
+    if !exposure.is_finite() || exposure.abs() > 64.0 {
+        bail!("--exposure must be a number of stops between -64 and 64, found {exposure}");
+    }
+    check_image_extension(output)?;
+    let image = load_bitmap(input)?;
+    let is_png = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    let converted = match (op, is_png) {
+        (Some(op), _) => tonemap(&image, exposure, op),
+        (None, true) => tonemap(&image, exposure, Tonemap::Clamp),
+        (None, false) if exposure == 0.0 => image,
+        (None, false) => {
+            let scale = exposure.exp2();
+            let mut image = image;
+            for p in &mut image.pixels {
+                *p *= scale;
+            }
+            if image.pixels.iter().any(|p| !p.is_finite()) {
+                bail!(
+                    "--exposure {exposure} overflows the float range for {}",
+                    input.display()
+                );
+            }
+            image
+        }
+    };
+    save_image(output, &converted)?;
+    println!(
+        "wrote {} ({}x{})",
+        output.display(),
+        converted.width,
+        converted.height
+    );
+    Ok(())
+}
+
+/// Loads an image, printing its warnings.
+fn load_bitmap(path: &Path) -> Result<Bitmap> {
+    let (image, warnings) = load_image(path)?;
+    for w in warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    Ok(image)
+}
+
+/// Fails early, before any work, on an output name whose format is unknown.
+fn check_image_extension(path: &Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("exr" | "hdr" | "pfm" | "png") => Ok(()),
+        Some(e) => bail!(
+            "{}: unsupported image extension '.{e}' (supported: .exr, .hdr, .pfm, .png)",
+            path.display()
+        ),
+        None => bail!(
+            "{}: no file extension to tell the image format (supported: .exr, .hdr, .pfm, .png)",
+            path.display()
+        ),
+    }
 }
 
 fn cmd_info(scene_path: &Path) -> Result<()> {

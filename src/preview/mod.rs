@@ -1,0 +1,426 @@
+//! Watching a render while it runs: a live preview page served on
+//! 127.0.0.1 and periodic checkpoints to the output files.
+//!
+//! The renderer calls [`PreviewState::publish`] after every pass (see
+//! [`crate::render::render_with_passes`]). That normalises the film into a
+//! new bitmap outside any lock and then swaps it in under a short one, so
+//! the server never holds up the render threads and never touches the film
+//! itself: the render's result is the same bit for bit with or without a
+//! preview. The page polls `GET /status` (JSON) and fetches
+//! `GET /image.png?exposure=STOPS&v=PASS`; nothing is kept per client, so it
+//! can be closed and reopened at any time.
+
+mod http;
+mod server;
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use crate::color::srgb_encode;
+use crate::image::{save_image, save_png_tonemapped, Bitmap, ImageError, Tonemap};
+use crate::render::PassInfo;
+
+pub use server::{PreviewError, PreviewServer, DEFAULT_PORT};
+
+/// Exposure values are clamped to this many stops either way.
+pub const MAX_EXPOSURE: f32 = 20.0;
+
+/// The latest finished pass, as the server sees it.
+#[derive(Clone)]
+pub struct Snapshot {
+    /// Passes finished (0: nothing rendered yet, the image is black).
+    pub pass: u32,
+    pub spp_done: u32,
+    pub spp_total: u32,
+    /// Camera samples taken so far, and planned in all.
+    pub samples: u64,
+    pub samples_total: u64,
+    /// Render time when the pass finished.
+    pub elapsed: Duration,
+    /// Wall-clock time when the snapshot was taken.
+    pub taken: Instant,
+    pub image: Arc<Bitmap>,
+}
+
+/// How the render ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Phase {
+    Rendering,
+    /// Finished (or interrupted) and its outputs written.
+    Done {
+        cancelled: bool,
+        outputs: Vec<PathBuf>,
+    },
+}
+
+/// The last encoded PNG: (pass, exposure bits, bytes).
+type CachedPng = (u32, u32, Arc<Vec<u8>>);
+
+struct Inner {
+    snapshot: Mutex<Snapshot>,
+    phase: Mutex<Phase>,
+    /// Output path without extension; saves add `-preview-<spp>spp`.
+    base: PathBuf,
+    scene_name: String,
+    png_cache: Mutex<Option<CachedPng>>,
+}
+
+/// Shared between the render (which publishes passes) and the server
+/// (which reads them). Cloning is cheap.
+#[derive(Clone)]
+pub struct PreviewState {
+    inner: Arc<Inner>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // A panic elsewhere must not take the preview down with it.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl PreviewState {
+    /// A state for a `width` x `height` render of `spp_total` samples per
+    /// pixel whose outputs go to `base` (without extension).
+    pub fn new(width: usize, height: usize, spp_total: u32, base: &Path) -> PreviewState {
+        let scene_name = base
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        PreviewState {
+            inner: Arc::new(Inner {
+                snapshot: Mutex::new(Snapshot {
+                    pass: 0,
+                    spp_done: 0,
+                    spp_total,
+                    samples: 0,
+                    samples_total: width as u64 * height as u64 * spp_total as u64,
+                    elapsed: Duration::ZERO,
+                    taken: Instant::now(),
+                    image: Arc::new(Bitmap::new(width, height)),
+                }),
+                phase: Mutex::new(Phase::Rendering),
+                base: base.to_path_buf(),
+                scene_name,
+                png_cache: Mutex::new(None),
+            }),
+        }
+    }
+
+    /// Takes a snapshot of a finished pass: the film is normalised here, on
+    /// the calling thread, and swapped in under a short lock.
+    pub fn publish(&self, info: &PassInfo) {
+        let image = Arc::new(info.film.to_bitmap());
+        let mut s = lock(&self.inner.snapshot);
+        s.pass += 1;
+        s.spp_done = info.spp_done;
+        s.spp_total = info.spp_total;
+        s.samples = info.samples;
+        s.elapsed = info.elapsed;
+        s.taken = Instant::now();
+        s.image = image;
+    }
+
+    /// Marks the render as finished with its outputs written.
+    pub fn finish(&self, cancelled: bool, outputs: Vec<PathBuf>) {
+        *lock(&self.inner.phase) = Phase::Done { cancelled, outputs };
+    }
+
+    pub fn snapshot(&self) -> Snapshot {
+        lock(&self.inner.snapshot).clone()
+    }
+
+    pub fn phase(&self) -> Phase {
+        lock(&self.inner.phase).clone()
+    }
+
+    /// The status as JSON: progress, rate, ETA and, once done, the outputs.
+    pub fn status_json(&self) -> String {
+        let s = self.snapshot();
+        let phase = self.phase();
+        let secs = s.elapsed.as_secs_f64();
+        let rate = if secs > 0.0 && s.samples > 0 {
+            s.samples as f64 / secs
+        } else {
+            f64::NAN
+        };
+        let percent = if s.samples_total > 0 {
+            100.0 * s.samples as f64 / s.samples_total as f64
+        } else {
+            100.0
+        };
+        let (state, outputs, eta) = match &phase {
+            Phase::Rendering => {
+                let left = s.samples_total.saturating_sub(s.samples) as f64 / rate
+                    - s.taken.elapsed().as_secs_f64();
+                ("rendering", Vec::new(), left.max(0.0))
+            }
+            Phase::Done { cancelled, outputs } => (
+                if *cancelled { "cancelled" } else { "done" },
+                outputs.clone(),
+                0.0,
+            ),
+        };
+        let outputs: Vec<String> = outputs
+            .iter()
+            .map(|p| http::json_string(&p.to_string_lossy()))
+            .collect();
+        format!(
+            "{{\"state\":\"{state}\",\"scene\":{},\"pass\":{},\"spp\":{},\"spp_total\":{},\
+             \"percent\":{},\"samples\":{},\"samples_total\":{},\"elapsed\":{},\
+             \"samples_per_second\":{},\"eta\":{},\"width\":{},\"height\":{},\"outputs\":[{}]}}",
+            http::json_string(&self.inner.scene_name),
+            s.pass,
+            s.spp_done,
+            s.spp_total,
+            http::json_number(percent),
+            s.samples,
+            s.samples_total,
+            http::json_number(secs),
+            http::json_number(rate),
+            http::json_number(eta),
+            s.image.width,
+            s.image.height,
+            outputs.join(",")
+        )
+    }
+
+    /// The latest image as an 8-bit sRGB PNG after scaling by
+    /// 2^`exposure` (clamped to +-[`MAX_EXPOSURE`]), and its pass number.
+    /// The last encoding is cached, so several viewers cost one encode.
+    pub fn png(&self, exposure: f32) -> Result<(u32, Arc<Vec<u8>>), String> {
+        let exposure = clamp_exposure(exposure);
+        let s = self.snapshot();
+        if let Some((pass, bits, bytes)) = lock(&self.inner.png_cache).as_ref() {
+            if *pass == s.pass && *bits == exposure.to_bits() {
+                return Ok((s.pass, bytes.clone()));
+            }
+        }
+        let bytes = Arc::new(encode_png(&s.image, exposure)?);
+        *lock(&self.inner.png_cache) = Some((s.pass, exposure.to_bits(), bytes.clone()));
+        Ok((s.pass, bytes))
+    }
+
+    /// Saves the latest image as `<base>-preview-<spp>spp.exr` (linear) and
+    /// `.png` (with the exposure applied, as shown), atomically. Returns the
+    /// two paths and the sample count.
+    pub fn save(&self, exposure: f32) -> Result<SavedPreview, SaveError> {
+        let s = self.snapshot();
+        if s.pass == 0 {
+            return Err(SaveError::NothingYet);
+        }
+        let base = suffixed(&self.inner.base, &format!("-preview-{}spp", s.spp_done));
+        let exr = with_ext(&base, "exr");
+        let png = with_ext(&base, "png");
+        save_image(&exr, &s.image).map_err(SaveError::Image)?;
+        save_png_tonemapped(&png, &s.image, clamp_exposure(exposure), Tonemap::Clamp)
+            .map_err(SaveError::Image)?;
+        Ok(SavedPreview {
+            exr,
+            png,
+            spp: s.spp_done,
+        })
+    }
+}
+
+/// What a "Save" wrote.
+#[derive(Clone, Debug)]
+pub struct SavedPreview {
+    pub exr: PathBuf,
+    pub png: PathBuf,
+    pub spp: u32,
+}
+
+/// Why a "Save" failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SaveError {
+    #[error("no pass has finished yet")]
+    NothingYet,
+    #[error("{0}")]
+    Image(ImageError),
+}
+
+fn clamp_exposure(e: f32) -> f32 {
+    if e.is_finite() {
+        e.clamp(-MAX_EXPOSURE, MAX_EXPOSURE)
+    } else {
+        0.0
+    }
+}
+
+/// `path` with `suffix` appended to its file name.
+fn suffixed(path: &Path, suffix: &str) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
+/// `base` + `.` + `ext` (the base may contain dots).
+pub fn with_ext(base: &Path, ext: &str) -> PathBuf {
+    suffixed(base, &format!(".{ext}"))
+}
+
+/// Encodes linear RGB as an 8-bit sRGB PNG after scaling by 2^`exposure`,
+/// clipping to [0, 1] (like the PNG the render writes). Fast compression:
+/// the preview favours latency over size.
+pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, String> {
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    use image::ImageEncoder;
+    let (w, h) = match (u32::try_from(image.width), u32::try_from(image.height)) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => (w, h),
+        _ => {
+            return Err(format!(
+                "cannot encode a {}x{} image as PNG",
+                image.width, image.height
+            ))
+        }
+    };
+    if image.pixels.len() != image.width * image.height {
+        return Err("pixel count does not match the image size".into());
+    }
+    let scale = clamp_exposure(exposure).exp2();
+    let quantise = |v: f32| {
+        let v = v * scale;
+        if v.is_nan() {
+            0
+        } else {
+            (srgb_encode(v) * 255.0 + 0.5) as u8
+        }
+    };
+    let buf: Vec<u8> = image
+        .pixels
+        .iter()
+        .flat_map(|p| p.to_array().map(quantise))
+        .collect();
+    let mut out = Vec::new();
+    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
+        .write_image(&buf, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| format!("cannot encode PNG: {e}"))?;
+    Ok(out)
+}
+
+/// Writes the image in progress to the normal output paths every so often.
+pub struct Checkpointer {
+    every: Duration,
+    last: Duration,
+    exr: PathBuf,
+    png: PathBuf,
+}
+
+impl Checkpointer {
+    /// Checkpoints to `base.exr` and `base.png` when at least `every` has
+    /// passed (in render time) since the last one (or the start).
+    pub fn new(every: Duration, base: &Path) -> Checkpointer {
+        Checkpointer {
+            every,
+            last: Duration::ZERO,
+            exr: with_ext(base, "exr"),
+            png: with_ext(base, "png"),
+        }
+    }
+
+    /// Called after a pass: writes a checkpoint if one is due and this is
+    /// not the last pass (whose image the caller writes anyway). Returns
+    /// the sample count written, if any.
+    pub fn after_pass(&mut self, info: &PassInfo) -> Result<Option<u32>, ImageError> {
+        if info.spp_done >= info.spp_total || info.elapsed < self.last + self.every {
+            return Ok(None);
+        }
+        self.last = info.elapsed;
+        let image = info.film.to_bitmap();
+        save_image(&self.exr, &image)?;
+        save_image(&self.png, &image)?;
+        Ok(Some(info.spp_done))
+    }
+
+    pub fn paths(&self) -> (&Path, &Path) {
+        (&self.exr, &self.png)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::color::Rgb;
+    use crate::image::Film;
+
+    fn info(film: &Film, spp_done: u32, secs: f64) -> PassInfo<'_> {
+        PassInfo {
+            film,
+            spp_done,
+            spp_total: 8,
+            samples: spp_done as u64 * (film.width * film.height) as u64,
+            elapsed: Duration::from_secs_f64(secs),
+        }
+    }
+
+    #[test]
+    fn status_reports_progress_and_rate() {
+        let state = PreviewState::new(4, 2, 8, Path::new("/tmp/out/scene"));
+        let j = state.status_json();
+        assert!(j.contains("\"state\":\"rendering\""), "{j}");
+        assert!(j.contains("\"pass\":0"), "{j}");
+        assert!(j.contains("\"samples_per_second\":null"), "{j}");
+        assert!(j.contains("\"scene\":\"scene\""), "{j}");
+        let film = Film::new(4, 2);
+        state.publish(&info(&film, 2, 0.5));
+        let j = state.status_json();
+        assert!(j.contains("\"pass\":1,\"spp\":2,\"spp_total\":8"), "{j}");
+        assert!(j.contains("\"percent\":25"), "{j}");
+        assert!(j.contains("\"samples_per_second\":32"), "{j}");
+        state.finish(false, vec![PathBuf::from("/tmp/a \"b\".exr")]);
+        let j = state.status_json();
+        assert!(j.contains("\"state\":\"done\""), "{j}");
+        assert!(j.contains("\"eta\":0"), "{j}");
+        assert!(j.contains("\"outputs\":[\"/tmp/a \\\"b\\\".exr\"]"), "{j}");
+    }
+
+    #[test]
+    fn png_applies_exposure_and_is_cached() {
+        let mut img = Bitmap::new(3, 2);
+        img.set(0, 0, Rgb::splat(0.25));
+        let a = encode_png(&img, 0.0).unwrap();
+        let b = encode_png(&img, 2.0).unwrap();
+        assert_eq!(&a[..8], b"\x89PNG\r\n\x1a\n");
+        assert_ne!(a, b);
+        assert!(encode_png(&Bitmap::new(0, 0), 0.0).is_err());
+        // Non-finite exposure is ignored, not propagated.
+        assert_eq!(encode_png(&img, f32::NAN).unwrap(), a);
+
+        let state = PreviewState::new(3, 2, 8, Path::new("x"));
+        let (pass, p1) = state.png(1.0).unwrap();
+        assert_eq!(pass, 0);
+        let (_, p2) = state.png(1.0).unwrap();
+        assert!(Arc::ptr_eq(&p1, &p2));
+    }
+
+    #[test]
+    fn save_needs_a_pass_and_names_files_by_spp() {
+        let dir = crate::image::io::test_util::TempDir::new("preview-save");
+        let state = PreviewState::new(4, 2, 8, &dir.path("render.v1"));
+        assert!(matches!(state.save(0.0), Err(SaveError::NothingYet)));
+        let film = Film::new(4, 2);
+        state.publish(&info(&film, 3, 0.1));
+        let saved = state.save(1.0).unwrap();
+        assert_eq!(saved.exr, dir.path("render.v1-preview-3spp.exr"));
+        assert_eq!(saved.png, dir.path("render.v1-preview-3spp.png"));
+        assert!(saved.exr.exists() && saved.png.exists());
+    }
+
+    #[test]
+    fn checkpoints_when_due_but_not_on_the_last_pass() {
+        let dir = crate::image::io::test_util::TempDir::new("checkpoint");
+        let film = Film::new(4, 2);
+        let mut c = Checkpointer::new(Duration::from_secs(1), &dir.path("out"));
+        assert_eq!(c.after_pass(&info(&film, 1, 0.5)).unwrap(), None);
+        assert!(!dir.path("out.exr").exists());
+        assert_eq!(c.after_pass(&info(&film, 2, 1.0)).unwrap(), Some(2));
+        assert!(dir.path("out.exr").exists() && dir.path("out.png").exists());
+        assert_eq!(c.after_pass(&info(&film, 4, 1.9)).unwrap(), None);
+        assert_eq!(c.after_pass(&info(&film, 6, 2.0)).unwrap(), Some(6));
+        assert_eq!(c.after_pass(&info(&film, 8, 9.0)).unwrap(), None);
+        // Every pass when the interval is zero.
+        let mut c = Checkpointer::new(Duration::ZERO, &dir.path("z"));
+        assert_eq!(c.after_pass(&info(&film, 1, 0.0)).unwrap(), Some(1));
+        assert_eq!(c.after_pass(&info(&film, 2, 0.0)).unwrap(), Some(2));
+    }
+}

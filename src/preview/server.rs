@@ -1,0 +1,335 @@
+//! The preview's HTTP server: one accept thread on 127.0.0.1 and a short
+//! thread per connection (at most [`MAX_CONNECTIONS`] at once).
+//!
+//! Routes:
+//! - `GET /`: the page;
+//! - `GET /status`: progress as JSON (see [`PreviewState::status_json`]);
+//! - `GET /image.png?exposure=STOPS`: the latest pass as PNG (any other
+//!   parameter, such as a cache-busting `v=PASS`, is ignored);
+//! - `POST /save?exposure=STOPS`: writes the latest pass as EXR + PNG and
+//!   answers with the paths as JSON.
+//!
+//! Requests whose `Host` is not this server's loopback address are refused
+//! (a guard against DNS rebinding), and so are cross-origin saves.
+
+use std::io::{self, Write};
+use std::net::{Ipv4Addr, SocketAddr, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use super::http::{self, read_request, ReadError, Request, Response};
+use super::{PreviewState, SaveError};
+
+/// The port used when `--preview` is given without one.
+pub const DEFAULT_PORT: u16 = 8642;
+
+/// Connections served at once; more are closed at once.
+pub const MAX_CONNECTIONS: usize = 32;
+
+const PAGE: &str = include_str!("page.html");
+
+/// The server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum PreviewError {
+    #[error("cannot serve the preview on 127.0.0.1:{port}: the port is already in use (choose another with --preview PORT, or --preview 0 for any free port)")]
+    PortInUse { port: u16 },
+    #[error("cannot serve the preview on 127.0.0.1:{port}: {source}")]
+    Bind { port: u16, source: io::Error },
+}
+
+/// A running preview server; stopped on [`PreviewServer::stop`] or drop.
+pub struct PreviewServer {
+    addr: SocketAddr,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl PreviewServer {
+    /// Binds 127.0.0.1:`port` (0: any free port) and starts serving `state`.
+    pub fn start(port: u16, state: PreviewState) -> Result<PreviewServer, PreviewError> {
+        let listener = TcpListener::bind((Ipv4Addr::LOCALHOST, port)).map_err(|e| {
+            if e.kind() == io::ErrorKind::AddrInUse {
+                PreviewError::PortInUse { port }
+            } else {
+                PreviewError::Bind { port, source: e }
+            }
+        })?;
+        let addr = listener
+            .local_addr()
+            .map_err(|e| PreviewError::Bind { port, source: e })?;
+        listener
+            .set_nonblocking(true)
+            .map_err(|e| PreviewError::Bind { port, source: e })?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let stop = stop.clone();
+            std::thread::Builder::new()
+                .name("lente-preview".into())
+                .spawn(move || accept_loop(listener, state, stop))
+                .map_err(|e| PreviewError::Bind { port, source: e })?
+        };
+        Ok(PreviewServer {
+            addr,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    pub fn port(&self) -> u16 {
+        self.addr.port()
+    }
+
+    /// The page's address, e.g. `http://127.0.0.1:8642/`.
+    pub fn url(&self) -> String {
+        format!("http://{}/", self.addr)
+    }
+
+    /// Stops accepting connections (requests in flight finish on their own).
+    pub fn stop(mut self) {
+        self.shutdown();
+    }
+
+    fn shutdown(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for PreviewServer {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+fn accept_loop(listener: TcpListener, state: PreviewState, stop: Arc<AtomicBool>) {
+    let port = listener.local_addr().map(|a| a.port()).unwrap_or(0);
+    let active = Arc::new(AtomicUsize::new(0));
+    while !stop.load(Ordering::SeqCst) {
+        match listener.accept() {
+            Ok((stream, _)) => {
+                if active.load(Ordering::SeqCst) >= MAX_CONNECTIONS {
+                    continue; // dropped: closed at once
+                }
+                active.fetch_add(1, Ordering::SeqCst);
+                let state = state.clone();
+                let done = active.clone();
+                let spawned = std::thread::Builder::new()
+                    .name("lente-preview-conn".into())
+                    .spawn(move || {
+                        serve(stream, &state, port);
+                        done.fetch_sub(1, Ordering::SeqCst);
+                    });
+                if spawned.is_err() {
+                    active.fetch_sub(1, Ordering::SeqCst);
+                }
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            Err(_) => {
+                // E.g. too many open files: back off rather than spin.
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        }
+    }
+}
+
+/// Answers one request on `stream`, then closes it.
+fn serve(mut stream: TcpStream, state: &PreviewState, port: u16) {
+    // Accepted sockets may inherit the listener's non-blocking mode.
+    let _ = stream.set_nonblocking(false);
+    let _ = stream.set_read_timeout(Some(Duration::from_secs(10)));
+    let _ = stream.set_write_timeout(Some(Duration::from_secs(10)));
+    let _ = stream.set_nodelay(true);
+    let (response, head_only) = match read_request(&mut stream) {
+        Ok(req) => (route(&req, state, port), req.method == "HEAD"),
+        Err(ReadError::Bad(r)) => (r, false),
+        Err(ReadError::Closed) => return,
+    };
+    let _ = response.write_to(&mut stream, head_only);
+    let _ = stream.flush();
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+}
+
+/// True if `host` (a Host header) names this server.
+fn host_allowed(host: &str, port: u16) -> bool {
+    let host = host.to_ascii_lowercase();
+    ["127.0.0.1", "localhost"]
+        .iter()
+        .any(|name| host == format!("{name}:{port}") || (port == 80 && host == *name))
+}
+
+/// Dispatches a request.
+pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response {
+    if let Some(host) = req.header("host") {
+        if !host_allowed(host, port) {
+            return Response::text(403, "unexpected Host header");
+        }
+    }
+    let get = matches!(req.method.as_str(), "GET" | "HEAD");
+    let wrong_method = |allow: &str| {
+        Response::text(405, &format!("method {} not allowed", req.method))
+            .with_header("Allow", allow)
+    };
+    match req.path.as_str() {
+        "/" | "/index.html" => {
+            if !get {
+                return wrong_method("GET, HEAD");
+            }
+            Response::new(200, "text/html; charset=utf-8", PAGE)
+        }
+        "/status" => {
+            if !get {
+                return wrong_method("GET, HEAD");
+            }
+            Response::json(200, state.status_json())
+        }
+        "/image.png" => {
+            if !get {
+                return wrong_method("GET, HEAD");
+            }
+            let exposure = match exposure_param(req) {
+                Ok(e) => e,
+                Err(r) => return r,
+            };
+            match state.png(exposure) {
+                Ok((pass, bytes)) => Response::new(200, "image/png", bytes.as_slice())
+                    .with_header("X-Lente-Pass", pass.to_string()),
+                Err(e) => Response::text(500, &e),
+            }
+        }
+        "/save" => {
+            if req.method != "POST" {
+                return wrong_method("POST");
+            }
+            if let Some(origin) = req.header("origin") {
+                let ok = origin
+                    .strip_prefix("http://")
+                    .is_some_and(|h| host_allowed(h, port));
+                if !ok {
+                    return Response::text(403, "cross-origin save refused");
+                }
+            }
+            let exposure = match exposure_param(req) {
+                Ok(e) => e,
+                Err(r) => return r,
+            };
+            match state.save(exposure) {
+                Ok(saved) => Response::json(
+                    200,
+                    format!(
+                        "{{\"ok\":true,\"spp\":{},\"exr\":{},\"png\":{}}}",
+                        saved.spp,
+                        http::json_string(&saved.exr.to_string_lossy()),
+                        http::json_string(&saved.png.to_string_lossy())
+                    ),
+                ),
+                Err(e) => Response::json(
+                    if matches!(e, SaveError::NothingYet) {
+                        409
+                    } else {
+                        500
+                    },
+                    format!(
+                        "{{\"ok\":false,\"error\":{}}}",
+                        http::json_string(&e.to_string())
+                    ),
+                ),
+            }
+        }
+        _ => Response::text(404, "not found"),
+    }
+}
+
+/// The `exposure` parameter in stops (default 0).
+fn exposure_param(req: &Request) -> Result<f32, Response> {
+    match req.param("exposure") {
+        None => Ok(0.0),
+        Some(v) => match v.trim().parse::<f32>() {
+            Ok(e) if e.is_finite() => Ok(e),
+            _ => Err(Response::text(
+                400,
+                &format!("bad exposure '{v}': expected a number of stops"),
+            )),
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::http::parse_head;
+    use super::*;
+    use std::io::Read;
+    use std::path::Path;
+
+    fn req(raw: &str) -> Request {
+        parse_head(raw.as_bytes()).unwrap()
+    }
+
+    #[test]
+    fn routes() {
+        let state = PreviewState::new(2, 2, 4, Path::new("/nonexistent/x"));
+        let p = 5000;
+        let r = route(&req("GET / HTTP/1.1\r\nHost: 127.0.0.1:5000"), &state, p);
+        assert_eq!(r.status, 200);
+        assert!(String::from_utf8_lossy(&r.body).contains("<img"));
+        assert_eq!(route(&req("GET /status HTTP/1.1"), &state, p).status, 200);
+        let r = route(&req("GET /image.png?exposure=1&v=0 HTTP/1.1"), &state, p);
+        assert_eq!(r.status, 200);
+        assert_eq!(r.content_type, "image/png");
+        for bad in ["x", "inf", "NaN", ""] {
+            let r = route(
+                &req(&format!("GET /image.png?exposure={bad} HTTP/1.1")),
+                &state,
+                p,
+            );
+            assert_eq!(r.status, 400, "{bad}");
+        }
+        assert_eq!(route(&req("GET /nope HTTP/1.1"), &state, p).status, 404);
+        assert_eq!(route(&req("GET /save HTTP/1.1"), &state, p).status, 405);
+        assert_eq!(route(&req("POST /status HTTP/1.1"), &state, p).status, 405);
+        // Nothing rendered yet.
+        assert_eq!(route(&req("POST /save HTTP/1.1"), &state, p).status, 409);
+        let r = route(&req("GET / HTTP/1.1\r\nHost: evil.example:5000"), &state, p);
+        assert_eq!(r.status, 403);
+        let r = route(
+            &req("POST /save HTTP/1.1\r\nOrigin: http://evil.example"),
+            &state,
+            p,
+        );
+        assert_eq!(r.status, 403);
+        assert!(host_allowed("LOCALHOST:5000", 5000));
+        assert!(!host_allowed("127.0.0.1:5001", 5000));
+    }
+
+    #[test]
+    fn serves_over_tcp_and_reports_a_busy_port() {
+        let state = PreviewState::new(2, 2, 4, Path::new("x"));
+        let server = PreviewServer::start(0, state.clone()).unwrap();
+        assert!(server.url().starts_with("http://127.0.0.1:"));
+        let mut s = TcpStream::connect(("127.0.0.1", server.port())).unwrap();
+        s.write_all(b"GET /status HTTP/1.1\r\n\r\n").unwrap();
+        let mut out = String::new();
+        s.read_to_string(&mut out).unwrap();
+        assert!(out.starts_with("HTTP/1.1 200 OK"), "{out}");
+        assert!(out.contains("\"state\":\"rendering\""), "{out}");
+        let mut s = TcpStream::connect(("127.0.0.1", server.port())).unwrap();
+        s.write_all(b"\x00\x01garbage\r\n\r\n").unwrap();
+        let mut out = String::new();
+        s.read_to_string(&mut out).unwrap();
+        assert!(out.starts_with("HTTP/1.1 400"), "{out}");
+
+        match PreviewServer::start(server.port(), state) {
+            Err(e @ PreviewError::PortInUse { .. }) => {
+                assert!(e.to_string().contains(&server.port().to_string()))
+            }
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("bound a busy port"),
+        }
+        server.stop();
+    }
+}
