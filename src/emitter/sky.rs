@@ -28,11 +28,11 @@
 //!   780 nm. At turbidity 3 and 60 degrees elevation this gives a direct
 //!   normal illuminance of about 86 klux (slightly warm white, x, y = 0.346,
 //!   0.356), about 75 klux on a horizontal plane. No limb darkening.
-//! * **Ground** (below the horizon): a constant grey whose luminance is
-//!   [`GROUND_FACTOR`] = 0.1 times the sky's luminance averaged over the
-//!   horizon circle, a stand-in for light bounced off the ground so that
-//!   diffuse objects are lit a little from below. The sun disk is hidden where
-//!   it dips below the horizon.
+//! * **Ground** (below the horizon): a Lambertian grey ground of albedo
+//!   [`GROUND_ALBEDO`] = 0.3 lit by this sky and sun, i.e. a constant
+//!   radiance albedo * E_horizontal / pi, so a mirror shows a plausible
+//!   ground and diffuse objects get light from below. The sun disk is
+//!   hidden where it dips below the horizon.
 //! * **Sun below the horizon** (elevation < 0, outside Preetham's domain):
 //!   the sky is the Preetham sky for the sun on the horizon dimmed by a factor
 //!   `10^(elevation_deg / 3)` (one decade per 3 degrees), a rough twilight
@@ -88,8 +88,8 @@ pub const SUN_ANGULAR_RADIUS_DEG: f64 = 0.2667;
 /// Luminance, in cd/m^2, of one unit of the baked radiance.
 pub const LUMINANCE_UNIT_CD_M2: f64 = 1.0e4;
 
-/// Ground luminance as a fraction of the mean horizon luminance.
-pub const GROUND_FACTOR: f64 = 0.1;
+/// Albedo of the grey ground below the horizon.
+pub const GROUND_ALBEDO: f64 = 0.3;
 
 /// Solid angle of the sun disk, steradians.
 pub fn sun_solid_angle() -> f64 {
@@ -385,14 +385,26 @@ impl SkyModel {
             sun_radiance: sun_spectral_to_rgb(t, 90.0 - elev),
             scale,
         };
-        // Mean horizon luminance, over azimuth.
-        let n = 64;
-        let mut sum = 0.0;
-        for k in 0..n {
-            let d = uv_to_dir((k as f64 + 0.5) / n as f64, 0.5);
-            sum += luminance64(model.sky(DVec3::new(d.x, 0.0, d.z)));
+        // Irradiance on a horizontal plane: the sky by midpoint quadrature
+        // over (cos theta, phi), plus the sun disk.
+        let (nt, np) = (64, 128);
+        let mut e_sky = 0.0;
+        for i in 0..nt {
+            let cos_t = (i as f64 + 0.5) / nt as f64;
+            let sin_t = (1.0 - cos_t * cos_t).sqrt();
+            for j in 0..np {
+                let phi = 2.0 * PI * (j as f64 + 0.5) / np as f64;
+                let d = DVec3::new(sin_t * phi.cos(), cos_t, sin_t * phi.sin());
+                e_sky += luminance64(model.sky(d)) * cos_t;
+            }
         }
-        model.ground = GROUND_FACTOR * sum / n as f64;
+        e_sky *= 2.0 * PI / (nt * np) as f64;
+        let e_sun = if elev > 0.0 {
+            luminance64(model.sun_radiance) * sun_solid_angle() * elev.to_radians().sin()
+        } else {
+            0.0
+        };
+        model.ground = GROUND_ALBEDO * (e_sky + e_sun) / PI;
         model
     }
 
@@ -673,7 +685,7 @@ mod tests {
     }
 
     #[test]
-    fn ground_is_dim_grey() {
+    fn ground_is_a_lit_grey_lambertian() {
         let p = params(3.0, 40.0, 10.0, 256);
         let bmp = bake_sky(&p);
         let (w, h) = (bmp.width, bmp.height);
@@ -682,12 +694,22 @@ mod tests {
         for i in 0..w {
             assert_eq!(bmp.get(i, h / 2 + 3), g);
         }
-        let horizon: f32 = (0..w)
-            .map(|i| luminance(bmp.get(i, h / 2 - 1)))
-            .sum::<f32>()
-            / w as f32;
-        let ratio = luminance(g) / horizon;
-        assert!((0.08..0.12).contains(&ratio), "ground / horizon = {ratio}");
+        // Irradiance on a horizontal plane from the baked upper half.
+        let mut e = 0.0f64;
+        for j in 0..h / 2 {
+            let theta = (j as f64 + 0.5) / h as f64 * PI;
+            for i in 0..w {
+                let dw = (PI / h as f64) * (2.0 * PI / w as f64) * theta.sin();
+                e += luminance(bmp.get(i, j)) as f64 * theta.cos() * dw;
+            }
+        }
+        let expect = GROUND_ALBEDO * e / PI;
+        let ratio = luminance(g) as f64 / expect;
+        assert!(
+            (0.95..1.05).contains(&ratio),
+            "ground {} vs {expect}",
+            luminance(g)
+        );
     }
 
     #[test]

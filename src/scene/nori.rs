@@ -71,6 +71,13 @@ const INTEGRATOR_TYPES: &[&str] = &[
 ];
 const MESH_TYPES: &[&str] = &["obj", "sphere"];
 const BSDF_TYPES: &[&str] = &["diffuse", "mirror", "dielectric", "microfacet"];
+/// `filename` value of an environment emitter that means the built-in
+/// procedural sky (Preetham, turbidity 3, sun at 45 degrees elevation).
+pub const BUILTIN_SKY: &str = "@sky";
+/// Display exposure applied to the built-in sky (its native unit is
+/// 10^4 cd/m^2, which would overexpose a scene meant for light probes).
+pub const BUILTIN_SKY_EXPOSURE: f32 = 0.35;
+
 const EMITTER_TYPES: &[&str] = &["area", "point", "environment", "envmap", "constant", "sky"];
 const RFILTER_TYPES: &[&str] = &["gaussian", "box", "tent", "mitchell"];
 
@@ -943,13 +950,24 @@ impl<'a> Ctx<'a> {
                 };
                 let visible = p.get_bool("visible", true)?;
                 p.finish(&mut self.warnings);
-                let path = self.dir.join(name);
-                let (image, image_warnings) = crate::image::io::load_image(&path).map_err(|e| {
-                    self.err(node.pos, format!("cannot load the environment map: {e}"))
-                })?;
-                for w in image_warnings {
-                    self.warn(node.pos, format!("{}: {w}", path.display()));
-                }
+                let image = if name.trim() == BUILTIN_SKY {
+                    // The built-in sky, so a scene can switch between it and
+                    // a probe by changing one word.
+                    bake_sky(&SkyParams {
+                        scale: BUILTIN_SKY_EXPOSURE,
+                        ..SkyParams::default()
+                    })
+                } else {
+                    let path = self.dir.join(name);
+                    let (image, image_warnings) =
+                        crate::image::io::load_image(&path).map_err(|e| {
+                            self.err(node.pos, format!("cannot load the environment map: {e}"))
+                        })?;
+                    for w in image_warnings {
+                        self.warn(node.pos, format!("{}: {w}", path.display()));
+                    }
+                    image
+                };
                 let mut env = EnvMap::new(image, scale, to_world, filter);
                 env.visible = visible;
                 return Ok(EmitterDesc::Free {
