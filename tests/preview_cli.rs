@@ -255,8 +255,10 @@ fn checkpoints_appear_while_rendering() {
     ]);
     // The first checkpoint follows the first pass (1 spp), long before the
     // render's end.
+    // The EXR and the PNG are written one after the other: wait for both.
+    let png = dir.path("cp.png");
     wait_for("a checkpoint file", Duration::from_secs(60), || {
-        exr.exists().then_some(())
+        (exr.exists() && png.exists()).then_some(())
     });
     assert!(
         r.is_running(),
@@ -264,7 +266,6 @@ fn checkpoints_appear_while_rendering() {
     );
     let (mid, _) = load_image(&exr).unwrap();
     assert_eq!((mid.width, mid.height), (64, 64));
-    assert!(dir.path("cp.png").exists());
     r.interrupt(); // no need to wait for 2048 spp
     let (st, stdout) = r.wait(Duration::from_secs(60));
     assert!(st.success(), "{}", r.stderr_text());

@@ -47,6 +47,23 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+impl LightSample {
+    /// A sample of a light at infinity in direction `wi` (the point is put
+    /// beyond the scene's bounding sphere, for shadow rays).
+    fn at_infinity(ctx: &EmitterContext, p_ref: Vec3, wi: Vec3, weight: Rgb, pdf: f32) -> Self {
+        LightSample {
+            wi,
+            p: p_ref + wi * (2.0 * ctx.scene_radius),
+            err: Vec3::ZERO,
+            n: Vec3::ZERO,
+            dist: f32::INFINITY,
+            weight,
+            pdf,
+            delta: pdf == 0.0,
+        }
+    }
+}
+
 /// Geometry of the scene the emitters need (area lights live on shapes;
 /// infinite lights need the scene's bounding sphere for power estimates).
 pub struct EmitterContext<'a> {
@@ -172,42 +189,27 @@ impl Emitter {
             Emitter::Directional {
                 direction,
                 irradiance,
-            } => Some(LightSample {
-                wi: -*direction,
-                p: p_ref - *direction * (2.0 * ctx.scene_radius),
-                err: Vec3::ZERO,
-                n: Vec3::ZERO,
-                dist: f32::INFINITY,
-                weight: *irradiance,
-                pdf: 0.0,
-                delta: true,
-            }),
+            } => Some(LightSample::at_infinity(
+                ctx,
+                p_ref,
+                -*direction,
+                *irradiance,
+                0.0,
+            )),
             Emitter::Constant { radiance } => {
                 let wi = crate::sampling::warp::square_to_uniform_sphere(u);
                 let pdf = crate::sampling::warp::square_to_uniform_sphere_pdf(wi);
-                Some(LightSample {
+                Some(LightSample::at_infinity(
+                    ctx,
+                    p_ref,
                     wi,
-                    p: p_ref + wi * (2.0 * ctx.scene_radius),
-                    err: Vec3::ZERO,
-                    n: Vec3::ZERO,
-                    dist: f32::INFINITY,
-                    weight: *radiance / pdf,
+                    *radiance / pdf,
                     pdf,
-                    delta: false,
-                })
+                ))
             }
             Emitter::Environment(env) => {
                 let (wi, weight, pdf) = env.sample(u)?;
-                Some(LightSample {
-                    wi,
-                    p: p_ref + wi * (2.0 * ctx.scene_radius),
-                    err: Vec3::ZERO,
-                    n: Vec3::ZERO,
-                    dist: f32::INFINITY,
-                    weight,
-                    pdf,
-                    delta: false,
-                })
+                Some(LightSample::at_infinity(ctx, p_ref, wi, weight, pdf))
             }
         }
     }

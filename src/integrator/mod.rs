@@ -9,6 +9,20 @@ use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
+/// Picks an emitter in proportion to its power and samples incident light
+/// at `p` from it. Returns the sample and the probability of the choice.
+fn sample_light(
+    scene: &Scene,
+    p: crate::math::Vec3,
+    sampler: &mut Sampler,
+) -> Option<(crate::emitter::LightSample, f32)> {
+    let choice = scene.light_choice.as_ref()?;
+    let (i, pchoice, u1) = choice.sample_discrete(sampler.next_1d());
+    let u = sampler.next_2d();
+    let ls = scene.emitters[i].sample(&scene.emitter_context(), p, u, u1)?;
+    Some((ls, pchoice))
+}
+
 /// Path-tracer parameters shared by the path integrators.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathParams {

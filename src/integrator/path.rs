@@ -4,7 +4,7 @@
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
 use crate::emitter::Emitter;
-use crate::math::{offset_ray_origin, Ray, Vec3};
+use crate::math::{Ray, Vec3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -118,35 +118,16 @@ pub fn li(
 
         // Next-event estimation.
         if strategy != Strategy::Mats && !bsdf.is_specular() {
-            if let Some(choice) = scene.light_choice.as_ref() {
-                let (li, pchoice, u1) = choice.sample_discrete(sampler.next_1d());
-                let u = sampler.next_2d();
-                let e = &scene.emitters[li];
-                if let Some(ls) = e.sample(&ctx, its.p, u, u1) {
-                    let wo = frame.to_local(ls.wi);
-                    let f = bsdf.eval(wi, wo);
-                    if f != Rgb::ZERO && ls.weight != Rgb::ZERO {
-                        let from = its.spawn(ls.wi);
-                        let blocked = if ls.dist.is_infinite() {
-                            scene.occluded_ray(from, ls.wi)
-                        } else {
-                            let to = if ls.n == Vec3::ZERO {
-                                ls.p
-                            } else {
-                                offset_ray_origin(ls.p, ls.err, ls.n, -ls.wi)
-                            };
-                            scene.occluded_segment(from, to)
-                        };
-                        if !blocked {
-                            let w = if strategy == Strategy::Mis && !ls.delta {
-                                let pb = bsdf.pdf(wi, wo);
-                                power_heuristic(ls.pdf * pchoice, pb)
-                            } else {
-                                1.0
-                            };
-                            l += beta * f * wo.z.abs() * ls.weight * (w / pchoice);
-                        }
-                    }
+            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, sampler) {
+                let wo = frame.to_local(ls.wi);
+                let f = bsdf.eval(wi, wo);
+                if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {
+                    let w = if strategy == Strategy::Mis && !ls.delta {
+                        power_heuristic(ls.pdf * pchoice, bsdf.pdf(wi, wo))
+                    } else {
+                        1.0
+                    };
+                    l += beta * f * wo.z.abs() * ls.weight * (w / pchoice);
                 }
             }
         }

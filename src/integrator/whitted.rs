@@ -4,7 +4,7 @@
 
 use crate::color::Rgb;
 use crate::emitter::Emitter;
-use crate::math::{offset_ray_origin, Ray, Vec3};
+use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -12,7 +12,6 @@ use crate::scene::Scene;
 const CONTINUE: f32 = 0.95;
 
 pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
-    let ctx = scene.emitter_context();
     let mut ray = *camera_ray;
     let mut beta = Rgb::ONE;
     let mut l = Rgb::ZERO;
@@ -33,28 +32,11 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         let wi = its.shading.to_local(wi_world);
         if !bsdf.is_specular() {
             // One emitter sample, chosen in proportion to power.
-            if let Some(choice) = scene.light_choice.as_ref() {
-                let (i, p, u1) = choice.sample_discrete(sampler.next_1d());
-                let u = sampler.next_2d();
-                if let Some(ls) = scene.emitters[i].sample(&ctx, its.p, u, u1) {
-                    let wo = its.shading.to_local(ls.wi);
-                    let f = bsdf.eval(wi, wo);
-                    if f != Rgb::ZERO {
-                        let from = its.spawn(ls.wi);
-                        let blocked = if ls.dist.is_infinite() {
-                            scene.occluded_ray(from, ls.wi)
-                        } else if ls.n == Vec3::ZERO {
-                            scene.occluded_segment(from, ls.p)
-                        } else {
-                            scene.occluded_segment(
-                                from,
-                                offset_ray_origin(ls.p, ls.err, ls.n, -ls.wi),
-                            )
-                        };
-                        if !blocked {
-                            l += beta * f * wo.z.abs() * ls.weight / p;
-                        }
-                    }
+            if let Some((ls, p)) = super::sample_light(scene, its.p, sampler) {
+                let wo = its.shading.to_local(ls.wi);
+                let f = bsdf.eval(wi, wo);
+                if f != Rgb::ZERO && scene.unoccluded(&its, &ls) {
+                    l += beta * f * wo.z.abs() * ls.weight / p;
                 }
             }
             return l;

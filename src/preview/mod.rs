@@ -17,7 +17,6 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use crate::color::srgb_encode;
 use crate::image::{save_image, save_png_tonemapped, Bitmap, ImageError, Tonemap};
 use crate::render::PassInfo;
 
@@ -263,39 +262,16 @@ pub fn with_ext(base: &Path, ext: &str) -> PathBuf {
 /// clipping to [0, 1] (like the PNG the render writes). Fast compression:
 /// the preview favours latency over size.
 pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, String> {
-    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-    use image::ImageEncoder;
-    let (w, h) = match (u32::try_from(image.width), u32::try_from(image.height)) {
-        (Ok(w), Ok(h)) if w > 0 && h > 0 => (w, h),
-        _ => {
-            return Err(format!(
-                "cannot encode a {}x{} image as PNG",
-                image.width, image.height
-            ))
-        }
-    };
+    if image.width == 0 || image.height == 0 {
+        return Err(format!(
+            "cannot encode a {}x{} image as PNG",
+            image.width, image.height
+        ));
+    }
     if image.pixels.len() != image.width * image.height {
         return Err("pixel count does not match the image size".into());
     }
-    let scale = clamp_exposure(exposure).exp2();
-    let quantise = |v: f32| {
-        let v = v * scale;
-        if v.is_nan() {
-            0
-        } else {
-            (srgb_encode(v) * 255.0 + 0.5) as u8
-        }
-    };
-    let buf: Vec<u8> = image
-        .pixels
-        .iter()
-        .flat_map(|p| p.to_array().map(quantise))
-        .collect();
-    let mut out = Vec::new();
-    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
-        .write_image(&buf, w, h, image::ExtendedColorType::Rgb8)
-        .map_err(|e| format!("cannot encode PNG: {e}"))?;
-    Ok(out)
+    crate::image::io::png::encode_scaled(image, clamp_exposure(exposure).exp2(), true)
 }
 
 /// Writes the image in progress to the normal output paths every so often.

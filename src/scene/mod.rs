@@ -326,6 +326,20 @@ impl Scene {
         self.bvh.occluded(&ray)
     }
 
+    /// True if the light sample `ls` taken from the surface point `its` is
+    /// not blocked (both ends moved off their surfaces).
+    pub fn unoccluded(&self, its: &Intersection, ls: &crate::emitter::LightSample) -> bool {
+        let from = its.spawn(ls.wi);
+        if ls.dist.is_infinite() {
+            !self.occluded_ray(from, ls.wi)
+        } else if ls.n == Vec3::ZERO {
+            !self.occluded_segment(from, ls.p)
+        } else {
+            let to = crate::math::offset_ray_origin(ls.p, ls.err, ls.n, -ls.wi);
+            !self.occluded_segment(from, to)
+        }
+    }
+
     /// True if something blocks the ray towards infinity.
     pub fn occluded_ray(&self, from: Vec3, d: Vec3) -> bool {
         self.bvh.occluded(&Ray::new(from, d))

@@ -10,7 +10,7 @@
 mod exr;
 mod hdr;
 mod pfm;
-mod png;
+pub mod png;
 
 use std::fs;
 use std::io::Write;
