@@ -140,7 +140,23 @@ impl Emitter {
             Emitter::Area { shape, radiance } => {
                 let s = match &ctx.shapes[*shape as usize] {
                     Geometry::Mesh(m) => m.sample_area(u1, u),
-                    Geometry::Sphere(sp) => sp.sample_area(u),
+                    Geometry::Sphere(sp) => match sp.visible_cone(p_ref) {
+                        // Outside the sphere: sample the cone it subtends.
+                        Some(cone) => {
+                            let (s, pdf) = sp.sample_cone(p_ref, &cone, u);
+                            return Some(LightSample {
+                                wi: (s.p - p_ref).normalize(),
+                                p: s.p,
+                                err: s.err,
+                                n: s.n,
+                                dist: (s.p - p_ref).length(),
+                                weight: *radiance / pdf,
+                                pdf,
+                                delta: false,
+                            });
+                        }
+                        None => sp.sample_area(u),
+                    },
                 };
                 let to = s.p - p_ref;
                 let d2 = to.length_squared();
@@ -226,7 +242,13 @@ impl Emitter {
     ) -> f32 {
         match self {
             Emitter::Area { shape, .. } => {
-                let area = ctx.shapes[*shape as usize].area();
+                let g = &ctx.shapes[*shape as usize];
+                if let Geometry::Sphere(sp) = g {
+                    if let Some(cone) = sp.visible_cone(p_ref) {
+                        return cone.pdf();
+                    }
+                }
+                let area = g.area();
                 let d2 = (p_light - p_ref).length_squared();
                 let cos_l = (-wi).dot(n_light);
                 if cos_l <= 0.0 || area <= 0.0 {

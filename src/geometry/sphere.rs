@@ -5,6 +5,21 @@ use crate::sampling::warp;
 
 use super::SurfaceSample;
 
+/// A cone of directions around a unit axis.
+#[derive(Clone, Copy, Debug)]
+pub struct Cone {
+    pub axis: Vec3,
+    pub cos_max: f32,
+    pub one_minus_cos: f32,
+}
+
+impl Cone {
+    /// Solid-angle density of uniform sampling.
+    pub fn pdf(&self) -> f32 {
+        1.0 / (2.0 * PI * self.one_minus_cos)
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
     pub center: Vec3,
@@ -80,6 +95,48 @@ impl Sphere {
     /// Error bound of the point `center + radius * n`.
     pub fn point_error(&self, n: Vec3) -> Vec3 {
         (self.center.abs() + (self.radius * n).abs()) * crate::math::gamma(6)
+    }
+
+    /// The cone of directions the sphere subtends from a point outside it
+    /// (None inside or on it, where area sampling is used instead).
+    pub fn visible_cone(&self, p: Vec3) -> Option<Cone> {
+        let to = self.center - p;
+        let d2 = to.length_squared();
+        let r2 = self.radius * self.radius;
+        if d2 <= r2 * 1.0001 {
+            return None;
+        }
+        let sin2 = r2 / d2;
+        let cos_max = (1.0 - sin2).max(0.0).sqrt();
+        Some(Cone {
+            axis: to / d2.sqrt(),
+            cos_max,
+            // 1 - cos, computed without cancellation for small cones.
+            one_minus_cos: sin2 / (1.0 + cos_max),
+        })
+    }
+
+    /// Samples a point on the visible cap by sampling the cone uniformly;
+    /// returns it with the solid-angle pdf.
+    pub fn sample_cone(&self, p: Vec3, cone: &Cone, u: Vec2) -> (SurfaceSample, f32) {
+        let z = 1.0 - u.y * cone.one_minus_cos;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * PI * u.x;
+        let local = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        let d = crate::math::Frame::from_normal(cone.axis).to_world(local);
+        // The ray meets the sphere; at the grazing edge rounding may make it
+        // miss, then take the point of closest approach.
+        let t = self
+            .intersect(p, d, 0.0, f32::INFINITY)
+            .unwrap_or_else(|| (self.center - p).dot(d));
+        let n = (p + t * d - self.center).normalize();
+        let s = SurfaceSample {
+            p: self.center + self.radius * n,
+            err: self.point_error(n),
+            n,
+            pdf_area: 0.0,
+        };
+        (s, cone.pdf())
     }
 
     /// Uniform point on the whole sphere.
