@@ -12,7 +12,7 @@ use std::io::IsTerminal;
 
 use lente::image::io::save_image;
 use lente::render::{render, RenderOptions};
-use lente::scene::{load_scene, Scene, SceneDesc};
+use lente::scene::{load_scene_with, Scene, SceneDesc};
 
 #[derive(Parser)]
 #[command(
@@ -51,11 +51,17 @@ enum Command {
         /// No progress bar.
         #[arg(short, long)]
         quiet: bool,
+        /// Set a Mitsuba scene parameter ($NAME), overriding its <default>.
+        #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+        define: Vec<(String, String)>,
     },
     /// Load a scene and print what it contains, without rendering.
     Info {
         /// Scene file (Nori XML).
         scene: PathBuf,
+        /// Set a Mitsuba scene parameter ($NAME), overriding its <default>.
+        #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+        define: Vec<(String, String)>,
     },
 }
 
@@ -77,6 +83,17 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, found '{s}'"))?;
+    let name = name.trim();
+    if name.is_empty() {
+        return Err(format!("empty parameter name in '{s}'"));
+    }
+    Ok((name.to_string(), value.to_string()))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -88,8 +105,11 @@ fn main() -> ExitCode {
             threads,
             seed,
             quiet,
-        } => cmd_render(&scene, output, spp, resolution, threads, seed, quiet),
-        Command::Info { scene } => cmd_info(&scene),
+            define,
+        } => cmd_render(
+            &scene, &define, output, spp, resolution, threads, seed, quiet,
+        ),
+        Command::Info { scene, define } => cmd_info(&scene, &define),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -100,9 +120,9 @@ fn main() -> ExitCode {
     }
 }
 
-/// Parses a scene file, printing its warnings.
-fn load(path: &Path) -> Result<SceneDesc> {
-    let (desc, warnings) = load_scene(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+/// Parses a scene file with `-D` parameters, printing its warnings.
+fn load(path: &Path, defines: &[(String, String)]) -> Result<SceneDesc> {
+    let (desc, warnings) = load_scene_with(path, defines).map_err(|e| anyhow::anyhow!("{e}"))?;
     for w in warnings {
         eprintln!("{w}");
     }
@@ -138,8 +158,10 @@ fn with_ext(base: &Path, ext: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn cmd_render(
     scene_path: &Path,
+    defines: &[(String, String)],
     output: Option<PathBuf>,
     spp: Option<u32>,
     resolution: Option<(u32, u32)>,
@@ -153,7 +175,7 @@ fn cmd_render(
     if let Some(0) = threads {
         bail!("--threads must be at least 1");
     }
-    let mut desc = load(scene_path)?;
+    let mut desc = load(scene_path, defines)?;
     if let Some((w, h)) = resolution {
         desc.camera.width = w;
         desc.camera.height = h;
@@ -210,8 +232,8 @@ fn cmd_render(
     Ok(())
 }
 
-fn cmd_info(scene_path: &Path) -> Result<()> {
-    let desc = load(scene_path)?;
+fn cmd_info(scene_path: &Path, defines: &[(String, String)]) -> Result<()> {
+    let desc = load(scene_path, defines)?;
     let spp = desc.spp;
     let scene = build(desc)?;
     let c = &scene.camera.params;
