@@ -1398,3 +1398,52 @@ fn unused_properties_warn_with_suggestions() {
     assert_eq!((w[0].line, w[0].col), (5, 3));
     assert!(w[0].message.contains("did you mean 'radius'"), "{}", w[0]);
 }
+
+// ---------------------------------------------------------------------------
+// Shipped scenes
+// ---------------------------------------------------------------------------
+
+fn shipped(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/mitsuba")
+        .join(name)
+}
+
+#[test]
+fn shipped_scenes_load_without_warnings() {
+    for name in ["cbox.xml", "envmap.xml", "sunlight.xml"] {
+        let (desc, w) = load_scene(&shipped(name)).unwrap_or_else(|e| panic!("{e}"));
+        assert!(w.is_empty(), "{name}: {w:?}");
+        assert!(!desc.shapes.is_empty());
+    }
+}
+
+#[test]
+fn rendered_cbox_has_the_red_wall_on_the_left() {
+    use lente::render::{render, RenderOptions};
+    use std::sync::atomic::AtomicBool;
+    let defines = [
+        ("res".to_string(), "24".to_string()),
+        ("max_depth".to_string(), "2".to_string()),
+    ];
+    let (desc, _) = load_scene_with(&shipped("cbox.xml"), &defines).unwrap();
+    let scene = lente::scene::Scene::new(desc).unwrap();
+    let opts = RenderOptions {
+        spp: 16,
+        seed: 1,
+        progress: false,
+    };
+    let out = render(&scene, &opts, &AtomicBool::new(false));
+    let img = &out.image;
+    // Mean redness (r - g) of the leftmost and rightmost columns of the box.
+    let redness = |x: usize| -> f32 {
+        (6..18)
+            .map(|y| {
+                let c = img.get(x, y);
+                c.x - c.y
+            })
+            .sum::<f32>()
+    };
+    let (left, right) = (redness(3), redness(20));
+    assert!(left > 0.0 && right < 0.0, "left {left}, right {right}");
+}
