@@ -1169,8 +1169,9 @@ impl<'d> Ctx<'d> {
         self.no_children(&children, &owner)?;
         let value = match ty {
             "uniform" => {
-                let v = p.get_float("value", 1.0)?;
-                Value::Float(v)
+                p.get_float("wavelength_min", 360.0)?;
+                p.get_float("wavelength_max", 830.0)?;
+                Value::Float(p.require_float("value")?)
             }
             _ => {
                 let c = p.require_rgb("color")?;
