@@ -492,6 +492,17 @@ fn reference_errors() {
         1,
         &["needs a 'name'"],
     );
+    // A long chain of references is an error, not a stack overflow.
+    let mut chain = String::new();
+    for i in 0..200 {
+        chain.push_str(&format!(
+            "<bsdf type=\"twosided\" id=\"b{i}\"><ref id=\"b{}\"/></bsdf>\n",
+            i + 1
+        ));
+    }
+    chain.push_str("<bsdf type=\"diffuse\" id=\"b200\"/>\n<shape type=\"sphere\"><ref id=\"b0\"/></shape>");
+    let e = load_err(&scene(&chain));
+    assert!(e.message.contains("nested more than"), "{e}");
 }
 
 #[test]
@@ -918,6 +929,12 @@ fn shape_errors() {
         4,
         22,
         &["only area emitters"],
+    );
+    assert_err(
+        &scene("<shape type=\"cube\"><transform name=\"to_world\"><scale value=\"1e30\"/><scale value=\"1e30\"/></transform></shape>"),
+        4,
+        20,
+        &["not finite"],
     );
     assert_err(
         &scene("<shape type=\"cylinder\"><point name=\"p1\" value=\"0 0 0\"/></shape>"),

@@ -80,6 +80,9 @@ const MAX_INCLUDE_DEPTH: usize = 15;
 /// Most objects one scene may instantiate (references can multiply them).
 const MAX_OBJECTS: usize = 1 << 20;
 
+/// Deepest nesting of objects, counting references (real scenes need 4).
+const MAX_NESTING: usize = 64;
+
 /// Mitsuba's named indices of refraction (`include/mitsuba/render/ior.h`).
 /// The BSDF module will provide these as `ior_preset`; until then they
 /// live here.
@@ -527,6 +530,8 @@ struct Ctx<'d> {
     /// Ids that some reference used.
     referenced: HashSet<&'d str>,
     objects: usize,
+    /// Objects being built, nested (each inside the one before).
+    depth: usize,
 }
 
 /// An emitter read from the file, before it is placed.
@@ -553,6 +558,7 @@ impl<'d> Ctx<'d> {
             building: Vec::new(),
             referenced: HashSet::new(),
             objects: 0,
+            depth: 0,
         };
         for item in items {
             ctx.cur = item.file;
@@ -696,6 +702,12 @@ impl<'d> Ctx<'d> {
                 format!("the scene builds more than {MAX_OBJECTS} objects (are references nested in a loop?)"),
             ));
         }
+        if self.depth >= MAX_NESTING {
+            return Err(self.err(
+                child.at,
+                format!("objects (and references) are nested more than {MAX_NESTING} deep"),
+            ));
+        }
         let id = child.node.attr_value("id");
         if let Some(id) = id {
             if self.building.contains(&id) {
@@ -708,7 +720,9 @@ impl<'d> Ctx<'d> {
         }
         let saved = self.cur;
         self.cur = child.file;
+        self.depth += 1;
         let r = f(self);
+        self.depth -= 1;
         self.cur = saved;
         if id.is_some() {
             self.building.pop();
@@ -1931,7 +1945,7 @@ impl<'d> Ctx<'d> {
                         node.pos,
                         "a sphere with flip_normals is rendered as a fine mesh (normals inward)",
                     );
-                    let mut m = geometry::sphere_mesh(s.center, s.radius, 512, 256);
+                    let mut m = geometry::sphere_mesh(s.center, s.radius, 256, 128);
                     geometry::flip_mesh_normals(&mut m);
                     Geometry::Mesh(m)
                 } else {
@@ -1939,6 +1953,16 @@ impl<'d> Ctx<'d> {
                 }
             }
         };
+        let finite = match &geometry {
+            Geometry::Mesh(m) => m.positions.iter().all(|p| p.is_finite()) && m.area().is_finite(),
+            Geometry::Sphere(s) => s.center.is_finite() && s.radius.is_finite(),
+        };
+        if !finite {
+            return Err(self.err(
+                to_world_pos,
+                format!("{owner} is not finite after its to_world (coordinates overflow)"),
+            ));
+        }
         if let Geometry::Mesh(m) = &geometry {
             if m.indices.is_empty() || m.area().is_nan() || m.area() <= 0.0 {
                 return Err(self.err(node.pos, format!("{owner} has no area")));
