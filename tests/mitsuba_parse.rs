@@ -500,7 +500,9 @@ fn reference_errors() {
             i + 1
         ));
     }
-    chain.push_str("<bsdf type=\"diffuse\" id=\"b200\"/>\n<shape type=\"sphere\"><ref id=\"b0\"/></shape>");
+    chain.push_str(
+        "<bsdf type=\"diffuse\" id=\"b200\"/>\n<shape type=\"sphere\"><ref id=\"b0\"/></shape>",
+    );
     let e = load_err(&scene(&chain));
     assert!(e.message.contains("nested more than"), "{e}");
 }
@@ -1463,4 +1465,14 @@ fn rendered_cbox_has_the_red_wall_on_the_left() {
     };
     let (left, right) = (redness(3), redness(20));
     assert!(left > 0.0 && right < 0.0, "left {left}, right {right}");
+}
+
+#[test]
+fn defines_on_a_nori_scene_are_a_warning() {
+    let (_, w) = load_with(
+        "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\"/>\n</scene>",
+        &[("spp", "4")],
+    );
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].message.contains("-D spp"), "{}", w[0]);
 }
