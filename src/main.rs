@@ -15,7 +15,7 @@ use lente::image::io::save_image;
 use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
 use lente::preview::{Checkpointer, PreviewServer, PreviewState};
 use lente::render::{render_with_passes, PassInfo, RenderOptions};
-use lente::scene::{load_scene, Scene, SceneDesc};
+use lente::scene::{load_scene_with, Scene, SceneDesc};
 
 #[derive(Parser)]
 #[command(
@@ -36,6 +36,9 @@ enum Command {
     Info {
         /// Scene file (Nori XML).
         scene: PathBuf,
+        /// Set a Mitsuba scene parameter ($NAME), overriding its <default>.
+        #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+        define: Vec<(String, String)>,
     },
     /// Compare an image with a reference: MSE, relative MSE and PSNR.
     Compare {
@@ -108,6 +111,9 @@ struct RenderArgs {
     /// every pass).
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
     checkpoint: Option<Duration>,
+    /// Set a Mitsuba scene parameter ($NAME), overriding its <default>.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+    define: Vec<(String, String)>,
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
@@ -139,11 +145,22 @@ fn parse_seconds(s: &str) -> Result<Duration, String> {
     Duration::try_from_secs_f64(secs).map_err(|e| format!("'{s}': {e}"))
 }
 
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, found '{s}'"))?;
+    let name = name.trim();
+    if name.is_empty() {
+        return Err(format!("empty parameter name in '{s}'"));
+    }
+    Ok((name.to_string(), value.to_string()))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),
-        Command::Info { scene } => cmd_info(&scene),
+        Command::Info { scene, define } => cmd_info(&scene, &define),
         Command::Compare {
             image,
             reference,
@@ -165,9 +182,9 @@ fn main() -> ExitCode {
     }
 }
 
-/// Parses a scene file, printing its warnings.
-fn load(path: &Path) -> Result<SceneDesc> {
-    let (desc, warnings) = load_scene(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+/// Parses a scene file with `-D` parameters, printing its warnings.
+fn load(path: &Path, defines: &[(String, String)]) -> Result<SceneDesc> {
+    let (desc, warnings) = load_scene_with(path, defines).map_err(|e| anyhow::anyhow!("{e}"))?;
     for w in warnings {
         eprintln!("{w}");
     }
@@ -215,6 +232,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         preview,
         preview_linger,
         checkpoint,
+        define,
     } = args;
     if let Some(0) = spp {
         bail!("--spp must be at least 1");
@@ -222,7 +240,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if let Some(0) = threads {
         bail!("--threads must be at least 1");
     }
-    let mut desc = load(&scene_path)?;
+    let mut desc = load(&scene_path, &define)?;
     if let Some((w, h)) = resolution {
         desc.camera.width = w;
         desc.camera.height = h;
@@ -436,8 +454,8 @@ fn check_image_extension(path: &Path) -> Result<()> {
     }
 }
 
-fn cmd_info(scene_path: &Path) -> Result<()> {
-    let desc = load(scene_path)?;
+fn cmd_info(scene_path: &Path, defines: &[(String, String)]) -> Result<()> {
+    let desc = load(scene_path, defines)?;
     let spp = desc.spp;
     let scene = build(desc)?;
     let c = &scene.camera.params;

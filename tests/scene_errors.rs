@@ -731,12 +731,13 @@ fn environment_errors() {
 
 #[test]
 fn other_roots() {
+    // A version attribute selects the Mitsuba dialect.
     assert_error(
         "mitsuba",
-        "<!-- m -->\n<scene version=\"3.0.0\">\n</scene>\n",
-        2,
+        "<!-- m -->\n<scene version=\"3.0.0\">\n<camera type=\"perspective\"/>\n</scene>\n",
+        3,
         1,
-        &["Mitsuba", "not supported yet"],
+        &["<camera>", "Mitsuba writes <sensor>"],
     );
     assert_error(
         "test-root",

@@ -3,12 +3,19 @@
 mod bvh;
 mod mesh;
 mod obj;
+mod ply;
+mod shapes;
 mod sphere;
 mod triangle;
 
 pub use bvh::Bvh;
 pub use mesh::TriangleMesh;
 pub use obj::load_obj;
+pub use ply::{load_ply, parse_ply};
+pub use shapes::{
+    compute_vertex_normals, cube_mesh, cylinder_mesh, disk_mesh, flip_mesh_normals, rectangle_mesh,
+    sphere_mesh, transform_mesh_keep_winding, ROUND_SEGMENTS,
+};
 pub use sphere::Sphere;
 pub use triangle::{intersect_triangle, RayShear};
 

@@ -1,9 +1,10 @@
 //! The renderable scene, and the scene-file readers that build it.
 //!
 //! `xml` parses any scene file into a format-neutral tree with positions;
-//! `props` gives typed, checked access to a node's properties; `nori` maps
-//! Nori's dialect onto the objects below.
+//! `props` gives typed, checked access to a node's properties; `nori` and
+//! `mitsuba` map Nori's and Mitsuba 3's dialects onto the objects below.
 
+pub mod mitsuba;
 pub mod nori;
 pub mod props;
 pub mod xml;
@@ -89,17 +90,32 @@ impl std::fmt::Display for Warning {
     }
 }
 
-/// Reads a scene file (Nori's XML dialect; Mitsuba 3 is recognised but not
-/// supported yet).
+/// Reads a scene file: Nori's XML dialect, or Mitsuba 3's
+/// (`<scene version="...">`).
 pub fn load_scene(path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    load_scene_with(path, &[])
+}
+
+/// Reads a scene file with `-D name=value` parameters: they set Mitsuba's
+/// `$name` substitutions, overriding the file's `<default>`s.
+pub fn load_scene_with(
+    path: &Path,
+    defines: &[(String, String)],
+) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError {
         file: path.to_path_buf(),
         line: 0,
         col: 0,
         message: format!("cannot read the scene file: {e}"),
     })?;
-    let text = match String::from_utf8(bytes) {
-        Ok(t) => t,
+    let text = decode_utf8(path, bytes)?;
+    load_scene_str_with(&text, path, defines)
+}
+
+/// The text of a scene file; invalid UTF-8 is an error at its position.
+pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>) -> Result<String, SceneError> {
+    match String::from_utf8(bytes) {
+        Ok(t) => Ok(t),
         Err(e) => {
             let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
             let line = valid.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
@@ -108,19 +124,27 @@ pub fn load_scene(path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> 
                 .chars()
                 .count() as u32
                 + 1;
-            return Err(SceneError::new(
+            Err(SceneError::new(
                 path,
                 xml::Pos::new(line, col),
                 "the scene file is not valid UTF-8",
-            ));
+            ))
         }
-    };
-    load_scene_str(&text, path)
+    }
 }
 
 /// Reads a scene from text; `path` names it in messages and is the base of
 /// relative file names inside it.
 pub fn load_scene_str(text: &str, path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    load_scene_str_with(text, path, &[])
+}
+
+/// [`load_scene_str`] with `-D name=value` parameters (see [`load_scene_with`]).
+pub fn load_scene_str_with(
+    text: &str,
+    path: &Path,
+    defines: &[(String, String)],
+) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
     let root = xml::parse(text).map_err(|e| SceneError {
         file: path.to_path_buf(),
         line: e.pos.map_or(0, |p| p.line),
@@ -128,12 +152,20 @@ pub fn load_scene_str(text: &str, path: &Path) -> Result<(SceneDesc, Vec<Warning
         message: e.message,
     })?;
     match root.tag.as_str() {
-        "scene" if root.attr("version").is_some() => Err(SceneError::new(
-            path,
-            root.pos,
-            "Mitsuba scenes (<scene version=...>) are not supported yet; only Nori scenes are",
-        )),
-        "scene" => nori::load(&root, path),
+        "scene" if root.attr("version").is_some() => mitsuba::load(&root, path, defines),
+        "scene" => {
+            let (desc, mut warnings) = nori::load(&root, path)?;
+            if let Some((name, _)) = defines.first() {
+                warnings.push(Warning::new(
+                    path,
+                    root.pos,
+                    format!(
+                        "-D {name}=... is ignored: only Mitsuba scenes (<scene version=...>) have $parameters"
+                    ),
+                ));
+            }
+            Ok((desc, warnings))
+        }
         other => Err(SceneError::new(
             path,
             root.pos,

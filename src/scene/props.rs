@@ -90,6 +90,8 @@ pub struct Props<'a> {
     props: Vec<Property>,
     queried: Vec<String>,
     warnings: Vec<Warning>,
+    /// How the dialect spells a colour property's element (`color`, `rgb`).
+    color_tag: &'static str,
 }
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -131,7 +133,30 @@ impl<'a> Props<'a> {
             props: Vec::new(),
             queried: Vec::new(),
             warnings: Vec::new(),
+            color_tag: "color",
         }
+    }
+
+    /// Names colour properties `<tag>` in messages (Mitsuba writes `<rgb>`).
+    pub fn set_color_tag(&mut self, tag: &'static str) {
+        self.color_tag = tag;
+    }
+
+    /// The element name of a kind of property, as this dialect spells it.
+    fn kind_name(&self, kind: Kind) -> &'static str {
+        match kind {
+            Kind::Color => self.color_tag,
+            k => k.name(),
+        }
+    }
+
+    /// The type a property is given as, if it is given (does not count as
+    /// reading it).
+    pub fn kind_of(&self, name: &str) -> Option<Kind> {
+        self.props
+            .iter()
+            .find(|p| p.name == name)
+            .map(|p| p.value.kind())
     }
 
     pub fn owner(&self) -> &str {
@@ -194,7 +219,7 @@ impl<'a> Props<'a> {
         self.object_error(format!(
             "{} needs the property '{name}' (a <{}>)",
             self.owner,
-            kind.name()
+            self.kind_name(kind)
         ))
     }
 
@@ -220,8 +245,8 @@ impl<'a> Props<'a> {
             format!(
                 "property '{name}' of {} must be a <{}>, but it is given as a <{}>",
                 self.owner,
-                want.name(),
-                found.name()
+                self.kind_name(want),
+                self.kind_name(found)
             ),
         ))
     }
@@ -335,6 +360,29 @@ impl<'a> Props<'a> {
             Some(v) => Ok(v),
             None => Err(self.missing(name, Kind::Color)),
         }
+    }
+
+    /// A colour with finite, non-negative components, where a single
+    /// number (a `<float>` or `<integer>`) stands for a grey.
+    pub fn opt_rgb_or_float(&mut self, name: &str) -> Result<Option<Rgb>> {
+        match self.kind_of(name) {
+            Some(Kind::Float) | Some(Kind::Int) => {
+                let v = self.opt_float(name)?;
+                if let Some(x) = v {
+                    if x < 0.0 {
+                        return Err(
+                            self.error(name, format!("'{name}' must not be negative, found {x}"))
+                        );
+                    }
+                }
+                Ok(v.map(Rgb::splat))
+            }
+            _ => self.opt_rgb(name),
+        }
+    }
+
+    pub fn get_rgb_or_float(&mut self, name: &str, default: Rgb) -> Result<Rgb> {
+        Ok(self.opt_rgb_or_float(name)?.unwrap_or(default))
     }
 
     /// A warning about property `name` (at its value, or at the object).

@@ -41,6 +41,16 @@ pub struct Attribute {
 }
 
 impl Attribute {
+    /// Replaces the value (e.g. after parameter substitution). Offsets in
+    /// the new value no longer map onto the file, so positions inside it
+    /// fall back to the start of the value.
+    pub fn set_value(&mut self, value: String) {
+        if self.value != value {
+            self.value = value;
+            self.raw = None;
+        }
+    }
+
     /// Position of the character at byte offset `offset` of `value`; the
     /// start of the value if the offset cannot be mapped back to the file
     /// (e.g. the value contains entity references).

@@ -1,0 +1,245 @@
+//! Mesh versions of simple shapes, and mesh operations scene readers need.
+//!
+//! The shapes follow Mitsuba 3's object-space definitions: the rectangle
+//! is the square [-1, 1]^2 at z = 0 facing +z, the cube is [-1, 1]^3 with
+//! outward normals, the disk is the unit disk at z = 0 facing +z, the
+//! cylinder runs from `p0` to `p1` without caps. Rectangle and cube are
+//! exact; the disk and the cylinder are fine polygons whose radius is
+//! chosen so that their area (and so the power of an area light on them)
+//! is exact. Flat shapes carry explicit vertex normals, so their front side
+//! is the one the normals give, whatever a transform does to the winding.
+
+use super::TriangleMesh;
+use crate::math::{Transform, Vec2, Vec3, PI};
+
+/// Segments around the disk and the cylinder.
+pub const ROUND_SEGMENTS: usize = 512;
+
+/// The square [-1, 1]^2 at z = 0, facing +z; uv = ((x + 1) / 2, (y + 1) / 2).
+pub fn rectangle_mesh() -> TriangleMesh {
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
+    let uvs = positions
+        .iter()
+        .map(|p| Vec2::new(p.x + 1.0, p.y + 1.0) * 0.5)
+        .collect();
+    TriangleMesh::new(positions, vec![Vec3::Z; 4], uvs, vec![[0, 1, 2], [0, 2, 3]])
+}
+
+/// The cube [-1, 1]^3: 6 faces of 2 triangles, 4 vertices each with the
+/// face's outward normal.
+pub fn cube_mesh() -> TriangleMesh {
+    let mut positions = Vec::with_capacity(24);
+    let mut normals = Vec::with_capacity(24);
+    let mut uvs = Vec::with_capacity(24);
+    let mut indices = Vec::with_capacity(12);
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            // Tangents with t1 x t2 = n, so the winding faces outward.
+            let mut t1 = Vec3::ZERO;
+            t1[(axis + 1) % 3] = 1.0;
+            let t2 = n.cross(t1);
+            let base = positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push(n + t1 * a + t2 * b);
+                normals.push(n);
+                uvs.push(Vec2::new((a + 1.0) * 0.5, (b + 1.0) * 0.5));
+            }
+            indices.push([base, base + 1, base + 2]);
+            indices.push([base, base + 2, base + 3]);
+        }
+    }
+    TriangleMesh::new(positions, normals, uvs, indices)
+}
+
+/// The unit disk at z = 0 facing +z, as a fan of `segments` triangles
+/// (at least 3) with the disk's exact area.
+pub fn disk_mesh(segments: usize) -> TriangleMesh {
+    let n = segments.max(3);
+    let step = 2.0 * PI as f64 / n as f64;
+    // A regular n-gon of circumradius r has area n/2 r^2 sin(step).
+    let r = (PI as f64 / (0.5 * n as f64 * step.sin())).sqrt();
+    let mut positions = vec![Vec3::ZERO];
+    let mut uvs = vec![Vec2::new(0.5, 0.5)];
+    for i in 0..n {
+        let (s, c) = (i as f64 * step).sin_cos();
+        positions.push(Vec3::new((r * c) as f32, (r * s) as f32, 0.0));
+        uvs.push(Vec2::new(0.5 + 0.5 * c as f32, 0.5 + 0.5 * s as f32));
+    }
+    let indices = (0..n as u32)
+        .map(|i| [0, 1 + i, 1 + (i + 1) % n as u32])
+        .collect();
+    let normals = vec![Vec3::Z; positions.len()];
+    TriangleMesh::new(positions, normals, uvs, indices)
+}
+
+/// An open cylinder of radius `radius` around the segment p0 -> p1, with
+/// `segments` flat sides (at least 3), smooth outward normals and the exact
+/// lateral area. `None` if the segment or the radius is degenerate.
+pub fn cylinder_mesh(p0: Vec3, p1: Vec3, radius: f32, segments: usize) -> Option<TriangleMesh> {
+    let axis = p1 - p0;
+    let length = axis.length();
+    if !(length > 0.0 && length.is_finite() && radius > 0.0 && radius.is_finite()) {
+        return None;
+    }
+    let n = segments.max(3);
+    let dir = axis / length;
+    let frame = crate::math::Frame::from_normal(dir);
+    let (s, t) = (frame.s, frame.t);
+    let step = 2.0 * PI as f64 / n as f64;
+    // Perimeter of the n-gon of circumradius r: 2 n r sin(step / 2).
+    let r = radius as f64 * (0.5 * step) / (0.5 * step).sin();
+    let mut positions = Vec::with_capacity(2 * (n + 1));
+    let mut normals = Vec::with_capacity(2 * (n + 1));
+    let mut uvs = Vec::with_capacity(2 * (n + 1));
+    // n + 1 columns: the seam is duplicated so uv can wrap.
+    for i in 0..=n {
+        let (sn, cs) = (i as f64 * step).sin_cos();
+        let radial = s * cs as f32 + t * sn as f32;
+        for (end, v) in [(p0, 0.0f32), (p1, 1.0)] {
+            positions.push(end + radial * r as f32);
+            normals.push(radial);
+            uvs.push(Vec2::new(i as f32 / n as f32, v));
+        }
+    }
+    let mut indices = Vec::with_capacity(2 * n);
+    for i in 0..n as u32 {
+        let (a, b, c, d) = (2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3);
+        // Counter-clockwise seen from outside: radial, then along the axis.
+        indices.push([a, c, d]);
+        indices.push([a, d, b]);
+    }
+    Some(TriangleMesh::new(positions, normals, uvs, indices))
+}
+
+/// A latitude-longitude sphere mesh with smooth normals (`rings` >= 2
+/// bands of latitude, `sectors` >= 3 of longitude).
+pub fn sphere_mesh(center: Vec3, radius: f32, sectors: usize, rings: usize) -> TriangleMesh {
+    let (ns, nr) = (sectors.max(3), rings.max(2));
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    for j in 0..=nr {
+        let theta = PI * j as f32 / nr as f32;
+        for i in 0..=ns {
+            let phi = 2.0 * PI * i as f32 / ns as f32;
+            let n = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            );
+            positions.push(center + n * radius);
+            normals.push(n);
+            uvs.push(Vec2::new(i as f32 / ns as f32, j as f32 / nr as f32));
+        }
+    }
+    let row = ns as u32 + 1;
+    let mut indices = Vec::new();
+    for j in 0..nr as u32 {
+        for i in 0..ns as u32 {
+            let a = j * row + i;
+            let (b, c, d) = (a + 1, a + row, a + row + 1);
+            // Outward winding; skip the degenerate triangles at the poles.
+            if j != 0 {
+                indices.push([a, c, b]);
+            }
+            if j + 1 != nr as u32 {
+                indices.push([b, c, d]);
+            }
+        }
+    }
+    TriangleMesh::new(positions, normals, uvs, indices)
+}
+
+/// Replaces the vertex normals by smooth ones: each vertex gets the sum of
+/// the unit normals of its triangles weighted by the triangle's angle at
+/// the vertex (Thürmer and Wüthrich 1998, as Mitsuba does for meshes
+/// without normals). Vertices of degenerate triangles only get (1, 0, 0).
+pub fn compute_vertex_normals(mesh: &mut TriangleMesh) {
+    let mut normals = vec![Vec3::ZERO; mesh.positions.len()];
+    for tri in &mesh.indices {
+        let v = tri.map(|i| mesh.positions[i as usize]);
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let len = n.length();
+        if !(len > 0.0 && len.is_finite()) {
+            continue;
+        }
+        let n = n / len;
+        for k in 0..3 {
+            let e1 = (v[(k + 1) % 3] - v[k]).normalize_or_zero();
+            let e2 = (v[(k + 2) % 3] - v[k]).normalize_or_zero();
+            let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
+            normals[tri[k] as usize] += n * angle;
+        }
+    }
+    for n in &mut normals {
+        *n = n.try_normalize().unwrap_or(Vec3::X);
+    }
+    mesh.normals = normals;
+}
+
+/// Turns the mesh inside out: reverses the winding and negates the normals.
+pub fn flip_mesh_normals(mesh: &mut TriangleMesh) {
+    for tri in &mut mesh.indices {
+        tri.swap(1, 2);
+    }
+    for n in &mut mesh.normals {
+        *n = -*n;
+    }
+}
+
+/// Bakes a transform into a mesh keeping the winding, Mitsuba's way: the
+/// geometric normal is the cross product of the transformed edges (so a
+/// mirroring transform turns it around), vertex normals go through the
+/// inverse transpose. [`TriangleMesh::transform`] instead swaps the
+/// winding of mirrored meshes.
+pub fn transform_mesh_keep_winding(mesh: &mut TriangleMesh, t: &Transform) {
+    for p in &mut mesh.positions {
+        *p = t.point(*p);
+    }
+    for n in &mut mesh.normals {
+        *n = t.normal(*n).normalize_or_zero();
+    }
+    mesh.prepare();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_shapes_have_their_areas() {
+        assert!((rectangle_mesh().area() - 4.0).abs() < 1e-6);
+        assert!((cube_mesh().area() - 24.0).abs() < 1e-5);
+        assert!((disk_mesh(ROUND_SEGMENTS).area() - PI).abs() < 1e-4);
+        let c = cylinder_mesh(Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0), 0.5, ROUND_SEGMENTS).unwrap();
+        assert!(
+            (c.area() - 2.0 * PI * 0.5 * 2.0).abs() < 1e-3,
+            "{}",
+            c.area()
+        );
+    }
+
+    #[test]
+    fn windings_agree_with_normals() {
+        let c = cylinder_mesh(Vec3::ZERO, Vec3::Y, 1.0, 16).unwrap();
+        for m in [
+            rectangle_mesh(),
+            cube_mesh(),
+            disk_mesh(16),
+            c,
+            sphere_mesh(Vec3::ZERO, 1.0, 16, 8),
+        ] {
+            for (tri, &[a, _, _]) in m.indices.iter().enumerate() {
+                let ng = m.geometric_normal(tri);
+                assert!(ng.dot(m.normals[a as usize]) > 0.5, "triangle {tri}");
+            }
+        }
+    }
+}

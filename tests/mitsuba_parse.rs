@@ -1,0 +1,1478 @@
+//! Mitsuba 3 scenes: defaults, references, parameters, transforms, every
+//! shape, the PLY loader, emitters, integrators, BSDFs and error positions.
+
+use std::path::{Path, PathBuf};
+
+use lente::bsdf::Bsdf;
+use lente::camera::Camera;
+use lente::color::Rgb;
+use lente::emitter::Emitter;
+use lente::geometry::{parse_ply, Geometry, TriangleMesh};
+use lente::image::Filter;
+use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::math::{Mat4, Transform, Vec2, Vec3, PI};
+use lente::scene::{
+    load_scene, load_scene_str, load_scene_str_with, load_scene_with, SceneDesc, SceneError,
+    Warning,
+};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lente-mitsuba-parse-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[track_caller]
+fn load_with(text: &str, defines: &[(&str, &str)]) -> (SceneDesc, Vec<Warning>) {
+    let defines: Vec<(String, String)> = defines
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    match load_scene_str_with(text, Path::new("test.xml"), &defines) {
+        Ok(r) => r,
+        Err(e) => panic!("scene should load: {e}\n{text}"),
+    }
+}
+
+#[track_caller]
+fn load(text: &str) -> (SceneDesc, Vec<Warning>) {
+    load_with(text, &[])
+}
+
+/// Loads a scene that must produce no warnings.
+#[track_caller]
+fn load_clean(text: &str) -> SceneDesc {
+    let (desc, warnings) = load(text);
+    assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
+    desc
+}
+
+#[track_caller]
+fn load_err(text: &str) -> SceneError {
+    match load_scene_str(text, Path::new("test.xml")) {
+        Ok(_) => panic!("scene should not load:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+/// The error must be at line:col and mention every word.
+#[track_caller]
+fn assert_err(text: &str, line: u32, col: u32, words: &[&str]) {
+    let e = load_err(text);
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with(&format!("test.xml:{line}:{col}: ")),
+        "expected test.xml:{line}:{col}, got {msg}"
+    );
+    for w in words {
+        assert!(msg.contains(w), "'{msg}' should mention '{w}'");
+    }
+}
+
+#[track_caller]
+fn close(a: Vec3, b: Vec3) {
+    assert!((a - b).length() < 1e-4, "{a} != {b}");
+}
+
+#[track_caller]
+fn close_f(a: f32, b: f32, tol: f32) {
+    assert!((a - b).abs() <= tol, "{a} != {b}");
+}
+
+/// A scene with an integrator and a shape around the given sensor.
+fn with_sensor(sensor: &str) -> String {
+    format!(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\"/>\n{sensor}\n<shape type=\"sphere\"/>\n</scene>\n"
+    )
+}
+
+/// A scene with a sensor and integrator around the given body.
+fn scene(body: &str) -> String {
+    format!(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\"/>\n<sensor type=\"perspective\"/>\n{body}\n</scene>\n"
+    )
+}
+
+fn mesh(desc: &SceneDesc, i: usize) -> &TriangleMesh {
+    match &desc.shapes[i].geometry {
+        Geometry::Mesh(m) => m,
+        g => panic!("shape {i} is not a mesh: {g:?}"),
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Defaults
+// ---------------------------------------------------------------------------
+
+#[test]
+fn minimal_scene_gets_mitsubas_defaults() {
+    let desc = load_clean(&with_sensor("<sensor type=\"perspective\"/>"));
+    let c = &desc.camera;
+    assert_eq!((c.width, c.height), (768, 576));
+    assert_eq!(desc.spp, 4);
+    assert_eq!(
+        desc.filter,
+        Filter::Gaussian {
+            radius: 2.0,
+            stddev: 0.5
+        }
+    );
+    assert_eq!((c.near_clip, c.far_clip), (0.01, 10000.0));
+    assert_eq!(c.lens_radius, 0.0);
+    assert_eq!(c.to_world, Transform::IDENTITY);
+    // focal_length 50mm on 35 mm film, along the diagonal.
+    let diag_fov = 2.0 * (43.266615f64 / 100.0).atan();
+    let aspect = 768.0f64 / 576.0;
+    let w = 2.0 * (diag_fov / 2.0).tan() / (1.0 + 1.0 / (aspect * aspect)).sqrt();
+    close_f(
+        c.fov_x_deg,
+        (2.0 * (w / 2.0).atan()).to_degrees() as f32,
+        1e-3,
+    );
+    assert_eq!(
+        desc.integrator,
+        Integrator::Path {
+            strategy: Strategy::Mis,
+            params: PathParams {
+                max_depth: None,
+                rr_depth: 5,
+                hide_emitters: false
+            }
+        }
+    );
+    // A sphere with Mitsuba's defaults and the default BSDF.
+    match &desc.shapes[0].geometry {
+        Geometry::Sphere(s) => assert_eq!((s.center, s.radius), (Vec3::ZERO, 1.0)),
+        g => panic!("{g:?}"),
+    }
+    assert_eq!(
+        desc.shapes[0].bsdf,
+        Bsdf::Diffuse {
+            albedo: Rgb::splat(0.5)
+        }
+    );
+}
+
+#[test]
+fn missing_sensor_and_integrator_use_mitsubas_defaults() {
+    let (desc, warnings) = load(
+        "<scene version=\"2.1.0\">\n<shape type=\"cube\"><transform name=\"to_world\"><translate z=\"3\"/></transform></shape>\n</scene>",
+    );
+    assert_eq!(warnings.len(), 2, "{warnings:?}");
+    assert!(warnings[0].message.contains("no <sensor>"));
+    assert!(warnings[1].message.contains("no <integrator>"));
+    let c = &desc.camera;
+    assert_eq!(c.fov_x_deg, 45.0);
+    // The box [-1,1]^2 x [2,4]: distance = 2 / (2 tan 22.5 deg).
+    let distance = 1.0 / 22.5f32.to_radians().tan();
+    close(
+        c.to_world.point(Vec3::ZERO),
+        Vec3::new(0.0, 0.0, 2.0 - distance),
+    );
+    close(c.to_world.vector(Vec3::Z), Vec3::Z);
+    close_f(c.near_clip, distance / 100.0, 1e-5);
+    assert!(matches!(
+        desc.integrator,
+        Integrator::Path {
+            params: PathParams {
+                rr_depth: 5,
+                max_depth: None,
+                ..
+            },
+            ..
+        }
+    ));
+    // An empty scene loads too (Mitsuba renders it black).
+    let (desc, _) = load("<!-- m -->\n<scene version=\"3.0.0\">\n</scene>\n");
+    assert!(desc.shapes.is_empty());
+}
+
+// ---------------------------------------------------------------------------
+// Sensors
+// ---------------------------------------------------------------------------
+
+fn fov_x(sensor_body: &str, w: u32, h: u32) -> f32 {
+    let s = format!(
+        "<sensor type=\"perspective\">{sensor_body}<film type=\"hdrfilm\"><integer name=\"width\" value=\"{w}\"/><integer name=\"height\" value=\"{h}\"/></film></sensor>"
+    );
+    load_clean(&with_sensor(&s)).camera.fov_x_deg
+}
+
+#[test]
+fn fov_axes_convert_to_the_horizontal_fov() {
+    let fov = |axis: &str, w, h| {
+        fov_x(
+            &format!(
+                "<float name=\"fov\" value=\"40\"/><string name=\"fov_axis\" value=\"{axis}\"/>"
+            ),
+            w,
+            h,
+        )
+    };
+    let t20 = 20.0f64.to_radians().tan();
+    let deg = |x: f64| x.to_degrees() as f32;
+    // 800 x 400: aspect 2.
+    close_f(fov("x", 800, 400), 40.0, 1e-4);
+    close_f(fov("y", 800, 400), deg(2.0 * (t20 * 2.0).atan()), 1e-4);
+    let diag_w = 2.0 * t20 / (1.0f64 + 0.25).sqrt();
+    close_f(
+        fov("diagonal", 800, 400),
+        deg(2.0 * (diag_w / 2.0).atan()),
+        1e-4,
+    );
+    close_f(fov("smaller", 800, 400), fov("y", 800, 400), 1e-6);
+    close_f(fov("larger", 800, 400), 40.0, 1e-6);
+    // 300 x 600: aspect 1/2, so the smaller axis is x.
+    close_f(fov("smaller", 300, 600), 40.0, 1e-6);
+    close_f(fov("larger", 300, 600), deg(2.0 * (t20 * 0.5).atan()), 1e-4);
+    close_f(fov("Y", 300, 600), deg(2.0 * (t20 * 0.5).atan()), 1e-4);
+    // Square images: every axis but the diagonal is the same.
+    close_f(fov("y", 500, 500), 40.0, 1e-4);
+    // The default axis is x.
+    close_f(
+        fov_x("<float name=\"fov\" value=\"33\"/>", 640, 480),
+        33.0,
+        1e-6,
+    );
+    // focal_length, 35 mm film convention: 36 x 24 mm at aspect 1.5 gives
+    // a horizontal fov of 2 atan(18 / f).
+    let f35 = fov_x("<string name=\"focal_length\" value=\"35mm\"/>", 1500, 1000);
+    close_f(f35, deg(2.0 * (18.0f64 / 35.0).atan()), 1e-3);
+    close_f(
+        fov_x("<string name=\"focal_length\" value=\"28\"/>", 1500, 1000),
+        deg(2.0 * (18.0f64 / 28.0).atan()),
+        1e-3,
+    );
+}
+
+#[test]
+fn fov_errors() {
+    assert_err(
+        &with_sensor("<sensor type=\"perspective\">\n  <float name=\"fov\" value=\"40\"/><string name=\"fov_axis\" value=\"z\"/></sensor>"),
+        4,
+        64,
+        &["fov_axis", "'z'", "diagonal"],
+    );
+    assert_err(
+        &with_sensor("<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/>\n<string name=\"focal_length\" value=\"20mm\"/></sensor>"),
+        4,
+        36,
+        &["either 'fov' or 'focal_length'"],
+    );
+    assert_err(
+        &with_sensor(
+            "<sensor type=\"perspective\"><string name=\"focal_length\" value=\"fifty\"/></sensor>",
+        ),
+        3,
+        63,
+        &["focal length", "fifty"],
+    );
+    assert_err(
+        &with_sensor("<sensor type=\"perspective\"><float name=\"fov\" value=\"180\"/></sensor>"),
+        3,
+        53,
+        &["between 0 and 180"],
+    );
+}
+
+#[test]
+fn thinlens_and_clip_planes() {
+    let desc = load_clean(&with_sensor(
+        r#"<sensor type="thinlens">
+            <float name="fov" value="30"/>
+            <float name="aperture_radius" value="0.2"/>
+            <float name="focus_distance" value="7.5"/>
+            <float name="near_clip" value="0.5"/>
+            <float name="far_clip" value="200"/>
+            <transform name="to_world"><lookat origin="1, 2, 3" target="1, 2, 0"/></transform>
+        </sensor>"#,
+    ));
+    let c = &desc.camera;
+    assert_eq!((c.lens_radius, c.focal_distance), (0.2, 7.5));
+    assert_eq!((c.near_clip, c.far_clip), (0.5, 200.0));
+    close(c.to_world.point(Vec3::ZERO), Vec3::new(1.0, 2.0, 3.0));
+    close(c.to_world.vector(Vec3::Z), Vec3::NEG_Z);
+    // Mitsuba's thin lens focuses at far_clip unless told otherwise.
+    let desc = load_clean(&with_sensor(
+        "<sensor type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/></sensor>",
+    ));
+    assert_eq!(desc.camera.focal_distance, 10000.0);
+    // aperture_radius is required.
+    assert_err(
+        &with_sensor("<sensor type=\"thinlens\"/>"),
+        3,
+        1,
+        &["aperture_radius"],
+    );
+    // Scale in the camera transform is refused, as in Mitsuba; a mirror is not scale.
+    assert_err(
+        &with_sensor("<sensor type=\"perspective\"><transform name=\"to_world\"><scale value=\"2\"/></transform></sensor>"),
+        3,
+        28,
+        &["scale", "to_world"],
+    );
+    load_clean(&with_sensor(
+        "<sensor type=\"perspective\"><transform name=\"to_world\"><scale x=\"-1\"/></transform></sensor>",
+    ));
+    assert_err(
+        &with_sensor(
+            "<sensor type=\"perspective\"><float name=\"near_clip\" value=\"0\"/></sensor>",
+        ),
+        3,
+        59,
+        &["near_clip", "positive"],
+    );
+}
+
+#[test]
+fn mitsuba_camera_is_not_mirrored() {
+    // Mitsuba's cbox camera: looking down -z from +z with up +y. The red
+    // wall at x = -1 must land on the left of the image.
+    let desc = load_clean(&with_sensor(
+        r#"<sensor type="perspective">
+            <float name="fov" value="40"/>
+            <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="100"/><integer name="height" value="100"/></film>
+        </sensor>"#,
+    ));
+    let cam = Camera::new(desc.camera.clone());
+    let to_cam = desc.camera.to_world.inverse();
+    let left_wall = cam.camera_to_film(to_cam.point(Vec3::new(-0.9, 0.0, 0.0)));
+    let ceiling = cam.camera_to_film(to_cam.point(Vec3::new(0.0, 0.9, 0.0)));
+    assert!(left_wall.x < 50.0, "{left_wall}");
+    assert!(ceiling.y < 50.0, "{ceiling}");
+    // And the ray through the left half of the image goes towards -x.
+    let r = cam.generate_ray(Vec2::new(10.0, 50.0), Vec2::ZERO);
+    assert!(r.d.x < 0.0);
+}
+
+#[test]
+fn films_filters_and_samplers() {
+    let desc = load_clean(&with_sensor(
+        r#"<sensor type="perspective">
+            <film type="hdrfilm">
+                <integer name="width" value="320"/>
+                <integer name="height" value="200"/>
+                <string name="pixel_format" value="rgba"/>
+                <string name="component_format" value="float32"/>
+                <string name="file_format" value="pfm"/>
+                <rfilter type="box"/>
+            </film>
+            <sampler type="independent"><integer name="sample_count" value="17"/></sampler>
+        </sensor>"#,
+    ));
+    assert_eq!((desc.camera.width, desc.camera.height), (320, 200));
+    assert_eq!(desc.filter, Filter::Box { radius: 0.5 });
+    assert_eq!(desc.spp, 17);
+    let filter = |body: &str| {
+        load_clean(&with_sensor(&format!(
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">{body}</film></sensor>"
+        )))
+        .filter
+    };
+    assert_eq!(
+        filter("<rfilter type=\"tent\"/>"),
+        Filter::Tent { radius: 1.0 }
+    );
+    assert_eq!(
+        filter("<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"0.25\"/></rfilter>"),
+        Filter::Gaussian {
+            radius: 1.0,
+            stddev: 0.25
+        }
+    );
+    assert_eq!(
+        filter("<rfilter type=\"mitchell\"/>"),
+        Filter::Mitchell {
+            radius: 2.0,
+            b: 1.0 / 3.0,
+            c: 1.0 / 3.0
+        }
+    );
+    assert_eq!(
+        filter("<rfilter type=\"catmullrom\"/>"),
+        Filter::Mitchell {
+            radius: 2.0,
+            b: 0.0,
+            c: 0.5
+        }
+    );
+    // Other samplers are mapped to independent sampling, with a warning.
+    let (desc, w) = load(&with_sensor(
+        "<sensor type=\"perspective\"><sampler type=\"stratified\"><integer name=\"sample_count\" value=\"16\"/></sampler></sensor>",
+    ));
+    assert_eq!(desc.spp, 16);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].message.contains("independent"));
+    // An unknown pixel format is a warning; crop windows are errors.
+    let (_, w) = load(&with_sensor(
+        "<sensor type=\"perspective\"><film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"cmyk\"/></film></sensor>",
+    ));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].message.contains("cmyk"));
+    assert_err(
+        &with_sensor("<sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"crop_width\" value=\"10\"/></film></sensor>"),
+        3,
+        83,
+        &["crop"],
+    );
+    assert_err(
+        &with_sensor("<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"lanczos\"/></film></sensor>"),
+        3,
+        64,
+        &["lanczos", "not supported"],
+    );
+}
+
+// ---------------------------------------------------------------------------
+// References, parameters, includes
+// ---------------------------------------------------------------------------
+
+#[test]
+fn references_place_objects_where_they_stand() {
+    let desc = load_clean(&scene(
+        r#"<shape type="sphere"><ref id="red"/></shape>
+           <bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>
+           <shape type="sphere"><ref name="bsdf" id="red"/></shape>
+           <alias id="red" as="crimson"/>
+           <shape type="sphere"><ref id="crimson"/></shape>
+           <texture type="srgb" id="tex"><rgb name="color" value="0.2, 0.3, 0.4"/></texture>
+           <shape type="sphere"><bsdf type="diffuse"><ref name="reflectance" id="tex"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="diffuse"><texture type="uniform" name="reflectance"><float name="value" value="0.25"/></texture></bsdf></shape>
+           <shape type="sphere"><bsdf type="diffuse"><float name="reflectance" value="0.75"/></bsdf></shape>"#,
+    ));
+    let red = Bsdf::Diffuse {
+        albedo: Rgb::new(0.8, 0.1, 0.1),
+    };
+    assert_eq!(desc.shapes.len(), 6);
+    for s in &desc.shapes[..3] {
+        assert_eq!(s.bsdf, red);
+    }
+    let albedo = |i: usize| match &desc.shapes[i].bsdf {
+        Bsdf::Diffuse { albedo } => *albedo,
+        b => panic!("{b:?}"),
+    };
+    assert_eq!(albedo(3), Rgb::new(0.2, 0.3, 0.4));
+    assert_eq!(albedo(4), Rgb::splat(0.25));
+    assert_eq!(albedo(5), Rgb::splat(0.75));
+}
+
+#[test]
+fn reference_errors() {
+    assert_err(
+        &scene(
+            "<bsdf type=\"diffuse\" id=\"red\"/>\n<shape type=\"sphere\"><ref id=\"rde\"/></shape>",
+        ),
+        5,
+        31,
+        &["no object has the id 'rde'", "did you mean 'red'"],
+    );
+    assert_err(
+        &scene("<bsdf type=\"diffuse\" id=\"a\"/>\n<bsdf type=\"diffuse\" id=\"a\"/>"),
+        5,
+        26,
+        &["'a' is used twice", "first at 4:1"],
+    );
+    assert_err(
+        &scene("<bsdf type=\"twosided\" id=\"loop\">\n<ref id=\"loop\"/></bsdf>\n<shape type=\"sphere\"><ref id=\"loop\"/></shape>"),
+        5,
+        1,
+        &["reference to itself"],
+    );
+    assert_err(
+        &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\"/></bsdf></shape>"),
+        4,
+        58,
+        &["bitmap", "constant textures"],
+    );
+    assert_err(
+        &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\">\n<texture type=\"uniform\"/></bsdf></shape>"),
+        5,
+        1,
+        &["needs a 'name'"],
+    );
+    // A long chain of references is an error, not a stack overflow.
+    let mut chain = String::new();
+    for i in 0..200 {
+        chain.push_str(&format!(
+            "<bsdf type=\"twosided\" id=\"b{i}\"><ref id=\"b{}\"/></bsdf>\n",
+            i + 1
+        ));
+    }
+    chain.push_str(
+        "<bsdf type=\"diffuse\" id=\"b200\"/>\n<shape type=\"sphere\"><ref id=\"b0\"/></shape>",
+    );
+    let e = load_err(&scene(&chain));
+    assert!(e.message.contains("nested more than"), "{e}");
+}
+
+#[test]
+fn defaults_and_parameters() {
+    let text = r#"<scene version="3.0.0">
+    <default name="spp" value="16"/>
+    <default name="res" value="64"/>
+    <default name="resolution" value="$res"/>
+    <integrator type="path"><integer name="max_depth" value="$depth"/></integrator>
+    <sensor type="perspective">
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="$resolution"/>
+            <integer name="height" value="$res"/>
+        </film>
+    </sensor>
+    <shape type="sphere"><float name="radius" value="$r\$"/></shape>
+</scene>"#;
+    // $depth and $r have no default: without -D they are errors.
+    let e = load_err(text);
+    assert_eq!((e.line, e.col), (5, 62), "{e}");
+    assert!(e.message.contains("undefined parameter $depth"), "{e}");
+    // -D defines them and overrides defaults; the longest name wins
+    // ($resolution is not $res followed by "olution").
+    let (desc, w) = load_with(
+        text.replace("$r\\$", "$r").as_str(),
+        &[("depth", "3"), ("r", "2.5"), ("res", "48")],
+    );
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!((desc.camera.width, desc.camera.height), (48, 48));
+    assert_eq!(desc.spp, 16);
+    match &desc.shapes[0].geometry {
+        Geometry::Sphere(s) => assert_eq!(s.radius, 2.5),
+        g => panic!("{g:?}"),
+    }
+    assert!(matches!(
+        desc.integrator,
+        Integrator::Path {
+            params: PathParams {
+                max_depth: Some(3),
+                ..
+            },
+            ..
+        }
+    ));
+    // An escaped dollar is a literal one (here: not a number).
+    let e = load_with_err(text, &[("depth", "3"), ("r", "2")]);
+    assert!(e.message.contains("'2$'"), "{e}");
+    // Unused -D names are warnings.
+    let (_, w) = load_with(
+        &text.replace("$r\\$", "1"),
+        &[("depth", "3"), ("colour", "red")],
+    );
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].message.contains("colour"));
+}
+
+fn load_with_err(text: &str, defines: &[(&str, &str)]) -> SceneError {
+    let defines: Vec<(String, String)> = defines
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    match load_scene_str_with(text, Path::new("test.xml"), &defines) {
+        Ok(_) => panic!("should not load"),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn command_line_defines() {
+    let dir = temp_dir("cli");
+    let path = dir.join("s.xml");
+    std::fs::write(
+        &path,
+        r#"<scene version="3.0.0">
+    <default name="w" value="64"/>
+    <sensor type="perspective"><film type="hdrfilm">
+        <integer name="width" value="$w"/><integer name="height" value="32"/>
+    </film></sensor>
+    <shape type="sphere"/>
+</scene>"#,
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lente"))
+        .args(["info", path.to_str().unwrap(), "-D", "w=80"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("80x32"), "{stdout}");
+    let (desc, _) = load_scene_with(&path, &[("w".into(), "100".into())]).unwrap();
+    assert_eq!(desc.camera.width, 100);
+    let (desc, _) = load_scene(&path).unwrap();
+    assert_eq!(desc.camera.width, 64);
+}
+
+#[test]
+fn includes_splice_files() {
+    let dir = temp_dir("include");
+    std::fs::write(
+        dir.join("parts.xml"),
+        "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"grey\"><rgb name=\"reflectance\" value=\"$g\"/></bsdf>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>\n</scene>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("bad.xml"),
+        "<scene version=\"3.0.0\">\n  <shape type=\"sphre\"/>\n</scene>\n",
+    )
+    .unwrap();
+    let path = dir.join("main.xml");
+    std::fs::write(
+        &path,
+        "<scene version=\"3.0.0\">\n<default name=\"g\" value=\"0.3\"/>\n<sensor type=\"perspective\"/>\n<include filename=\"parts.xml\"/>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>\n</scene>\n",
+    )
+    .unwrap();
+    let (desc, w) = load_scene(&path).unwrap();
+    assert_eq!(desc.shapes.len(), 2);
+    assert_eq!(
+        desc.shapes[1].bsdf,
+        Bsdf::Diffuse {
+            albedo: Rgb::splat(0.3)
+        }
+    );
+    assert_eq!(w.len(), 1, "{w:?}"); // no integrator
+                                     // Errors in included files name the included file.
+    std::fs::write(
+        &path,
+        "<scene version=\"3.0.0\">\n<include filename=\"bad.xml\"/>\n</scene>\n",
+    )
+    .unwrap();
+    let e = load_scene(&path).unwrap_err();
+    assert_eq!(e.file, dir.join("bad.xml"));
+    assert_eq!((e.line, e.col), (2, 16), "{e}");
+    std::fs::write(
+        &path,
+        "<scene version=\"3.0.0\">\n<include filename=\"main.xml\"/>\n</scene>\n",
+    )
+    .unwrap();
+    assert!(load_scene(&path)
+        .unwrap_err()
+        .message
+        .contains("includes itself"));
+}
+
+// ---------------------------------------------------------------------------
+// Values and transforms
+// ---------------------------------------------------------------------------
+
+/// Where a transform puts the origin and the x and y axes, read back from
+/// a rectangle's corners (-1,-1,0), (1,-1,0), (1,1,0).
+struct Mapped {
+    origin: Vec3,
+    x: Vec3,
+    y: Vec3,
+}
+
+fn transform_of(ops: &str) -> Mapped {
+    let desc = load_clean(&scene(&format!(
+        "<shape type=\"rectangle\"><transform name=\"to_world\">{ops}</transform></shape>"
+    )));
+    let p = &mesh(&desc, 0).positions;
+    Mapped {
+        origin: (p[0] + p[2]) * 0.5,
+        x: (p[1] - p[0]) * 0.5,
+        y: (p[2] - p[1]) * 0.5,
+    }
+}
+
+#[test]
+fn transforms_apply_in_document_order() {
+    // translate, then rotate 90 about z, then scale x by 2:
+    // M = S * R * T; the point (1, 0, 0) goes to (2, 0, 0) -> (0, 2, 0) -> (0, 2, 0).
+    let desc = load_clean(&with_sensor(
+        r#"<sensor type="perspective"/>
+           <emitter type="point"><transform name="to_world">
+               <translate x="1"/>
+               <rotate z="1" angle="90"/>
+               <scale x="2"/>
+           </transform></emitter>"#,
+    ));
+    // The light sits at to_world * origin = S R T (0,0,0) = S R (1,0,0)
+    // = S (0,1,0) = (0,1,0) (scale x only; y and z default to 1).
+    match &desc.emitters[0] {
+        Emitter::Point { position, .. } => close(*position, Vec3::new(0.0, 1.0, 0.0)),
+        e => panic!("{e:?}"),
+    }
+    // The same ops on a rectangle, checked point by point against the
+    // hand-computed M = S R T.
+    let desc = load_clean(&scene(
+        r#"<shape type="rectangle"><transform name="to_world">
+               <translate value="1, 2, 3"/>
+               <rotate x="0" y="0" z="1" angle="90"/>
+               <scale x="2" y="3"/>
+           </transform></shape>"#,
+    ));
+    let s = Mat4::from_scale(Vec3::new(2.0, 3.0, 1.0));
+    let r = Mat4::from_rotation_z(PI / 2.0);
+    let t = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0));
+    let m = s * r * t;
+    let rect = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
+    for (p, q) in mesh(&desc, 0).positions.iter().zip(rect) {
+        close(*p, m.transform_point3(q));
+    }
+    // matrix (row-major, 16 or 9 values), lookat, uniform scale.
+    let t = transform_of("<matrix value=\"0 -1 0 5  1 0 0 6  0 0 1 7  0 0 0 1\"/>");
+    close(t.origin, Vec3::new(5.0, 6.0, 7.0));
+    close(t.x, Vec3::Y);
+    close(t.y, Vec3::NEG_X);
+    let t = transform_of("<matrix value=\"0 -1 0  1 0 0  0 0 1\"/>");
+    close(t.x, Vec3::Y);
+    close(t.origin, Vec3::ZERO);
+    let t = transform_of("<scale value=\"3\"/><translate y=\"1\"/>");
+    close(t.origin, Vec3::Y);
+    close(t.x, Vec3::X * 3.0);
+    // lookat: camera +x is "left" = up x dir; here up = y, dir = -z.
+    let t = transform_of("<lookat origin=\"1, 0, 0\" target=\"1, 0, -5\" up=\"0, 1, 0\"/>");
+    close(t.origin, Vec3::X);
+    close(t.x, Vec3::NEG_X);
+    close(t.y, Vec3::Y);
+    // Nori-style axis attribute works too.
+    let t = transform_of("<rotate axis=\"0, 0, 1\" angle=\"90\"/>");
+    close(t.x, Vec3::Y);
+}
+
+#[test]
+fn points_vectors_colours_and_spectra() {
+    let desc = load_clean(&scene(
+        r#"<emitter type="point"><point name="position" x="1" z="3"/><spectrum name="intensity" value="5"/></emitter>
+           <emitter type="point"><point name="position" value="2"/><spectrum name="intensity" value="1, 2, 3"/></emitter>
+           <emitter type="directional"><vector name="direction" y="-2"/><rgb name="irradiance" value="0.5"/></emitter>"#,
+    ));
+    match &desc.emitters[..] {
+        [Emitter::Point {
+            position: p1,
+            intensity: i1,
+        }, Emitter::Point {
+            position: p2,
+            intensity: i2,
+        }, Emitter::Directional {
+            direction,
+            irradiance,
+        }] => {
+            close(*p1, Vec3::new(1.0, 0.0, 3.0));
+            assert_eq!(*i1, Rgb::splat(5.0));
+            close(*p2, Vec3::splat(2.0));
+            assert_eq!(*i2, Rgb::new(1.0, 2.0, 3.0));
+            close(*direction, Vec3::NEG_Y);
+            assert_eq!(*irradiance, Rgb::splat(0.5));
+        }
+        e => panic!("{e:?}"),
+    }
+    assert_err(
+        &scene("<emitter type=\"point\">\n  <spectrum name=\"intensity\" value=\"400:0.1, 500:0.2\"/></emitter>"),
+        5,
+        37,
+        &["spectral data not supported", "400:0.1"],
+    );
+    assert_err(
+        &scene(
+            "<emitter type=\"point\"><spectrum name=\"intensity\" filename=\"d65.spd\"/></emitter>",
+        ),
+        4,
+        60,
+        &["spectral data not supported"],
+    );
+    assert_err(
+        &scene(
+            "<emitter type=\"point\"><point name=\"position\" value=\"1 2\" x=\"1\"/></emitter>",
+        ),
+        4,
+        58,
+        &["either 'value' or 'x'"],
+    );
+    assert_err(
+        &scene("<emitter type=\"point\"><rgb name=\"intensity\" value=\"1, 2\"/></emitter>"),
+        4,
+        52,
+        &["3 numbers"],
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Shapes and meshes
+// ---------------------------------------------------------------------------
+
+#[test]
+fn every_shape() {
+    let dir = temp_dir("shapes");
+    std::fs::write(
+        dir.join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nf 2 4 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("quad.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n2 0 0\n2 2 0\n0 2 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    let text = scene(
+        r#"<shape type="rectangle"><transform name="to_world"><scale x="2" y="3"/></transform></shape>
+           <shape type="cube"><transform name="to_world"><scale value="0.5"/></transform></shape>
+           <shape type="disk"><transform name="to_world"><scale value="2"/></transform></shape>
+           <shape type="cylinder"><point name="p0" value="0, 0, 0"/><point name="p1" value="0, 3, 0"/><float name="radius" value="0.5"/></shape>
+           <shape type="sphere"><point name="center" value="1, 2, 3"/><float name="radius" value="0.5"/>
+               <transform name="to_world"><scale value="2"/></transform></shape>
+           <shape type="obj"><string name="filename" value="tri.obj"/></shape>
+           <shape type="ply"><string name="filename" value="quad.ply"/><boolean name="face_normals" value="true"/></shape>
+           <shape type="obj"><string name="filename" value="tri.obj"/><boolean name="face_normals" value="true"/></shape>"#,
+    );
+    let path = dir.join("s.xml");
+    let (desc, w) = load_scene_str(&text, &path).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    close_f(mesh(&desc, 0).area(), 4.0 * 6.0, 1e-4);
+    close_f(mesh(&desc, 1).area(), 6.0, 1e-4);
+    close_f(mesh(&desc, 2).area(), 4.0 * PI, 1e-3);
+    close_f(mesh(&desc, 3).area(), 2.0 * PI * 0.5 * 3.0, 1e-3);
+    // The rectangle faces +z, the disk too; cube normals point outward.
+    for n in &mesh(&desc, 0).normals {
+        close(*n, Vec3::Z);
+    }
+    let cube = mesh(&desc, 1);
+    for (p, n) in cube.positions.iter().zip(&cube.normals) {
+        assert!(p.dot(*n) > 0.0);
+        close_f(p.abs().max_element(), 0.5, 1e-6);
+    }
+    // Cylinder: smooth radial normals around the y axis.
+    let cyl = mesh(&desc, 3);
+    for (p, n) in cyl.positions.iter().zip(&cyl.normals) {
+        close(*n, Vec3::new(p.x, 0.0, p.z).normalize());
+        assert!(p.y.abs() < 1e-5 || (p.y - 3.0).abs() < 1e-5);
+    }
+    // Mitsuba's sphere: to_world applies after center and radius.
+    match &desc.shapes[4].geometry {
+        Geometry::Sphere(s) => {
+            close(s.center, Vec3::new(2.0, 4.0, 6.0));
+            close_f(s.radius, 1.0, 1e-6);
+        }
+        g => panic!("{g:?}"),
+    }
+    // OBJ without normals gets smooth (angle-weighted) ones, as in Mitsuba;
+    // texture coordinates are flipped vertically (flip_tex_coords).
+    let obj = mesh(&desc, 5);
+    assert_eq!(obj.indices.len(), 2);
+    assert_eq!(obj.normals.len(), obj.positions.len());
+    assert!(obj.uvs.is_empty() || obj.uvs.iter().any(|uv| uv.y == 1.0));
+    // face_normals drops them; PLY polygons are fan-triangulated.
+    let ply = mesh(&desc, 6);
+    assert_eq!(ply.indices.len(), 2);
+    assert!(ply.normals.is_empty());
+    close_f(ply.area(), 4.0, 1e-6);
+    assert!(mesh(&desc, 7).normals.is_empty());
+}
+
+#[test]
+fn flip_normals_and_mirrors() {
+    let desc = load_clean(&scene(
+        r#"<shape type="rectangle"><boolean name="flip_normals" value="true"/></shape>
+           <shape type="rectangle"><transform name="to_world"><scale z="-1"/></transform></shape>
+           <shape type="disk"><boolean name="flip_normals" value="true"/></shape>"#,
+    ));
+    let m = mesh(&desc, 0);
+    for (t, _) in m.indices.iter().enumerate() {
+        close(m.geometric_normal(t), Vec3::NEG_Z);
+    }
+    for n in &m.normals {
+        close(*n, Vec3::NEG_Z);
+    }
+    // A mirror through z turns the rectangle's normal (inverse transpose).
+    for n in &mesh(&desc, 1).normals {
+        close(*n, Vec3::NEG_Z);
+    }
+    for n in &mesh(&desc, 2).normals {
+        close(*n, Vec3::NEG_Z);
+    }
+    // A flipped sphere becomes an inward-facing mesh, with a warning.
+    let (desc, w) = load(&scene(
+        "<shape type=\"sphere\"><boolean name=\"flip_normals\" value=\"true\"/></shape>",
+    ));
+    assert_eq!(w.len(), 1);
+    let m = mesh(&desc, 0);
+    for (p, n) in m.positions.iter().zip(&m.normals).step_by(97) {
+        assert!(p.dot(*n) < 0.0);
+    }
+    close_f(m.area(), 4.0 * PI, 0.01);
+}
+
+#[test]
+fn shape_errors() {
+    assert_err(
+        &scene("<shape type=\"obj\">\n  <string name=\"filename\" value=\"nope.obj\"/></shape>"),
+        4,
+        1,
+        &["nope.obj"],
+    );
+    assert_err(
+        &scene("<shape type=\"serialized\"/>"),
+        4,
+        14,
+        &["serialized", "not supported", "ply"],
+    );
+    assert_err(
+        &scene("<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"2\"/></transform></shape>"),
+        4,
+        22,
+        &["similarity"],
+    );
+    assert_err(
+        &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/></shape>"),
+        5,
+        1,
+        &["only one <bsdf>", "4:22"],
+    );
+    assert_err(
+        &scene("<shape type=\"sphere\"><emitter type=\"point\"/></shape>"),
+        4,
+        22,
+        &["only area emitters"],
+    );
+    assert_err(
+        &scene("<shape type=\"cube\"><transform name=\"to_world\"><scale value=\"1e30\"/><scale value=\"1e30\"/></transform></shape>"),
+        4,
+        20,
+        &["not finite"],
+    );
+    assert_err(
+        &scene("<shape type=\"cylinder\"><point name=\"p1\" value=\"0 0 0\"/></shape>"),
+        4,
+        24,
+        &["'p0' and 'p1' must differ"],
+    );
+}
+
+// ---------------------------------------------------------------------------
+// PLY
+// ---------------------------------------------------------------------------
+
+struct PlyMesh {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    uvs: Vec<[f32; 2]>,
+    faces: Vec<Vec<u32>>,
+}
+
+fn sample_ply() -> PlyMesh {
+    PlyMesh {
+        positions: vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 1.0],
+        ],
+        normals: vec![[0.0, 0.0, 1.0]; 5],
+        uvs: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]],
+        faces: vec![vec![0, 1, 2, 3], vec![0, 1, 4], vec![1, 2, 4]],
+    }
+}
+
+/// Writes a PLY file with an extra vertex property (a list), an extra face
+/// property, and an extra element before the faces, to check they are
+/// skipped correctly.
+fn write_ply(m: &PlyMesh, format: &str) -> Vec<u8> {
+    let mut out = format!(
+        "ply\nformat {format} 1.0\ncomment written by a test\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar short junk\nproperty float nx\nproperty float ny\nproperty float nz\nproperty double s\nproperty double t\nelement material 2\nproperty uchar red\nproperty list uint uint ids\nelement face {}\nproperty uchar flags\nproperty list uchar uint vertex_indices\nend_header\n",
+        m.positions.len(),
+        m.faces.len()
+    )
+    .into_bytes();
+    let ascii = format == "ascii";
+    let be = format == "binary_big_endian";
+    let f32s = |out: &mut Vec<u8>, v: f32| {
+        if ascii {
+            out.extend(format!("{v} ").bytes());
+        } else if be {
+            out.extend(v.to_be_bytes());
+        } else {
+            out.extend(v.to_le_bytes());
+        }
+    };
+    let int = |out: &mut Vec<u8>, v: u64, size: usize| {
+        if ascii {
+            out.extend(format!("{v} ").bytes());
+        } else {
+            let b = v.to_le_bytes();
+            let mut b = b[..size].to_vec();
+            if be {
+                b.reverse();
+            }
+            out.extend(b);
+        }
+    };
+    for i in 0..m.positions.len() {
+        for c in m.positions[i] {
+            f32s(&mut out, c);
+        }
+        int(&mut out, 2, 1);
+        int(&mut out, 7, 2);
+        int(&mut out, 9, 2);
+        for c in m.normals[i] {
+            f32s(&mut out, c);
+        }
+        for c in m.uvs[i] {
+            if ascii {
+                out.extend(format!("{c} ").bytes());
+            } else if be {
+                out.extend((c as f64).to_be_bytes());
+            } else {
+                out.extend((c as f64).to_le_bytes());
+            }
+        }
+        if ascii {
+            out.push(b'\n');
+        }
+    }
+    for k in 0..2u64 {
+        int(&mut out, 200 + k, 1);
+        int(&mut out, k + 1, 4);
+        for j in 0..=k {
+            int(&mut out, j, 4);
+        }
+        if ascii {
+            out.push(b'\n');
+        }
+    }
+    for f in &m.faces {
+        int(&mut out, 1, 1);
+        int(&mut out, f.len() as u64, 1);
+        for &i in f {
+            int(&mut out, i as u64, 4);
+        }
+        if ascii {
+            out.push(b'\n');
+        }
+    }
+    out
+}
+
+#[test]
+fn ply_round_trips_in_every_format() {
+    let m = sample_ply();
+    for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
+        let bytes = write_ply(&m, format);
+        let mesh = parse_ply(&bytes).unwrap_or_else(|e| panic!("{format}: {e}"));
+        let p: Vec<[f32; 3]> = mesh.positions.iter().map(|v| v.to_array()).collect();
+        assert_eq!(p, m.positions, "{format}");
+        let n: Vec<[f32; 3]> = mesh.normals.iter().map(|v| v.to_array()).collect();
+        assert_eq!(n, m.normals, "{format}");
+        let uv: Vec<[f32; 2]> = mesh.uvs.iter().map(|v| v.to_array()).collect();
+        assert_eq!(uv, m.uvs, "{format}");
+        assert_eq!(
+            mesh.indices,
+            vec![[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4]],
+            "{format}"
+        );
+    }
+}
+
+#[test]
+fn ply_errors_are_clear() {
+    let m = sample_ply();
+    let good = write_ply(&m, "binary_little_endian");
+    let err = |bytes: &[u8]| parse_ply(bytes).unwrap_err();
+    // Truncated anywhere in the body or the header.
+    let header_end = good.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    for cut in [5, 20, header_end - 3, header_end + 7, good.len() - 1] {
+        let e = err(&good[..cut]);
+        assert!(!e.is_empty(), "cut {cut}");
+    }
+    assert!(err(b"plx\n").contains("'ply'"));
+    assert!(err(b"ply\nformat xml 1.0\nend_header\n").contains("unknown format"));
+    assert!(
+        err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n")
+            .contains("x, y, z")
+    );
+    assert!(err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n3 0 1 2\n")
+        .contains("refers to vertex 1"));
+    assert!(err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n2 0 0\n")
+        .contains("2 vertices"));
+    assert!(err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\nzero 0 0\n")
+        .contains("'zero'"));
+    assert!(err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty wibble w\nend_header\n")
+        .contains("unknown property type"));
+    // A load error names the file.
+    let dir = temp_dir("ply");
+    let e = lente::geometry::load_ply(&dir.join("missing.ply")).unwrap_err();
+    assert!(e.contains("missing.ply"), "{e}");
+    // Random corruption never panics.
+    let mut rng = 0x1234_5678_u64;
+    for _ in 0..3000 {
+        let mut b = good.clone();
+        for _ in 0..3 {
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let at = (rng >> 33) as usize % b.len();
+            b[at] = (rng >> 20) as u8;
+        }
+        let _ = parse_ply(&b);
+        let _ = parse_ply(&b[..(rng as usize >> 7) % b.len()]);
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Emitters, integrators, BSDFs
+// ---------------------------------------------------------------------------
+
+#[test]
+fn emitters() {
+    let dir = temp_dir("emitters");
+    // A 4 x 2 PFM environment map.
+    let mut pfm = b"PF\n4 2\n-1.0\n".to_vec();
+    for i in 0..8 {
+        for c in [1.0f32, 0.5, 0.25] {
+            pfm.extend((c * (i + 1) as f32).to_le_bytes());
+        }
+    }
+    std::fs::write(dir.join("sky.pfm"), pfm).unwrap();
+    let text = scene(
+        r#"<emitter type="envmap">
+               <string name="filename" value="sky.pfm"/>
+               <float name="scale" value="2"/>
+               <transform name="to_world"><rotate y="1" angle="90"/></transform>
+           </emitter>
+           <emitter type="point"><transform name="to_world"><translate value="1, 2, 3"/></transform></emitter>
+           <emitter type="directional"/>
+           <emitter type="directional"><transform name="to_world"><lookat origin="0, 0, 0" target="0, -1, 0" up="0, 0, 1"/></transform></emitter>
+           <shape type="rectangle"><emitter type="area"/></shape>
+           <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="3, 2, 1"/></emitter></shape>"#,
+    );
+    let (desc, w) = load_scene_str(&text, &dir.join("s.xml")).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    match &desc.emitters[0] {
+        Emitter::Environment(env) => {
+            assert_eq!(env.scale, 2.0);
+            close(env.to_world.vector(Vec3::Z), Vec3::X);
+        }
+        e => panic!("{e:?}"),
+    }
+    match &desc.emitters[1] {
+        Emitter::Point {
+            position,
+            intensity,
+        } => {
+            close(*position, Vec3::new(1.0, 2.0, 3.0));
+            assert_eq!(*intensity, Rgb::ONE);
+        }
+        e => panic!("{e:?}"),
+    }
+    match (&desc.emitters[2], &desc.emitters[3]) {
+        (
+            Emitter::Directional {
+                direction: d1,
+                irradiance,
+            },
+            Emitter::Directional { direction: d2, .. },
+        ) => {
+            close(*d1, Vec3::Z);
+            assert_eq!(*irradiance, Rgb::ONE);
+            close(*d2, Vec3::NEG_Y);
+        }
+        e => panic!("{e:?}"),
+    }
+    assert_eq!(desc.shapes[0].area_radiance, Some(Rgb::ONE));
+    assert_eq!(desc.shapes[1].area_radiance, Some(Rgb::new(3.0, 2.0, 1.0)));
+
+    let e = |body: &str| load_err(&scene(body));
+    assert!(
+        e("<emitter type=\"constant\"/><emitter type=\"constant\"/>")
+            .message
+            .contains("only one environment emitter")
+    );
+    assert!(e("<emitter type=\"point\"><point name=\"position\" value=\"0\"/><transform name=\"to_world\"/></emitter>")
+        .message
+        .contains("either 'position' or 'to_world'"));
+    assert!(e("<emitter type=\"area\"/>")
+        .message
+        .contains("inside a <shape>"));
+    assert!(e("<emitter type=\"spot\"/>")
+        .message
+        .contains("not supported"));
+    assert!(
+        e("<emitter type=\"envmap\"><string name=\"filename\" value=\"none.exr\"/></emitter>")
+            .message
+            .contains("none.exr")
+    );
+    assert!(e("<shape type=\"rectangle\"><emitter type=\"area\"><transform name=\"to_world\"/></emitter></shape>")
+        .message
+        .contains("inherits"));
+}
+
+#[test]
+fn integrators() {
+    let integ = |body: &str| -> (Integrator, Vec<Warning>) {
+        let (d, w) = load(&format!(
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>"
+        ));
+        (d.integrator, w)
+    };
+    let (i, w) = integ(
+        "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/><integer name=\"rr_depth\" value=\"2\"/><boolean name=\"hide_emitters\" value=\"true\"/></integrator>",
+    );
+    assert!(w.is_empty());
+    assert_eq!(
+        i,
+        Integrator::Path {
+            strategy: Strategy::Mis,
+            params: PathParams {
+                max_depth: Some(8),
+                rr_depth: 2,
+                hide_emitters: true
+            }
+        }
+    );
+    let (i, w) = integ("<integrator type=\"direct\"/>");
+    assert!(w.is_empty());
+    assert_eq!(
+        i,
+        Integrator::Direct {
+            strategy: Strategy::Mis
+        }
+    );
+    let (_, w) = integ(
+        "<integrator type=\"direct\"><integer name=\"emitter_samples\" value=\"4\"/></integrator>",
+    );
+    assert_eq!(w.len(), 1);
+    assert!(w[0].message.contains("one emitter and one BSDF sample"));
+    let (i, w) = integ("<integrator type=\"volpath\"/>");
+    assert_eq!(w.len(), 1);
+    assert!(matches!(i, Integrator::Path { .. }));
+    assert_err(
+        "<scene version=\"3.0.0\">\n<integrator type=\"aov\"/>\n</scene>",
+        2,
+        19,
+        &["aov", "not supported"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"-2\"/></integrator>\n</scene>",
+        2,
+        58,
+        &["max_depth"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"rr_depth\" value=\"0\"/></integrator>\n</scene>",
+        2,
+        57,
+        &["rr_depth"],
+    );
+}
+
+#[test]
+fn bsdfs() {
+    let (desc, w) = load(&scene(
+        r#"<shape type="sphere"><bsdf type="dielectric"/></shape>
+           <shape type="sphere"><bsdf type="dielectric"><string name="int_ior" value="water"/><float name="ext_ior" value="1.1"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="conductor"/></shape>
+           <shape type="sphere"><bsdf type="conductor"><string name="material" value="none"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.2"/><string name="distribution" value="ggx"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.4"/></bsdf></bsdf></shape>
+           <shape type="sphere"><bsdf type="thindielectric"/></shape>
+           <shape type="sphere"><bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf></shape>"#,
+    ));
+    let b = |i: usize| desc.shapes[i].bsdf.clone();
+    assert_eq!(b(0), Bsdf::dielectric(1.5046, 1.000277));
+    assert_eq!(b(1), Bsdf::dielectric(1.333, 1.1));
+    assert_eq!(b(2), Bsdf::Mirror);
+    assert_eq!(b(3), Bsdf::Mirror);
+    assert_eq!(b(4), Bsdf::Mirror);
+    assert_eq!(
+        b(5),
+        Bsdf::Diffuse {
+            albedo: Rgb::new(0.1, 0.2, 0.3)
+        }
+    );
+    assert_eq!(
+        b(6),
+        Bsdf::Diffuse {
+            albedo: Rgb::splat(0.4)
+        }
+    );
+    assert_eq!(b(7), Bsdf::dielectric(1.5046, 1.000277));
+    // One "approximated until ... lands" warning per stand-in.
+    let msgs: Vec<&str> = w.iter().map(|w| w.message.as_str()).collect();
+    assert_eq!(msgs.len(), 5, "{msgs:?}");
+    for (m, what) in msgs.iter().zip([
+        "rough conductor",
+        "plastic",
+        "twosided",
+        "thin dielectric",
+        "rough dielectric",
+    ]) {
+        assert!(m.contains(what) && m.contains("until"), "{m}");
+    }
+    let e = |body: &str| load_err(&scene(body)).message;
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"glass\"/></bsdf></shape>")
+        .contains("bk7"));
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"Gold\"/></bsdf></shape>")
+        .contains("Au"));
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/><rgb name=\"eta\" value=\"1\"/></bsdf></shape>")
+        .contains("not both"));
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/></bsdf></shape>")
+        .contains("beckmann or ggx"));
+    assert!(
+        e("<shape type=\"sphere\"><bsdf type=\"principled\"/></shape>").contains("not supported")
+    );
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"twosided\"/></shape>").contains("nested"));
+}
+
+// ---------------------------------------------------------------------------
+// File structure errors
+// ---------------------------------------------------------------------------
+
+#[test]
+fn structure_errors_are_located() {
+    assert_err(
+        "<scene version=\"0.6.0\">\n</scene>",
+        1,
+        17,
+        &["Mitsuba 0.6.0", "to_world", "version=\"3.0.0\""],
+    );
+    assert_err(
+        "<scene version=\"three\">\n</scene>",
+        1,
+        17,
+        &["version number"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <mesh type=\"obj\"/>\n</scene>",
+        2,
+        3,
+        &["<mesh>", "Nori", "<shape>"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shap type=\"obj\"/>\n</scene>",
+        2,
+        3,
+        &["did you mean <shape>"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\" size=\"2\"/>\n</scene>",
+        2,
+        24,
+        &["unexpected attribute 'size'"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <sensor type=\"perspective\"><translate x=\"1\"/></sensor>\n</scene>",
+        2,
+        30,
+        &["<translate>", "inside a <transform>"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <film type=\"hdrfilm\"/>\n</scene>",
+        2,
+        3,
+        &["<film type=\"hdrfilm\">", "inside a <sensor>"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\"><float name=\"radius\" value=\"1,5\"/></shape>\n</scene>",
+        2,
+        52,
+        &["1 number"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\"><integer name=\"radius\" value=\"x\"/></shape>\n</scene>",
+        2,
+        54,
+        &["'x'", "integer"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\"><rgb name=\"radius\" value=\"1\"/></shape>\n</scene>",
+        2,
+        24,
+        &["<float>", "<rgb>"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\"><transform name=\"to_world\"><scale y=\"0\"/></transform></shape>\n</scene>",
+        2,
+        54,
+        &["scale by zero"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\"><transform name=\"to_world\"><lookat origin=\"0 0 0\" target=\"0 1 0\" up=\"0 1 0\"/></transform></shape>\n</scene>",
+        2,
+        54,
+        &["parallel"],
+    );
+    assert_err(
+        "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\"><transform name=\"to_world\"><matrix value=\"1 0 0 1 0 1\"/></transform></shape>\n</scene>",
+        2,
+        69,
+        &["16 numbers", "9"],
+    );
+}
+
+#[test]
+fn unused_properties_warn_with_suggestions() {
+    let (_, w) = load(&scene(
+        "<shape type=\"sphere\">\n  <float name=\"raduis\" value=\"2\"/></shape>",
+    ));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert_eq!((w[0].line, w[0].col), (5, 3));
+    assert!(w[0].message.contains("did you mean 'radius'"), "{}", w[0]);
+}
+
+// ---------------------------------------------------------------------------
+// Shipped scenes
+// ---------------------------------------------------------------------------
+
+fn shipped(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/mitsuba")
+        .join(name)
+}
+
+#[test]
+fn shipped_scenes_load_without_warnings() {
+    for name in ["cbox.xml", "envmap.xml", "sunlight.xml"] {
+        let (desc, w) = load_scene(&shipped(name)).unwrap_or_else(|e| panic!("{e}"));
+        assert!(w.is_empty(), "{name}: {w:?}");
+        assert!(!desc.shapes.is_empty());
+    }
+}
+
+#[test]
+fn rendered_cbox_has_the_red_wall_on_the_left() {
+    use lente::render::{render, RenderOptions};
+    use std::sync::atomic::AtomicBool;
+    let defines = [
+        ("res".to_string(), "24".to_string()),
+        ("max_depth".to_string(), "2".to_string()),
+    ];
+    let (desc, _) = load_scene_with(&shipped("cbox.xml"), &defines).unwrap();
+    let scene = lente::scene::Scene::new(desc).unwrap();
+    let opts = RenderOptions {
+        spp: 16,
+        seed: 1,
+        progress: false,
+    };
+    let out = render(&scene, &opts, &AtomicBool::new(false));
+    let img = &out.image;
+    // Mean redness (r - g) of the leftmost and rightmost columns of the box.
+    let redness = |x: usize| -> f32 {
+        (6..18)
+            .map(|y| {
+                let c = img.get(x, y);
+                c.x - c.y
+            })
+            .sum::<f32>()
+    };
+    let (left, right) = (redness(3), redness(20));
+    assert!(left > 0.0 && right < 0.0, "left {left}, right {right}");
+}
+
+#[test]
+fn defines_on_a_nori_scene_are_a_warning() {
+    let (_, w) = load_with(
+        "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\"/>\n</scene>",
+        &[("spp", "4")],
+    );
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].message.contains("-D spp"), "{}", w[0]);
+}
