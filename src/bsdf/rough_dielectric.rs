@@ -143,7 +143,13 @@ impl RoughDielectric {
         let g = if self.distr.sample_visible {
             self.distr.smith_g1(wo, m)
         } else {
-            self.distr.g(wi, wo, m) * dim / (cos_i * m.z)
+            // G |wi.m| / (|cos_i| cos_m) times D(m) / D'(m), the ratio of
+            // the true distribution to the widened one that was sampled
+            // (pdf_m = D'(m) cos_m). Mitsuba 3 leaves that ratio out, so its
+            // weights disagree with its own eval / pdf when
+            // sample_visible = false (its images come out too bright, by
+            // ~10% at grazing angles); lente keeps the estimator unbiased.
+            self.distr.g(wi, wo, m) * dim * self.distr.d(m) / (cos_i * pdf_m)
         };
         let reflected = wo.z * cos_i > 0.0;
         if g.is_nan() || g <= 0.0 || reflected != is_reflection || wo.z == 0.0 || !wo.is_finite() {
