@@ -85,6 +85,34 @@ fn rough_bsdfs() -> Vec<(String, Bsdf, Vec<Vec3>)> {
         up.clone(),
     ));
     v.push((
+        "roughplastic beckmann".into(),
+        Bsdf::rough_plastic(
+            Beckmann,
+            0.2,
+            1.49,
+            AIR,
+            Rgb::new(0.9, 0.5, 0.1),
+            Rgb::ONE,
+            false,
+            true,
+        ),
+        up.clone(),
+    ));
+    v.push((
+        "roughplastic ggx nonlinear all normals".into(),
+        Bsdf::rough_plastic(
+            Ggx,
+            0.4,
+            1.7,
+            AIR,
+            Rgb::new(0.9, 0.5, 0.1),
+            Rgb::splat(0.8),
+            true,
+            false,
+        ),
+        up.clone(),
+    ));
+    v.push((
         "twosided roughconductor".into(),
         Bsdf::two_sided(
             Bsdf::rough_conductor(Ggx, 0.2, 0.2, au_e, au_k, Rgb::ONE, true),

@@ -2,7 +2,8 @@
 //! sampling (ems) and MIS must estimate the same image. This exercises
 //! path.rs's handling of each BSDF: plastic mixes a delta lobe (after which
 //! emission counts fully and MIS is skipped) with a smooth one (NEE + MIS
-//! on its pdf, which excludes the delta); rough conductors and rough glass
+//! on its pdf, which excludes the delta); roughplastic, rough conductors
+//! and rough glass
 //! go through NEE and MIS with their eval/pdf, glass from both sides.
 
 mod common;
@@ -57,6 +58,19 @@ fn strategies_agree_for_each_bsdf() {
                 1.000277,
                 Rgb::ONE,
                 Rgb::ONE,
+                true,
+            ),
+        ),
+        (
+            "roughplastic ggx 0.2",
+            Bsdf::rough_plastic(
+                MicrofacetType::Ggx,
+                0.2,
+                1.49,
+                1.000277,
+                Rgb::new(0.05, 0.1, 0.15),
+                Rgb::ONE,
+                false,
                 true,
             ),
         ),

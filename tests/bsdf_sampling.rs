@@ -3,7 +3,8 @@
 //! rough conductors and dielectrics with Beckmann and GGX, isotropic and
 //! anisotropic, with and without visible-normal sampling, near-mirror
 //! roughness (on finer grids), grazing incidence, dielectrics from outside
-//! and inside; the smooth lobe of plastic; twosided from below. Plus the
+//! and inside; the smooth lobe of plastic; roughplastic; twosided from
+//! below. Plus the
 //! tests that this test rejects wrong pdfs.
 
 use lente::bsdf::{conductor_preset, Bsdf, MicrofacetDistribution, MicrofacetType};
@@ -98,7 +99,7 @@ fn grazing_inside() -> Vec3 {
 }
 
 /// Total number of chi-square tests that must pass, across this file.
-const FAMILY: usize = 33;
+const FAMILY: usize = 35;
 
 #[test]
 fn rough_conductor_sampling_matches_pdf() {
@@ -304,7 +305,7 @@ fn rough_dielectric_sampling_matches_pdf() {
 }
 
 #[test]
-fn plastic_and_twosided_sampling_match_pdf() {
+fn plastics_and_twosided_sampling_match_pdf() {
     let (eta, k) = conductor_preset("Au").unwrap();
     let cases = [
         case(
@@ -342,6 +343,38 @@ fn plastic_and_twosided_sampling_match_pdf() {
             dir(50.0, 60.0, true),
             20,
             40,
+        ),
+        case(
+            "roughplastic beckmann 0.1",
+            Bsdf::rough_plastic(
+                Beckmann,
+                0.1,
+                1.49,
+                1.000277,
+                Rgb::splat(0.5),
+                Rgb::ONE,
+                false,
+                true,
+            ),
+            dir(30.0, 0.0, false),
+            60,
+            80,
+        ),
+        case(
+            "roughplastic ggx 0.3 all normals, grazing",
+            Bsdf::rough_plastic(
+                Ggx,
+                0.3,
+                1.6,
+                1.0,
+                Rgb::new(0.1, 0.5, 0.9),
+                Rgb::ONE,
+                true,
+                false,
+            ),
+            dir(70.0, 120.0, false),
+            30,
+            60,
         ),
     ];
     run(&cases, FAMILY, 3000);

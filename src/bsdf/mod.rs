@@ -11,6 +11,7 @@ mod microfacet;
 mod plastic;
 pub mod presets;
 mod rough_dielectric;
+mod rough_plastic;
 
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
@@ -23,6 +24,7 @@ pub use fresnel::{
 pub use plastic::Plastic;
 pub use presets::{conductor_preset, ior_preset};
 pub use rough_dielectric::RoughDielectric;
+pub use rough_plastic::RoughPlastic;
 
 /// The closed set of BSDFs lente renders.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,6 +66,9 @@ pub enum Bsdf {
     /// Mitsuba's smooth `plastic`: delta coating reflection over a diffuse
     /// base. Not "specular" as a whole: NEE applies to its smooth lobe.
     Plastic(Plastic),
+    /// Mitsuba's `roughplastic`: rough coating over a diffuse base (the
+    /// coating's transmittance table is boxed, built at scene load).
+    RoughPlastic(RoughPlastic),
     /// Mitsuba's `twosided`: `front` seen from above, `back` (with
     /// directions mirrored through the surface) seen from below. Boxed
     /// once at scene load; never allocated per ray.
@@ -210,6 +215,34 @@ impl Bsdf {
         ))
     }
 
+    /// Mitsuba's `roughplastic` (isotropic only, as in Mitsuba).
+    ///
+    /// Parameters: `distribution` (beckmann), `alpha` (0.1), `int_ior`
+    /// (polypropylene = 1.49), `ext_ior` (air = 1.000277),
+    /// `diffuse_reflectance` (0.5), `specular_reflectance` (1), `nonlinear`
+    /// (false), `sample_visible` (true). Builds its tables (~0.1 s): call
+    /// once per material.
+    #[allow(clippy::too_many_arguments)]
+    pub fn rough_plastic(
+        distribution: MicrofacetType,
+        alpha: f32,
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Rgb,
+        specular_reflectance: Rgb,
+        nonlinear: bool,
+        sample_visible: bool,
+    ) -> Bsdf {
+        Bsdf::RoughPlastic(RoughPlastic::new(
+            MicrofacetDistribution::new(distribution, alpha, alpha, sample_visible),
+            int_ior,
+            ext_ior,
+            diffuse_reflectance,
+            specular_reflectance,
+            nonlinear,
+        ))
+    }
+
     /// Mitsuba's `twosided`: one nested BSDF for both sides, or a second one
     /// for the back. None if a nested BSDF transmits (Mitsuba refuses
     /// those: "Only materials without a transmission component can be
@@ -256,6 +289,7 @@ impl Bsdf {
             Bsdf::Diffuse { albedo } => Some(*albedo),
             Bsdf::Microfacet { kd, .. } => Some(*kd),
             Bsdf::Plastic(p) => Some(p.diffuse_reflectance),
+            Bsdf::RoughPlastic(p) => Some(p.diffuse_reflectance),
             Bsdf::TwoSided { front, .. } => front.albedo(),
             _ => None,
         }
@@ -277,6 +311,7 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.eval(wi, wo),
             Bsdf::RoughDielectric(b) => b.eval(wi, wo),
             Bsdf::Plastic(b) => b.eval(wi, wo),
+            Bsdf::RoughPlastic(b) => b.eval(wi, wo),
             Bsdf::TwoSided { front, back } => {
                 if wi.z > 0.0 {
                     front.eval(wi, wo)
@@ -307,6 +342,7 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.pdf(wi, wo),
             Bsdf::RoughDielectric(b) => b.pdf(wi, wo),
             Bsdf::Plastic(b) => b.pdf(wi, wo),
+            Bsdf::RoughPlastic(b) => b.pdf(wi, wo),
             Bsdf::TwoSided { front, back } => {
                 if wi.z > 0.0 {
                     front.pdf(wi, wo)
@@ -377,6 +413,7 @@ impl Bsdf {
             )),
             Bsdf::RoughDielectric(b) => b.sample(wi, u, u_lobe),
             Bsdf::Plastic(b) => b.sample(wi, u, u_lobe),
+            Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::TwoSided { front, back } => {
                 if wi.z > 0.0 {
                     front.sample(wi, u, u_lobe)
