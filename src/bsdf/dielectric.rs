@@ -1,4 +1,5 @@
-//! Smooth dielectric: Fresnel-weighted choice of reflection or refraction.
+//! Smooth dielectric: Fresnel-weighted choice of reflection or refraction;
+//! and Mitsuba's thin dielectric sheet.
 
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::Rgb;
@@ -31,6 +32,40 @@ pub fn sample(eta: f32, wi: Vec3, u: f32) -> BsdfSample {
             pdf: 1.0 - f,
             specular: true,
             eta: eta_ti,
+        }
+    }
+}
+
+/// Mitsuba's `thindielectric`: a sheet whose two parallel faces reflect
+/// R' = R + T^2 R / (1 - R^2) = 2R / (1 + R) in total (all internal bounces),
+/// with R the Fresnel reflectance at |cos|; the rest passes straight
+/// through (wo = -wi, no refraction: the faces are parallel). Both lobes
+/// are deltas, sampled in proportion to R' and 1 - R'; works from either
+/// side.
+pub fn sample_thin(
+    eta: f32,
+    specular_reflectance: Rgb,
+    specular_transmittance: Rgb,
+    wi: Vec3,
+    u: f32,
+) -> BsdfSample {
+    let (r, _, _) = fresnel_dielectric(wi.z.abs(), eta);
+    let r = 2.0 * r / (1.0 + r);
+    if u <= r {
+        BsdfSample {
+            wo: Vec3::new(-wi.x, -wi.y, wi.z),
+            weight: specular_reflectance,
+            pdf: r,
+            specular: true,
+            eta: 1.0,
+        }
+    } else {
+        BsdfSample {
+            wo: -wi,
+            weight: specular_transmittance,
+            pdf: 1.0 - r,
+            specular: true,
+            eta: 1.0,
         }
     }
 }
