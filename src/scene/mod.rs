@@ -5,6 +5,7 @@
 //! Nori's dialect onto the objects below.
 
 pub mod nori;
+pub mod nori_test;
 pub mod props;
 pub mod xml;
 
