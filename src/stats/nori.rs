@@ -94,7 +94,12 @@ pub fn direction_table(
     let (observed, invalid, declined) = (0..chunks)
         .into_par_iter()
         .map(|c| {
-            let mut s = Sampler::new(seed, c as u64);
+            // State and stream both vary: PCG32 streams sharing a state
+            // are correlated.
+            let mut s = Sampler::new(
+                seed ^ (c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+                seed.rotate_left(17) ^ c as u64,
+            );
             let mut obs = vec![0.0f64; cells];
             let (mut invalid, mut declined) = (0usize, 0usize);
             for _ in (c * CHUNK)..((c + 1) * CHUNK).min(n) {

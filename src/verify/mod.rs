@@ -74,15 +74,22 @@ pub fn derive_seed(seed: u64, a: u64, b: u64) -> u64 {
 /// Samples per parallel work item of the mean estimators.
 const CHUNK: u64 = 4096;
 
+/// The generator of sample `index` of a test: state and stream both hashed
+/// from (seed, index), so that the streams of neighbouring samples are
+/// unrelated (PCG32 streams that share a state are correlated).
+pub fn sample_generator(seed: u64, index: u64) -> Sampler {
+    Sampler::new(derive_seed(seed, index, 0), derive_seed(seed, index, 1))
+}
+
 /// Mean and variance of `f` over `n` samples, each with its own generator
-/// `Sampler::new(seed, index)`; deterministic whatever the thread count.
+/// [`sample_generator`]; deterministic whatever the thread count.
 fn parallel_mean(n: u64, seed: u64, f: impl Fn(&mut Sampler) -> f64 + Sync) -> MeanVar {
     let parts: Vec<MeanVar> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             let mut mv = MeanVar::default();
             for i in (c * CHUNK)..((c + 1) * CHUNK).min(n) {
-                let mut s = Sampler::new(seed, i);
+                let mut s = sample_generator(seed, i);
                 mv.push(f(&mut s));
             }
             mv
