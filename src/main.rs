@@ -308,7 +308,7 @@ fn cmd_test(files: &[PathBuf], seed: u64) -> Result<()> {
                 file
             }
             Err(e) => {
-                println!("ERROR {e}");
+                eprintln!("error: {e}");
                 broken += 1;
                 continue;
             }
@@ -328,7 +328,7 @@ fn cmd_test(files: &[PathBuf], seed: u64) -> Result<()> {
                 total += outcomes.len();
             }
             Err(e) => {
-                println!("ERROR {e}");
+                eprintln!("error: {e}");
                 broken += 1;
             }
         }

@@ -130,9 +130,10 @@ fn a_broken_file_is_reported_with_its_position_and_fails() {
     let good = scenes_dir().join("ttest-diffuse.xml");
     let out = lente_test(&[path.clone(), good]);
     assert!(!out.status.success(), "{}", dump(&out));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let want = format!("error: {}:4:7: cannot read 'zero'", path.display());
+    assert!(stderr.contains(&want), "{}", dump(&out));
     let stdout = String::from_utf8_lossy(&out.stdout);
-    let want = format!("{}:4:7: cannot read 'zero'", path.display());
-    assert!(stdout.contains(&want), "{}", dump(&out));
     // The good file still ran.
     assert!(
         stdout.contains("ttest-diffuse.xml: passed 10/10"),

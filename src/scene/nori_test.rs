@@ -294,10 +294,10 @@ fn read_test(root: &SceneNode, file: &Path) -> Result<(TestFile, Vec<Warning>)> 
         }
     } else {
         let resolution = p.get_int("resolution", 10)?;
-        if !(1..=1000).contains(&resolution) {
+        if !(1..=100).contains(&resolution) {
             return Err(p.error(
                 "resolution",
-                format!("'resolution' must be between 1 and 1000, found {resolution}"),
+                format!("'resolution' must be between 1 and 100, found {resolution}"),
             ));
         }
         let cells = 2 * resolution * resolution;
