@@ -57,8 +57,11 @@ enum Command {
         /// Scene file (Nori XML).
         scene: PathBuf,
     },
-    /// Run Nori test files (<test type="ttest"> or <test type="chi2test">):
-    /// one line per hypothesis test; the exit status is non-zero if any fails.
+    /// Run Nori test files (t-tests and chi-square tests).
+    ///
+    /// Runs the <test type="ttest"> and <test type="chi2test"> files with
+    /// Nori's parameters and defaults and prints one line per hypothesis
+    /// test; the exit status is non-zero if any test fails.
     Test {
         /// Test files (Nori XML).
         #[arg(required = true)]
@@ -67,9 +70,11 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         seed: u64,
     },
-    /// Chi-square test of a warp against its pdf, as Nori's warptest runs it:
-    /// square, tent, disk, uniform_sphere, uniform_hemisphere,
-    /// cosine_hemisphere, beckmann ALPHA, microfacet_brdf ALPHA [KD].
+    /// Chi-square test of a warp against its pdf (Nori's warptest).
+    ///
+    /// Warps: square, tent, disk, uniform_sphere, uniform_hemisphere,
+    /// cosine_hemisphere, beckmann ALPHA, microfacet_brdf ALPHA [KD]. The exit
+    /// status is non-zero if the samples do not follow the pdf.
     Warptest {
         /// The warp.
         name: String,
