@@ -15,3 +15,4 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod stats;
+pub mod verify;

@@ -71,6 +71,41 @@ enum Command {
         #[arg(long)]
         tonemap: Option<Tonemap>,
     },
+    /// Run Nori test files (t-tests and chi-square tests).
+    ///
+    /// Runs the <test type="ttest"> and <test type="chi2test"> files with
+    /// Nori's parameters and defaults and prints one line per hypothesis
+    /// test; the exit status is non-zero if any test fails.
+    Test {
+        /// Test files (Nori XML).
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Seed of the random number streams.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
+    /// Chi-square test of a warp against its pdf (Nori's warptest).
+    ///
+    /// Warps: square, tent, disk, uniform_sphere, uniform_hemisphere,
+    /// cosine_hemisphere, beckmann ALPHA, microfacet_brdf ALPHA [KD]. The exit
+    /// status is non-zero if the samples do not follow the pdf.
+    Warptest {
+        /// The warp.
+        name: String,
+        /// Its parameters (ALPHA, KD).
+        #[arg(allow_negative_numbers = true)]
+        params: Vec<String>,
+        /// Write the observed (left) and expected (right) histograms here as
+        /// a heat-map PNG.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// Incidence angle in degrees of microfacet_brdf's wi (Nori: 0).
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        angle: f32,
+        /// Seed of the random number streams.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
 }
 
 #[derive(clap::Args)]
@@ -172,6 +207,14 @@ fn main() -> ExitCode {
             exposure,
             tonemap,
         } => cmd_convert(&input, &output, exposure, tonemap),
+        Command::Test { files, seed } => cmd_test(&files, seed),
+        Command::Warptest {
+            name,
+            params,
+            png,
+            angle,
+            seed,
+        } => cmd_warptest(&name, &params, png.as_deref(), angle, seed),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -498,5 +541,95 @@ fn cmd_info(scene_path: &Path, defines: &[(String, String)]) -> Result<()> {
         scene.bvh.primitive_count(),
         scene.bvh.build_time.as_secs_f64() * 1e3
     );
+    Ok(())
+}
+
+fn cmd_test(files: &[PathBuf], seed: u64) -> Result<()> {
+    use lente::scene::nori_test::load_test;
+    use lente::verify::run_test_file;
+    let (mut passed, mut total, mut broken) = (0usize, 0usize, 0usize);
+    for path in files {
+        let file = match load_test(path) {
+            Ok((file, warnings)) => {
+                for w in warnings {
+                    eprintln!("{w}");
+                }
+                file
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                broken += 1;
+                continue;
+            }
+        };
+        let start = std::time::Instant::now();
+        let outcomes = run_test_file(&file, seed, |o| println!("{o}"));
+        match outcomes {
+            Ok(outcomes) => {
+                let ok = outcomes.iter().filter(|o| o.passed).count();
+                println!(
+                    "{}: passed {ok}/{} tests in {:.1} s",
+                    path.display(),
+                    outcomes.len(),
+                    start.elapsed().as_secs_f64()
+                );
+                passed += ok;
+                total += outcomes.len();
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                broken += 1;
+            }
+        }
+    }
+    if files.len() > 1 {
+        println!("passed {passed}/{total} tests in {} files", files.len());
+    }
+    if broken > 0 {
+        bail!("{broken} test file(s) could not be run");
+    }
+    if passed < total {
+        bail!("{} of {total} tests failed", total - passed);
+    }
+    Ok(())
+}
+
+fn cmd_warptest(
+    name: &str,
+    params: &[String],
+    png: Option<&Path>,
+    angle: f32,
+    seed: u64,
+) -> Result<()> {
+    use lente::verify::warptest::{heat_map, run_warp_test, Warp, SIGNIFICANCE};
+    let warp = Warp::parse(name, params, angle).map_err(|e| anyhow::anyhow!(e))?;
+    let start = std::time::Instant::now();
+    let out = run_warp_test(&warp, seed);
+    let r = &out.result;
+    println!(
+        "{} {}: {}x{} cells, {} samples{}: chi2 = {:.2}, dof = {}, p = {:.4e} {} {SIGNIFICANCE} ({:.1} s)",
+        if out.passed { "PASS" } else { "FAIL" },
+        warp.describe(),
+        out.hist.rows,
+        out.hist.cols,
+        out.samples,
+        if out.invalid > 0 {
+            format!(" ({} outside the domain)", out.invalid)
+        } else {
+            String::new()
+        },
+        r.statistic,
+        r.dof,
+        r.p_value,
+        if out.passed { ">" } else { "<=" },
+        start.elapsed().as_secs_f64()
+    );
+    if let Some(path) = png {
+        save_image(path, &heat_map(&out.hist))?;
+        println!("wrote {} (observed left, expected right)", path.display());
+    }
+    if !out.passed {
+        bail!("the samples of {} do not follow its pdf", warp.describe());
+    }
     Ok(())
 }

@@ -148,7 +148,7 @@ fn average_visibility_between_parallel_planes() {
         None,
     ));
     let scene = Scene::new(d).unwrap();
-    let mv = estimate(&scene, 100_000, 5);
+    let mv = estimate(&scene, 200_000, 6);
     let expect = (h / length) as f64;
     let r = t_test(&mv, expect);
     assert!(r.passes(0.01), "av {} vs {expect}", mv.mean());

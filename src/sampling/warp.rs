@@ -123,7 +123,8 @@ pub fn square_to_uniform_triangle(s: Vec2) -> Vec2 {
 pub fn square_to_beckmann(s: Vec2, alpha: f32) -> Vec3 {
     let tan2 = -alpha * alpha * (1.0 - s.x).ln();
     let cos_theta = 1.0 / (1.0 + tan2).sqrt();
-    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    // sin = tan cos: exact near the pole, where 1 - cos^2 cancels.
+    let sin_theta = tan2.sqrt() * cos_theta;
     let phi = 2.0 * PI * s.y;
     Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
 }

@@ -6,6 +6,7 @@
 
 pub mod mitsuba;
 pub mod nori;
+pub mod nori_test;
 pub mod props;
 pub mod xml;
 

@@ -83,17 +83,34 @@ const RFILTER_TYPES: &[&str] = &["gaussian", "box", "tent", "mitchell"];
 
 /// Builds a scene from a Nori `<scene>` element.
 pub fn load(root: &SceneNode, file: &Path) -> Result<(SceneDesc, Vec<Warning>)> {
-    let dir = match file.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut ctx = Ctx {
-        file,
-        dir,
-        warnings: Vec::new(),
-    };
+    let mut ctx = Ctx::new(file);
     let desc = ctx.scene(root)?;
     Ok((desc, ctx.warnings))
+}
+
+/// Reads a `<bsdf>` element on its own (the BSDFs of a test file), with
+/// relative paths resolved against `file`'s folder.
+pub(crate) fn load_bsdf(node: &SceneNode, file: &Path) -> Result<(Bsdf, Vec<Warning>)> {
+    let mut ctx = Ctx::new(file);
+    let bsdf = ctx.bsdf(node)?;
+    Ok((bsdf, ctx.warnings))
+}
+
+/// Reads the property elements of an object Nori's scene builder does not
+/// know (a `<test>`): its properties, and its child objects in document
+/// order for the caller to place. Errors as for any object.
+pub(crate) fn read_object<'a, 'n>(
+    node: &'n SceneNode,
+    file: &'a Path,
+    owner: &str,
+) -> Result<(Props<'a>, Vec<&'n SceneNode>)> {
+    Ctx::new(file).read_object(node, owner)
+}
+
+/// Checks that an object element has only a `type` attribute, one of
+/// `known`, and returns it.
+pub(crate) fn object_type<'n>(node: &'n SceneNode, file: &Path, known: &[&str]) -> Result<&'n str> {
+    Ctx::new(file).object_type(node, known)
 }
 
 struct Ctx<'a> {
@@ -121,6 +138,18 @@ enum EmitterDesc {
 }
 
 impl<'a> Ctx<'a> {
+    fn new(file: &'a Path) -> Ctx<'a> {
+        let dir = match file.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        Ctx {
+            file,
+            dir,
+            warnings: Vec::new(),
+        }
+    }
+
     fn err(&self, pos: Pos, message: impl Into<String>) -> SceneError {
         SceneError::new(self.file, pos, message)
     }

@@ -2,6 +2,8 @@
 //! chi-square goodness-of-fit test and Student's t-test, as Nori runs them.
 
 pub mod histogram;
+pub mod nori;
+pub mod quadrature;
 
 pub use histogram::{plane_histogram, sphere_histogram, Histogram};
 

@@ -206,13 +206,19 @@ pub fn sphere(center: Vec3, radius: f32) -> Geometry {
     Geometry::Sphere(Sphere { center, radius })
 }
 
+/// An independent random stream per (seed, sample index): hashed seeds,
+/// since PCG streams that differ only in their increment are correlated.
+pub fn stream(seed: u64, i: usize) -> Sampler {
+    Sampler::for_pixel_sample(seed, i as u32, (i >> 32) as u32, 0x5a11)
+}
+
 /// Nori's `ttest` estimator: `n` camera rays through uniformly random image
 /// positions (and aperture samples), mean and variance of the luminance.
 pub fn estimate(scene: &Scene, n: usize, seed: u64) -> MeanVar {
     let (w, h) = (scene.camera.width() as f32, scene.camera.height() as f32);
     let mut mv = MeanVar::default();
     for i in 0..n {
-        let mut s = Sampler::new(seed, i as u64);
+        let mut s = stream(seed, i);
         let film = s.next_2d() * Vec2::new(w, h);
         let ray = scene.camera.generate_ray(film, s.next_2d());
         let l = scene.integrator.li(scene, &ray, &mut s);
@@ -227,7 +233,7 @@ pub fn estimate_region(scene: &Scene, n: usize, seed: u64, lo: Vec2, hi: Vec2) -
     let (w, h) = (scene.camera.width() as f32, scene.camera.height() as f32);
     let mut mv = MeanVar::default();
     for i in 0..n {
-        let mut s = Sampler::new(seed, i as u64);
+        let mut s = stream(seed, i);
         let f = lo + s.next_2d() * (hi - lo);
         let ray = scene.camera.generate_ray(f * Vec2::new(w, h), s.next_2d());
         let l = scene.integrator.li(scene, &ray, &mut s);
