@@ -150,8 +150,8 @@ fn random_mutations_never_panic() {
     let defines = vec![("radius".to_string(), "0.75".to_string())];
     let (desc, warnings) =
         load_scene_str_with(RICH_SCENE, &path, &defines).expect("the base scene must load");
-    // Only the stand-in BSDFs warn.
-    assert_eq!(warnings.len(), 2, "{warnings:?}");
+    // Every BSDF in it is Mitsuba's own model now: nothing to warn about.
+    assert!(warnings.is_empty(), "{warnings:?}");
     assert_eq!(desc.shapes.len(), 7);
     assert_eq!(desc.emitters.len(), 3);
 

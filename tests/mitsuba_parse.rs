@@ -1265,6 +1265,7 @@ fn integrators() {
 
 #[test]
 fn bsdfs() {
+    use lente::bsdf::{conductor_preset, MicrofacetType};
     let (desc, w) = load(&scene(
         r#"<shape type="sphere"><bsdf type="dielectric"/></shape>
            <shape type="sphere"><bsdf type="dielectric"><string name="int_ior" value="water"/><float name="ext_ior" value="1.1"/></bsdf></shape>
@@ -1274,38 +1275,186 @@ fn bsdfs() {
            <shape type="sphere"><bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/></bsdf></shape>
            <shape type="sphere"><bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.4"/></bsdf></bsdf></shape>
            <shape type="sphere"><bsdf type="thindielectric"/></shape>
-           <shape type="sphere"><bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf></shape>"#,
+           <shape type="sphere"><bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="conductor"><string name="material" value="Cu"/><rgb name="specular_reflectance" value="0.9, 0.8, 0.7"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="conductor"><rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.1"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="roughconductor"/></shape>
+           <shape type="sphere"><bsdf type="roughconductor"><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/><string name="distribution" value="Beckmann"/><boolean name="sample_visible" value="false"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="thindielectric"><string name="int_ior" value="diamond"/><string name="ext_ior" value="water"/><rgb name="specular_reflectance" value="0.5"/><rgb name="specular_transmittance" value="0.25, 0.5, 0.75"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.3"/><float name="int_ior" value="1.33"/><rgb name="specular_transmittance" value="0.9"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="plastic"><string name="int_ior" value="bk7"/><rgb name="specular_reflectance" value="0.5"/><boolean name="nonlinear" value="true"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.25"/><rgb name="diffuse_reflectance" value="0.6, 0.1, 0.1"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="twosided"><bsdf type="conductor"/><bsdf type="diffuse"/></bsdf></shape>"#,
     ));
+    // Every BSDF is Mitsuba's own: no warnings.
+    assert!(w.is_empty(), "{w:?}");
     let b = |i: usize| desc.shapes[i].bsdf.clone();
+    let (au_eta, au_k) = conductor_preset("Au").unwrap();
+    let (cu_eta, cu_k) = conductor_preset("Cu").unwrap();
+    let mirror = Bsdf::conductor(Rgb::ZERO, Rgb::ONE, Rgb::ONE);
     assert_eq!(b(0), Bsdf::dielectric(1.5046, 1.000277));
     assert_eq!(b(1), Bsdf::dielectric(1.333, 1.1));
-    assert_eq!(b(2), Bsdf::Mirror);
-    assert_eq!(b(3), Bsdf::Mirror);
-    assert_eq!(b(4), Bsdf::Mirror);
+    // Mitsuba's default material is none: eta 0, k 1, a perfect mirror.
+    assert_eq!(b(2), mirror);
+    assert_eq!(b(3), mirror);
+    assert_eq!(
+        b(4),
+        Bsdf::rough_conductor(MicrofacetType::Ggx, 0.2, 0.2, au_eta, au_k, Rgb::ONE, true)
+    );
     assert_eq!(
         b(5),
-        Bsdf::Diffuse {
-            albedo: Rgb::new(0.1, 0.2, 0.3)
-        }
+        Bsdf::plastic(1.49, 1.000277, Rgb::new(0.1, 0.2, 0.3), Rgb::ONE, false)
     );
     assert_eq!(
         b(6),
-        Bsdf::Diffuse {
-            albedo: Rgb::splat(0.4)
-        }
+        Bsdf::two_sided(
+            Bsdf::Diffuse {
+                albedo: Rgb::splat(0.4)
+            },
+            None
+        )
+        .unwrap()
     );
-    assert_eq!(b(7), Bsdf::dielectric(1.5046, 1.000277));
-    // One "approximated until ... lands" warning per stand-in.
-    let msgs: Vec<&str> = w.iter().map(|w| w.message.as_str()).collect();
-    assert_eq!(msgs.len(), 5, "{msgs:?}");
-    for (m, what) in msgs.iter().zip([
-        "rough conductor",
-        "plastic",
-        "twosided",
-        "thin dielectric",
-        "rough dielectric",
-    ]) {
-        assert!(m.contains(what) && m.contains("until"), "{m}");
+    assert_eq!(
+        b(7),
+        Bsdf::thin_dielectric(1.5046, 1.000277, Rgb::ONE, Rgb::ONE)
+    );
+    assert_eq!(
+        b(8),
+        Bsdf::rough_dielectric(
+            MicrofacetType::Beckmann,
+            0.1,
+            0.3,
+            1.5046,
+            1.000277,
+            Rgb::ONE,
+            Rgb::ONE,
+            true
+        )
+    );
+    assert_eq!(b(9), Bsdf::conductor(cu_eta, cu_k, Rgb::new(0.9, 0.8, 0.7)));
+    assert_eq!(
+        b(10),
+        Bsdf::conductor(Rgb::new(0.2, 0.9, 1.1), Rgb::new(3.9, 2.4, 2.1), Rgb::ONE)
+    );
+    // Mitsuba's defaults: beckmann, alpha 0.1, material none, visible normals.
+    assert_eq!(
+        b(11),
+        Bsdf::rough_conductor(
+            MicrofacetType::Beckmann,
+            0.1,
+            0.1,
+            Rgb::ZERO,
+            Rgb::ONE,
+            Rgb::ONE,
+            true
+        )
+    );
+    assert_eq!(
+        b(12),
+        Bsdf::rough_conductor(
+            MicrofacetType::Beckmann,
+            0.05,
+            0.3,
+            Rgb::ZERO,
+            Rgb::ONE,
+            Rgb::ONE,
+            false
+        )
+    );
+    assert_eq!(
+        b(13),
+        Bsdf::thin_dielectric(2.419, 1.333, Rgb::splat(0.5), Rgb::new(0.25, 0.5, 0.75))
+    );
+    assert_eq!(
+        b(14),
+        Bsdf::rough_dielectric(
+            MicrofacetType::Ggx,
+            0.3,
+            0.3,
+            1.33,
+            1.000277,
+            Rgb::ONE,
+            Rgb::splat(0.9),
+            true
+        )
+    );
+    assert_eq!(
+        b(15),
+        Bsdf::plastic(1.5046, 1.000277, Rgb::splat(0.5), Rgb::splat(0.5), true)
+    );
+    match b(16) {
+        Bsdf::RoughPlastic(p) => {
+            assert_eq!(p.distr.kind, MicrofacetType::Ggx);
+            assert_eq!((p.distr.alpha_u, p.distr.alpha_v), (0.25, 0.25));
+            assert!(p.distr.sample_visible);
+            assert!((p.eta - 1.49 / 1.000277).abs() < 1e-6);
+            assert_eq!(p.diffuse_reflectance, Rgb::new(0.6, 0.1, 0.1));
+            assert_eq!(p.specular_reflectance, Rgb::ONE);
+            assert!(!p.nonlinear);
+        }
+        other => panic!("expected a rough plastic, found {other:?}"),
+    }
+    assert_eq!(
+        b(17),
+        Bsdf::two_sided(mirror.clone(), Some(Bsdf::default())).unwrap()
+    );
+
+    // Only what lente cannot reproduce warns: tinted smooth dielectrics.
+    let (_, w) = load(&scene(
+        r#"<shape type="sphere"><bsdf type="dielectric"><rgb name="specular_transmittance" value="0.5"/></bsdf></shape>"#,
+    ));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].message.contains("tints"), "{}", w[0]);
+
+    // Shapes sharing a rough plastic (by reference) share one build.
+    let (desc, w) = load(&scene(
+        r#"<bsdf type="roughplastic" id="rp"><float name="alpha" value="0.3"/></bsdf>
+           <shape type="sphere"><ref id="rp"/></shape>
+           <shape type="sphere"><ref id="rp"/></shape>
+           <shape type="sphere"><bsdf type="twosided"><ref id="rp"/></bsdf></shape>"#,
+    ));
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(desc.shapes[0].bsdf, desc.shapes[1].bsdf);
+    assert!(matches!(
+        desc.shapes[0].bsdf,
+        Bsdf::RoughPlastic(ref p) if p.distr.kind == MicrofacetType::Beckmann && p.distr.alpha_u == 0.3
+    ));
+    assert!(matches!(desc.shapes[2].bsdf, Bsdf::TwoSided { .. }));
+
+    // A twosided BSDF cannot hold a transmissive one: an error at the
+    // nested element (or at the reference to it).
+    assert_err(
+        &scene("<shape type=\"sphere\">\n<bsdf type=\"twosided\">\n  <bsdf type=\"dielectric\"/></bsdf></shape>"),
+        6,
+        3,
+        &["<bsdf type=\"dielectric\">", "twosided", "transmission"],
+    );
+    assert_err(
+        &scene("<bsdf type=\"roughdielectric\" id=\"g\"/>\n<shape type=\"sphere\"><bsdf type=\"twosided\"><bsdf type=\"diffuse\"/>\n <ref id=\"g\"/></bsdf></shape>"),
+        6,
+        2,
+        &["roughdielectric", "transmission"],
+    );
+    assert_err(
+        &scene("<shape type=\"sphere\"><bsdf type=\"twosided\">\n<bsdf type=\"thindielectric\"/></bsdf></shape>"),
+        5,
+        1,
+        &["thindielectric", "transmission"],
+    );
+    // Mitsuba's roughplastic is isotropic only.
+    assert!(load_err(&scene(
+        "<shape type=\"sphere\"><bsdf type=\"roughplastic\"><float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" value=\"0.2\"/></bsdf></shape>"
+    ))
+    .message
+    .contains("isotropic"));
+    // W_palik has no data in Mitsuba 3.9.1; CuZn was Mitsuba 0.6's.
+    for bad in ["W_palik", "CuZn"] {
+        assert!(load_err(&scene(&format!(
+            "<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"{bad}\"/></bsdf></shape>"
+        )))
+        .message
+        .contains("unknown conductor material"));
     }
     let e = |body: &str| load_err(&scene(body)).message;
     assert!(e("<shape type=\"sphere\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"glass\"/></bsdf></shape>")

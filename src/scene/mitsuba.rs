@@ -16,9 +16,10 @@
 //!    point forwards, as in Mitsuba).
 //!
 //! Names, defaults and conventions are Mitsuba 3's (see each function).
-//! BSDFs lente does not have yet are read with all their parameters into
-//! [`BsdfSpec`] and stood in for by the closest lente BSDF, with a warning;
-//! [`BsdfSpec::build`] is the single place to switch to the real ones.
+//! BSDFs are read with all their parameters into [`BsdfSpec`];
+//! [`BsdfSpec::build`] makes the lente BSDF (Mitsuba's own models), and
+//! [`BsdfSpec::approximation`] names what it cannot reproduce, for a
+//! warning.
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -26,7 +27,8 @@ use std::path::{Path, PathBuf};
 use super::props::{self, Kind, Props, Value};
 use super::xml::{Pos, SceneNode};
 use super::{SceneDesc, SceneError, ShapeDesc, Warning};
-use crate::bsdf::Bsdf;
+use crate::bsdf::presets::{conductor_preset_names, ior_preset_names};
+use crate::bsdf::{conductor_preset, ior_preset, Bsdf, MicrofacetType};
 use crate::camera::{Aperture, CameraParams};
 use crate::color::Rgb;
 use crate::emitter::{Emitter, EnvFilter, EnvMap};
@@ -82,53 +84,6 @@ const MAX_OBJECTS: usize = 1 << 20;
 
 /// Deepest nesting of objects, counting references (real scenes need 4).
 const MAX_NESTING: usize = 64;
-
-/// Mitsuba's named indices of refraction (`include/mitsuba/render/ior.h`).
-/// The BSDF module will provide these as `ior_preset`; until then they
-/// live here.
-const IOR_TABLE: &[(&str, f32)] = &[
-    ("vacuum", 1.0),
-    ("helium", 1.000036),
-    ("hydrogen", 1.000132),
-    ("air", 1.000277),
-    ("carbon dioxide", 1.00045),
-    ("water", 1.3330),
-    ("acetone", 1.36),
-    ("ethanol", 1.361),
-    ("carbon tetrachloride", 1.461),
-    ("glycerol", 1.4729),
-    ("benzene", 1.501),
-    ("silicone oil", 1.52045),
-    ("bromine", 1.661),
-    ("water ice", 1.31),
-    ("fused quartz", 1.458),
-    ("pyrex", 1.470),
-    ("acrylic glass", 1.49),
-    ("polypropylene", 1.49),
-    ("bk7", 1.5046),
-    ("sodium chloride", 1.544),
-    ("amber", 1.55),
-    ("pet", 1.5750),
-    ("diamond", 2.419),
-];
-
-/// Mitsuba's conductor presets (measured spectra in its `data/ior`).
-#[rustfmt::skip]
-const CONDUCTOR_MATERIALS: &[&str] = &[
-    "a-C", "Ag", "Al", "AlAs", "AlAs_palik", "AlSb", "AlSb_palik", "Au", "Be", "Be_palik", "Cr",
-    "CsI", "CsI_palik", "Cu", "Cu_palik", "Cu2O", "Cu2O_palik", "CuO", "CuO_palik", "d-C",
-    "d-C_palik", "Hg", "Hg_palik", "HgTe", "HgTe_palik", "Ir", "Ir_palik", "K", "K_palik", "Li",
-    "Li_palik", "MgO", "MgO_palik", "Mo", "Mo_palik", "Na_palik", "Nb", "Nb_palik", "Ni_palik",
-    "Rh", "Rh_palik", "Se", "Se_palik", "SiC", "SiC_palik", "SnTe", "SnTe_palik", "Ta", "Ta_palik",
-    "Te", "Te_palik", "ThF4", "ThF4_palik", "TiC", "TiC_palik", "TiN", "TiN_palik", "TiO2",
-    "TiO2_palik", "VC", "VC_palik", "V_palik", "VN", "VN_palik", "W", "W_palik", "none",
-];
-
-/// An index of refraction by Mitsuba's name for it (any case).
-pub fn ior_by_name(name: &str) -> Option<f32> {
-    let lower = name.trim().to_ascii_lowercase();
-    IOR_TABLE.iter().find(|(n, _)| *n == lower).map(|&(_, v)| v)
-}
 
 /// Reads a Mitsuba scene whose root element is `root`, read from `file`.
 /// `defines` are `-D name=value` parameters; they take precedence over the
@@ -532,6 +487,8 @@ struct Ctx<'d> {
     objects: usize,
     /// Objects being built, nested (each inside the one before).
     depth: usize,
+    /// BSDFs with tables built so far (see [`Ctx::build_bsdf`]).
+    built: Vec<(BsdfSpec, Bsdf)>,
 }
 
 /// An emitter read from the file, before it is placed.
@@ -559,6 +516,7 @@ impl<'d> Ctx<'d> {
             referenced: HashSet::new(),
             objects: 0,
             depth: 0,
+            built: Vec::new(),
         };
         for item in items {
             ctx.cur = item.file;
@@ -1968,14 +1926,32 @@ impl<'d> Ctx<'d> {
                 return Err(self.err(node.pos, format!("{owner} has no area")));
             }
         }
+        let bsdf = match bsdf {
+            Some((spec, at)) => self.build_bsdf(&spec, at)?,
+            None => Bsdf::default(),
+        };
         Ok(ShapeDesc {
             geometry,
-            bsdf: bsdf.map_or_else(Bsdf::default, |b| b.0.build()),
+            bsdf,
             area_radiance: area.map(|a| a.0),
         })
     }
 
     // ----- BSDFs -----
+
+    /// The lente BSDF for a spec. Rough plastics build tables (up to half a
+    /// second): shapes that share one (by reference or by equal
+    /// parameters) share the build.
+    fn build_bsdf(&mut self, spec: &BsdfSpec, at: Pos) -> Result<Bsdf> {
+        if let Some((_, b)) = self.built.iter().find(|(s, _)| s == spec) {
+            return Ok(b.clone());
+        }
+        let b = spec.build().map_err(|e| self.err(at, e))?;
+        if spec.has_tables() {
+            self.built.push((spec.clone(), b.clone()));
+        }
+        Ok(b)
+    }
 
     /// Mitsuba's BSDFs with their parameters and defaults (`bsdfs/*.cpp`).
     fn bsdf(&mut self, node: &'d SceneNode) -> Result<BsdfSpec> {
@@ -2045,14 +2021,15 @@ impl<'d> Ctx<'d> {
                         eta: p.get_rgb_or_float("eta", Rgb::ZERO)?,
                         k: p.get_rgb_or_float("k", Rgb::ONE)?,
                     }
-                } else if CONDUCTOR_MATERIALS.contains(&material.as_str()) {
+                } else if conductor_preset(&material).is_some() {
                     ConductorIor::Named(material)
                 } else {
+                    let names: Vec<&str> = conductor_preset_names().collect();
                     return Err(p.error(
                         "material",
                         format!(
                             "unknown conductor material '{material}'; Mitsuba's are: {}",
-                            CONDUCTOR_MATERIALS.join(", ")
+                            names.join(", ")
                         ),
                     ));
                 };
@@ -2082,7 +2059,15 @@ impl<'d> Ctx<'d> {
                 if ty == "plastic" {
                     BsdfSpec::Plastic(params)
                 } else {
-                    BsdfSpec::RoughPlastic(params, roughness(&mut p)?)
+                    let r = roughness(&mut p)?;
+                    if r.alpha_u != r.alpha_v {
+                        return Err(p.error(
+                            "alpha_u",
+                            "roughplastic takes one 'alpha' (Mitsuba's roughplastic is \
+                             isotropic only)",
+                        ));
+                    }
+                    BsdfSpec::RoughPlastic(params, r)
                 }
             }
             _ => {
@@ -2094,7 +2079,19 @@ impl<'d> Ctx<'d> {
                     if inner.len() == 2 {
                         return Err(self.err(c.at, "a twosided BSDF takes one or two <bsdf>s"));
                     }
-                    inner.push(self.enter(c, |x| x.bsdf(c.node))?);
+                    let nested = self.enter(c, |x| x.bsdf(c.node))?;
+                    if nested.transmits() {
+                        return Err(self.err(
+                            c.at,
+                            format!(
+                                "{} transmits light, and a twosided BSDF can only hold \
+                                 BSDFs without transmission (as in Mitsuba); a dielectric \
+                                 is two-sided already, use it without twosided",
+                                describe(c.node)
+                            ),
+                        ));
+                    }
+                    inner.push(nested);
                 }
                 let mut it = inner.into_iter();
                 let Some(front) = it.next() else {
@@ -2279,7 +2276,7 @@ pub enum ConductorIor {
 /// `sample_visible`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Roughness {
-    pub ggx: bool,
+    pub distribution: MicrofacetType,
     pub alpha_u: f32,
     pub alpha_v: f32,
     pub sample_visible: bool,
@@ -2321,70 +2318,136 @@ pub enum BsdfSpec {
 }
 
 impl BsdfSpec {
-    /// The lente BSDF that renders it. Arms marked "stand-in" approximate
-    /// a BSDF lente does not have yet; each becomes the real constructor
-    /// in one line when it lands (and `approximation` loses its case).
-    pub fn build(&self) -> Bsdf {
-        match self {
+    /// The lente BSDF that renders it: Mitsuba's own model, with every
+    /// parameter (see [`BsdfSpec::approximation`] for what is not). An
+    /// error only for a twosided BSDF holding a transmissive one (the
+    /// parser refuses those at the element already).
+    pub fn build(&self) -> std::result::Result<Bsdf, String> {
+        Ok(match self {
             BsdfSpec::Diffuse { reflectance } => Bsdf::Diffuse {
                 albedo: *reflectance,
             },
+            // Lente's smooth dielectric has no tints (see `approximation`).
             BsdfSpec::Dielectric(d) => Bsdf::dielectric(d.int_ior, d.ext_ior),
-            // Stand-in for Bsdf::thin_dielectric(...).
-            BsdfSpec::ThinDielectric(d) => Bsdf::dielectric(d.int_ior, d.ext_ior),
-            // Stand-in for Bsdf::rough_dielectric(...).
-            BsdfSpec::RoughDielectric(d, _) => Bsdf::dielectric(d.int_ior, d.ext_ior),
-            // Stand-in for Bsdf::conductor(eta, k, specular_reflectance).
-            BsdfSpec::Conductor { .. } => Bsdf::Mirror,
-            // Stand-in for Bsdf::rough_conductor(...).
-            BsdfSpec::RoughConductor { .. } => Bsdf::Mirror,
-            // Stand-in for Bsdf::plastic(...).
-            BsdfSpec::Plastic(pl) => Bsdf::Diffuse {
-                albedo: pl.diffuse_reflectance,
-            },
-            // Stand-in for Bsdf::rough_plastic(...).
-            BsdfSpec::RoughPlastic(pl, _) => Bsdf::Diffuse {
-                albedo: pl.diffuse_reflectance,
-            },
-            // Stand-in for Bsdf::two_sided(front, back).
-            BsdfSpec::TwoSided { front, .. } => front.build(),
+            BsdfSpec::ThinDielectric(d) => Bsdf::thin_dielectric(
+                d.int_ior,
+                d.ext_ior,
+                d.specular_reflectance,
+                d.specular_transmittance,
+            ),
+            BsdfSpec::RoughDielectric(d, r) => Bsdf::rough_dielectric(
+                r.distribution,
+                r.alpha_u,
+                r.alpha_v,
+                d.int_ior,
+                d.ext_ior,
+                d.specular_reflectance,
+                d.specular_transmittance,
+                r.sample_visible,
+            ),
+            BsdfSpec::Conductor {
+                ior,
+                specular_reflectance,
+            } => {
+                let (eta, k) = ior.eta_k()?;
+                Bsdf::conductor(eta, k, *specular_reflectance)
+            }
+            BsdfSpec::RoughConductor {
+                ior,
+                specular_reflectance,
+                roughness: r,
+            } => {
+                let (eta, k) = ior.eta_k()?;
+                Bsdf::rough_conductor(
+                    r.distribution,
+                    r.alpha_u,
+                    r.alpha_v,
+                    eta,
+                    k,
+                    *specular_reflectance,
+                    r.sample_visible,
+                )
+            }
+            BsdfSpec::Plastic(pl) => Bsdf::plastic(
+                pl.int_ior,
+                pl.ext_ior,
+                pl.diffuse_reflectance,
+                pl.specular_reflectance,
+                pl.nonlinear,
+            ),
+            BsdfSpec::RoughPlastic(pl, r) => Bsdf::rough_plastic(
+                r.distribution,
+                r.alpha_u,
+                pl.int_ior,
+                pl.ext_ior,
+                pl.diffuse_reflectance,
+                pl.specular_reflectance,
+                pl.nonlinear,
+                r.sample_visible,
+            ),
+            BsdfSpec::TwoSided { front, back } => {
+                let back = match back {
+                    Some(b) => Some(b.build()?),
+                    None => None,
+                };
+                Bsdf::two_sided(front.build()?, back).ok_or_else(|| {
+                    "a twosided BSDF can only hold BSDFs without transmission".to_string()
+                })?
+            }
+        })
+    }
+
+    /// True if it scatters light through the surface (Mitsuba's twosided
+    /// refuses those).
+    pub fn transmits(&self) -> bool {
+        match self {
+            BsdfSpec::Dielectric(_)
+            | BsdfSpec::ThinDielectric(_)
+            | BsdfSpec::RoughDielectric(..) => true,
+            BsdfSpec::TwoSided { front, back } => {
+                front.transmits() || back.as_ref().is_some_and(|b| b.transmits())
+            }
+            _ => false,
         }
     }
 
-    /// Why `build` is not exact, if it is not (for a warning).
-    pub fn approximation(&self) -> Option<String> {
-        let until = |what: &str, by: &str| {
-            Some(format!(
-                "is approximated by {by} until lente's {what} BSDF lands"
-            ))
-        };
+    /// True if building it computes tables (worth sharing).
+    fn has_tables(&self) -> bool {
         match self {
-            BsdfSpec::Diffuse { .. } => None,
-            BsdfSpec::Dielectric(d) => {
-                if d.specular_reflectance != Rgb::ONE || d.specular_transmittance != Rgb::ONE {
-                    Some(
-                        "is rendered without its specular_reflectance/specular_transmittance \
-                         tints (lente's dielectric has none yet)"
-                            .into(),
-                    )
-                } else {
-                    None
-                }
+            BsdfSpec::RoughPlastic(..) => true,
+            BsdfSpec::TwoSided { front, back } => {
+                front.has_tables() || back.as_ref().is_some_and(|b| b.has_tables())
             }
-            BsdfSpec::ThinDielectric(_) => until("thin dielectric", "a smooth dielectric"),
-            BsdfSpec::RoughDielectric(..) => until("rough dielectric", "a smooth dielectric"),
-            BsdfSpec::Conductor {
-                ior: ConductorIor::Custom { eta, k },
-                specular_reflectance,
-            } if *eta == Rgb::ZERO && *k == Rgb::ONE && *specular_reflectance == Rgb::ONE => None,
-            BsdfSpec::Conductor { .. } => until("conductor", "a perfect mirror"),
-            BsdfSpec::RoughConductor { .. } => until("rough conductor", "a perfect mirror"),
-            BsdfSpec::Plastic(_) => until("plastic", "its diffuse_reflectance (diffuse)"),
-            BsdfSpec::RoughPlastic(..) => {
-                until("rough plastic", "its diffuse_reflectance (diffuse)")
+            _ => false,
+        }
+    }
+
+    /// What `build` does not reproduce, if anything (for a warning).
+    pub fn approximation(&self) -> Option<String> {
+        match self {
+            BsdfSpec::Dielectric(d)
+                if d.specular_reflectance != Rgb::ONE || d.specular_transmittance != Rgb::ONE =>
+            {
+                Some(
+                    "is rendered without its specular_reflectance/specular_transmittance \
+                     tints (lente's smooth dielectric has none)"
+                        .into(),
+                )
             }
-            BsdfSpec::TwoSided { .. } => {
-                until("twosided", "its (front) nested BSDF, black from behind")
+            // Nested BSDFs warn for themselves.
+            _ => None,
+        }
+    }
+}
+
+impl ConductorIor {
+    /// The complex index of refraction, per RGB channel, as Mitsuba's RGB
+    /// variants use it.
+    pub fn eta_k(&self) -> std::result::Result<(Rgb, Rgb), String> {
+        match self {
+            ConductorIor::Custom { eta, k } => Ok((*eta, *k)),
+            ConductorIor::Named(name) => {
+                conductor_preset(name).ok_or_else(|| format!("unknown conductor material '{name}'"))
             }
         }
     }
@@ -2394,10 +2457,10 @@ impl BsdfSpec {
 fn ior(p: &mut Props, name: &str, default: f32) -> Result<f32> {
     let v = if p.kind_of(name) == Some(Kind::String) {
         let s = p.require_string(name)?;
-        match ior_by_name(&s) {
+        match ior_preset(s.trim()) {
             Some(v) => v,
             None => {
-                let names: Vec<&str> = IOR_TABLE.iter().map(|(n, _)| *n).collect();
+                let names: Vec<&str> = ior_preset_names().collect();
                 return Err(p.error(
                     name,
                     format!(
@@ -2419,18 +2482,12 @@ fn ior(p: &mut Props, name: &str, default: f32) -> Result<f32> {
 /// `distribution` (beckmann or ggx, default beckmann), `alpha` (0.1) or
 /// both `alpha_u` and `alpha_v`, `sample_visible` (true).
 fn roughness(p: &mut Props) -> Result<Roughness> {
-    let dist = p
-        .get_string("distribution", "beckmann".into())?
-        .to_ascii_lowercase();
-    let ggx = match dist.as_str() {
-        "beckmann" => false,
-        "ggx" => true,
-        _ => {
-            return Err(p.error(
-                "distribution",
-                format!("unknown distribution '{dist}'; use beckmann or ggx"),
-            ))
-        }
+    let dist = p.get_string("distribution", "beckmann".into())?;
+    let Some(distribution) = MicrofacetType::from_name(dist.trim()) else {
+        return Err(p.error(
+            "distribution",
+            format!("unknown distribution '{dist}'; use beckmann or ggx"),
+        ));
     };
     let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
         if p.has("alpha") {
@@ -2448,7 +2505,7 @@ fn roughness(p: &mut Props) -> Result<Roughness> {
         (a, a)
     };
     Ok(Roughness {
-        ggx,
+        distribution,
         alpha_u,
         alpha_v,
         sample_visible: p.get_bool("sample_visible", true)?,
@@ -2797,14 +2854,7 @@ mod tests {
     }
 
     #[test]
-    fn ior_names() {
-        assert_eq!(ior_by_name("BK7"), Some(1.5046));
-        assert_eq!(ior_by_name("air"), Some(1.000277));
-        assert_eq!(ior_by_name("unobtainium"), None);
-    }
-
-    #[test]
-    fn approximations_are_flagged() {
+    fn specs_build_mitsubas_bsdfs() {
         let mirror = BsdfSpec::Conductor {
             ior: ConductorIor::Custom {
                 eta: Rgb::ZERO,
@@ -2812,12 +2862,36 @@ mod tests {
             },
             specular_reflectance: Rgb::ONE,
         };
-        assert_eq!(mirror.build(), Bsdf::Mirror);
+        assert_eq!(
+            mirror.build().unwrap(),
+            Bsdf::conductor(Rgb::ZERO, Rgb::ONE, Rgb::ONE)
+        );
         assert!(mirror.approximation().is_none());
         let gold = BsdfSpec::Conductor {
             ior: ConductorIor::Named("Au".into()),
             specular_reflectance: Rgb::ONE,
         };
-        assert!(gold.approximation().unwrap().contains("until"));
+        let (eta, k) = conductor_preset("Au").unwrap();
+        assert_eq!(gold.build().unwrap(), Bsdf::conductor(eta, k, Rgb::ONE));
+        assert!(gold.approximation().is_none());
+        let glass = DielectricParams {
+            int_ior: 1.5,
+            ext_ior: 1.0,
+            specular_reflectance: Rgb::ONE,
+            specular_transmittance: Rgb::ONE,
+        };
+        let two = BsdfSpec::TwoSided {
+            front: Box::new(BsdfSpec::Diffuse {
+                reflectance: Rgb::ONE,
+            }),
+            back: Some(Box::new(BsdfSpec::Dielectric(glass.clone()))),
+        };
+        assert!(two.transmits());
+        assert!(two.build().is_err());
+        let tinted = BsdfSpec::Dielectric(DielectricParams {
+            specular_reflectance: Rgb::splat(0.5),
+            ..glass
+        });
+        assert!(tinted.approximation().unwrap().contains("tints"));
     }
 }
