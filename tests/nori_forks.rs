@@ -662,3 +662,39 @@ fn a_zaragoza_assignment_scene_loads_and_renders() {
     assert!(img.pixels.iter().all(|p| p.is_finite()));
     assert!(img.mean().max_element() > 0.0);
 }
+
+/// tests/scenes/fork-lights.xml (a Nori t-test file that `lente test`
+/// runs with the others) holds the references its comment derives, and
+/// its lights are the intensities it says.
+#[test]
+fn fork_lights_test_file_references_are_the_closed_forms() {
+    use lente::scene::nori_test::{load_test, NoriTest};
+    use std::f64::consts::PI as PI64;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/fork-lights.xml");
+    let (file, warnings) = load_test(&path).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let NoriTest::SceneTTest {
+        scenes, references, ..
+    } = file.test
+    else {
+        panic!("a scene t-test");
+    };
+    let lum = |c: [f64; 3]| 0.212671 * c[0] + 0.715160 * c[1] + 0.072169 * c[2];
+    let on_axis = 0.5 / PI64 / 4.0;
+    let d2: f64 = 5.25;
+    let off_axis = 0.5 / PI64 * lum([2.0, 1.0, 0.5]) * (2.0 / d2.sqrt()) / d2;
+    let want = [on_axis, on_axis, off_axis, off_axis, off_axis, 0.4];
+    assert_eq!(references.len(), want.len());
+    for (r, w) in references.iter().zip(want) {
+        assert!((r - w).abs() <= 1e-8 * w, "{r} vs {w}");
+    }
+    let i = |k: usize| point_intensity(&scenes[k].desc).1;
+    close(i(0), Rgb::ONE, 0.0);
+    for k in 2..5 {
+        close(i(k), Rgb::new(2.0, 1.0, 0.5), 1e-6);
+    }
+    match scenes[5].desc.emitters.as_slice() {
+        [Emitter::Constant { radiance }] => close(*radiance, Rgb::splat(0.8), 0.0),
+        other => panic!("{other:?}"),
+    }
+}
