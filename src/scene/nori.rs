@@ -5,10 +5,20 @@
 //! may stand where, how properties and transforms are written) are Nori's;
 //! the emitters Nori leaves to its students (point, area, environment) use
 //! the names its assignments use, plus lente's own `sky`.
+//!
+//! The forks students use spell some of those differently, and lente reads
+//! them too (README, "Nori forks"): ETH Zurich's `<emitter type="point">`
+//! with `power` in watts; the Universidad de Zaragoza fork's
+//! `<emitter type="pointlight">` with `radiance` (a radiant intensity, W/sr),
+//! its `<emitter type="environment">` (`filename` optional, `radiance` a
+//! colour multiplier) and its `direct_whitted` integrator. Where a name is
+//! read differently by different forks, lente picks one reading and warns
+//! when the other is likely; names another fork reads and lente does not
+//! get a warning (or, for whole object types, an error) naming that fork.
 
 use std::path::{Path, PathBuf};
 
-use super::props::{self, Props, Value};
+use super::props::{self, Kind, Props, Value};
 use super::xml::{Attribute, Pos, SceneNode};
 use super::{SceneDesc, SceneError, ShapeDesc, Warning};
 use crate::bsdf::Bsdf;
@@ -64,6 +74,7 @@ const INTEGRATOR_TYPES: &[&str] = &[
     "direct_ems",
     "direct_mats",
     "direct_mis",
+    "direct_whitted",
     "path_mats",
     "path_ems",
     "path_mis",
@@ -78,7 +89,44 @@ pub const BUILTIN_SKY: &str = "@sky";
 /// 10^4 cd/m^2, which would overexpose a scene meant for light probes).
 pub const BUILTIN_SKY_EXPOSURE: f32 = 0.35;
 
-const EMITTER_TYPES: &[&str] = &["area", "point", "environment", "envmap", "constant", "sky"];
+const EMITTER_TYPES: &[&str] = &[
+    "area",
+    "point",
+    "pointlight",
+    "environment",
+    "envmap",
+    "constant",
+    "sky",
+];
+
+/// Where the Zaragoza fork's `pointlight` stands when it has no `position`.
+pub const ZARAGOZA_POINT_POSITION: Vec3 = Vec3::new(0.0, 100.0, 0.0);
+
+/// Object types other Nori forks define and lente does not: what they are
+/// there, and what to use instead (appended to the unknown-type error).
+fn fork_type_hint(tag: &str, ty: &str) -> Option<&'static str> {
+    Some(match (tag, ty) {
+        ("bsdf", "roughconductor") => {
+            "'roughconductor' is the Zaragoza fork's rough metal (Beckmann 'alpha', \
+             Schlick's 'R0'); lente's Nori dialect has no metal: the closest is \
+             'microfacet', and Mitsuba 3 scenes have a 'roughconductor'"
+        }
+        ("bsdf", "roughsubstrate") => {
+            "'roughsubstrate' is the Zaragoza fork's rough coating over a diffuse base; \
+             lente's 'microfacet' reads the same 'alpha', 'intIOR', 'extIOR' and 'kd' \
+             but weights the base by 1 - max(kd) (wjakob/nori's model)"
+        }
+        ("bsdf", "roughdielectric") => {
+            "'roughdielectric' is the Zaragoza fork's rough glass; lente reads rough \
+             glass only from Mitsuba 3 scenes"
+        }
+        ("integrator", "depth") => {
+            "'depth' is the Zaragoza fork's first assignment; lente has no depth integrator"
+        }
+        _ => return None,
+    })
+}
+
 const RFILTER_TYPES: &[&str] = &["gaussian", "box", "tent", "mitchell"];
 
 /// Builds a scene from a Nori `<scene>` element.
@@ -213,10 +261,13 @@ impl<'a> Ctx<'a> {
             ));
         };
         if !known.contains(&t.value.as_str()) {
+            let hint = fork_type_hint(&node.tag, &t.value)
+                .map(|h| format!(" ({h})"))
+                .unwrap_or_default();
             return Err(self.err(
                 t.value_pos,
                 format!(
-                    "unknown <{}> type '{}'; known types: {}",
+                    "unknown <{}> type '{}'; known types: {}{hint}",
                     node.tag,
                     t.value,
                     known.join(", ")
@@ -260,6 +311,13 @@ impl<'a> Ctx<'a> {
     }
 
     fn unknown_element(&self, node: &SceneNode) -> SceneError {
+        if node.tag == "texture" {
+            return self.err(
+                node.pos,
+                "unknown element <texture> (textures, as the Zaragoza fork writes them, \
+                 are not supported; give the property a constant <color> instead)",
+            );
+        }
         let all: Vec<&str> = OBJECT_TAGS
             .iter()
             .chain(PROPERTY_TAGS)
@@ -742,7 +800,9 @@ impl<'a> Ctx<'a> {
                 Integrator::Simple { position, energy }
             }
             ("whitted", _) => Integrator::Whitted,
-            ("direct_ems", _) => Integrator::Direct {
+            // The Zaragoza fork's direct_whitted samples every light at the
+            // first hit; one light chosen by power has the same expectation.
+            ("direct_ems", _) | ("direct_whitted", _) => Integrator::Direct {
                 strategy: Strategy::Ems,
             },
             ("direct_mats", _) => Integrator::Direct {
@@ -895,6 +955,13 @@ impl<'a> Ctx<'a> {
                 let int_ior = positive(&mut p, "intIOR", 1.5046)?;
                 let ext_ior = positive(&mut p, "extIOR", 1.000277)?;
                 let kd = p.get_rgb("kd", Rgb::splat(0.5))?;
+                fork_hint(
+                    &mut p,
+                    "R0",
+                    "'R0' (Schlick's reflectance at normal incidence) is read by the Zaragoza \
+                     fork's roughconductor; lente's microfacet takes its Fresnel term from \
+                     'intIOR' and 'extIOR' and ignores 'R0'",
+                )?;
                 if kd.max_element() > 1.0 {
                     return Err(p.error(
                         "kd",
@@ -911,6 +978,64 @@ impl<'a> Ctx<'a> {
         p.finish(&mut self.warnings);
         self.no_children(objects, &owner)?;
         Ok(bsdf)
+    }
+
+    /// The radiant intensity (W/sr) of a point light, from whichever of
+    /// the forks' spellings it is given in: `power` (ETH: watts, so
+    /// I = power / 4pi), `radiance` (the Zaragoza fork: I itself) or
+    /// `intensity` (Mitsuba and some Nori derivatives: I itself).
+    fn point_intensity(
+        &mut self,
+        p: &mut Props,
+        pos: Pos,
+        owner: &str,
+        zaragoza: bool,
+    ) -> Result<Rgb> {
+        let mut given: Vec<&str> = ["power", "radiance", "intensity"]
+            .into_iter()
+            .filter(|n| p.has(n))
+            .collect();
+        given.sort_by_key(|n| p.value_pos(n));
+        if let [first, second, ..] = given[..] {
+            return Err(p.error(
+                second,
+                format!(
+                    "{owner} gives both '{first}' and '{second}'; give one: 'power' (watts, \
+                     as ETH's Nori writes it), 'radiance' (W/sr, as the Zaragoza fork writes \
+                     it) or 'intensity' (W/sr)"
+                ),
+            ));
+        }
+        match given.first().copied() {
+            Some("power") => Ok(p.require_rgb("power")? / (4.0 * PI)),
+            Some("radiance") => {
+                let r = p.require_rgb("radiance")?;
+                if !zaragoza {
+                    p.warn(
+                        "radiance",
+                        "'radiance' of a point light is read as the Zaragoza fork's pointlight \
+                         reads it: a radiant intensity in W/sr (the light emits 4pi x radiance \
+                         watts); ETH's point light takes 'power' in watts instead",
+                    );
+                }
+                Ok(r)
+            }
+            Some(_) => p.require_rgb("intensity"),
+            None if zaragoza => {
+                self.warn(
+                    pos,
+                    format!(
+                        "{owner} has no 'radiance'; as in the Zaragoza fork, its radiant \
+                         intensity is 1 W/sr"
+                    ),
+                );
+                Ok(Rgb::ONE)
+            }
+            None => Err(p.object_error(format!(
+                "{owner} needs the property 'power' (a <color>: the light's power in watts), \
+                 or 'radiance' or 'intensity' (its radiant intensity in W/sr)"
+            ))),
+        }
     }
 
     fn emitter(&mut self, node: &SceneNode, in_mesh: bool) -> Result<EmitterDesc> {
@@ -936,14 +1061,38 @@ impl<'a> Ctx<'a> {
         let (mut p, objects) = self.read_object(node, &owner)?;
         self.no_children(objects, &owner)?;
         let desc = match ty {
-            "area" => EmitterDesc::Area(p.require_rgb("radiance")?),
-            "point" => {
-                let position = p.require_point("position")?;
-                let power = p.require_rgb("power")?;
+            "area" => {
+                fork_hint(
+                    &mut p,
+                    "scale",
+                    "'scale' is read by the Zaragoza fork's area emitter, which never applies \
+                     it; lente ignores it too (scale 'radiance' instead)",
+                )?;
+                EmitterDesc::Area(p.require_rgb("radiance")?)
+            }
+            "point" | "pointlight" => {
+                let zaragoza = ty == "pointlight";
+                let position = match p.opt_point("position")? {
+                    Some(x) => x,
+                    None if zaragoza => {
+                        let v = ZARAGOZA_POINT_POSITION;
+                        self.warn(
+                            node.pos,
+                            format!(
+                                "{owner} has no 'position'; as in the Zaragoza fork, it stands \
+                                 at ({}, {}, {})",
+                                v.x, v.y, v.z
+                            ),
+                        );
+                        v
+                    }
+                    None => p.require_point("position")?,
+                };
+                let intensity = self.point_intensity(&mut p, node.pos, &owner, zaragoza)?;
                 EmitterDesc::Free {
                     emitter: Emitter::Point {
                         position,
-                        intensity: power / (4.0 * PI),
+                        intensity,
                     },
                     environment: false,
                 }
@@ -955,11 +1104,47 @@ impl<'a> Ctx<'a> {
                 environment: true,
             },
             "environment" | "envmap" => {
-                let name = p.require_string("filename")?;
+                let name = if ty == "environment" {
+                    p.opt_string("filename")?
+                } else {
+                    Some(p.require_string("filename")?)
+                };
+                // The Zaragoza fork's colour multiplier (default 1).
+                let radiance = p.opt_rgb("radiance")?;
+                let scale = non_negative(&mut p, "scale", 1.0)?;
+                let Some(name) = name else {
+                    // The Zaragoza fork: no image means a uniform
+                    // environment of 'radiance'.
+                    if radiance.is_none() {
+                        self.warn(
+                            node.pos,
+                            format!(
+                                "{owner} has no 'filename'; as in the Zaragoza fork, it is a \
+                                 uniform environment of radiance 1 (give 'filename' for an \
+                                 image, or 'radiance' for a uniform colour)"
+                            ),
+                        );
+                    }
+                    let radiance = radiance.unwrap_or(Rgb::ONE) * scale;
+                    p.finish(&mut self.warnings);
+                    return Ok(EmitterDesc::Free {
+                        emitter: Emitter::Constant { radiance },
+                        environment: true,
+                    });
+                };
                 if name.trim().is_empty() {
                     return Err(p.error("filename", "'filename' is empty"));
                 }
-                let scale = non_negative(&mut p, "scale", 1.0)?;
+                if radiance.is_some() && !p.has("toWorld") && name.trim() != BUILTIN_SKY {
+                    p.warn(
+                        "radiance",
+                        "'radiance' is the Zaragoza fork's multiplier of the map, and lente \
+                         applies it; but that fork lays the map out with u = atan2(z, x) / 2pi \
+                         (its left edge looks down +x) where lente follows Mitsuba (left edge \
+                         down -z): to see the map as the Zaragoza fork shows it, add \
+                         <transform name=\"toWorld\"><rotate axis=\"0,1,0\" angle=\"-90\"/></transform>",
+                    );
+                }
                 let to_world = p.get_transform("toWorld", Transform::IDENTITY)?;
                 if !is_rotation(&to_world) {
                     return Err(p.error(
@@ -997,6 +1182,12 @@ impl<'a> Ctx<'a> {
                     }
                     image
                 };
+                let mut image = image;
+                if let Some(r) = radiance.filter(|r| *r != Rgb::ONE) {
+                    for px in &mut image.pixels {
+                        *px *= r;
+                    }
+                }
                 let mut env = EnvMap::new(image, scale, to_world, filter);
                 env.visible = visible;
                 return Ok(EmitterDesc::Free {
@@ -1045,6 +1236,43 @@ impl<'a> Ctx<'a> {
         p.finish(&mut self.warnings);
         Ok(desc)
     }
+}
+
+/// A property another fork reads and lente does not: marks it as read and
+/// warns with `message` (which names that fork's reading), instead of the
+/// generic "unused property" warning.
+fn fork_hint(p: &mut Props, name: &str, message: &str) -> Result<()> {
+    let Some(kind) = p.kind_of(name) else {
+        return Ok(());
+    };
+    match kind {
+        Kind::Bool => {
+            let _ = p.opt_bool(name)?;
+        }
+        Kind::Int => {
+            let _ = p.opt_int(name)?;
+        }
+        Kind::Float => {
+            let _ = p.opt_float_raw(name)?;
+        }
+        Kind::String => {
+            let _ = p.opt_string(name)?;
+        }
+        Kind::Point => {
+            let _ = p.opt_point_raw(name)?;
+        }
+        Kind::Vector => {
+            let _ = p.opt_vector_raw(name)?;
+        }
+        Kind::Color => {
+            let _ = p.opt_rgb_raw(name)?;
+        }
+        Kind::Transform => {
+            let _ = p.opt_transform(name)?;
+        }
+    }
+    p.warn(name, message);
+    Ok(())
 }
 
 fn set_sampler(ctx: &Ctx, slot: &mut Option<(u32, Pos)>, spp: u32, pos: Pos) -> Result<()> {
