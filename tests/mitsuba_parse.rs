@@ -1589,7 +1589,7 @@ fn shipped(name: &str) -> PathBuf {
 
 #[test]
 fn shipped_scenes_load_without_warnings() {
-    for name in ["cbox.xml", "envmap.xml", "sunlight.xml"] {
+    for name in ["cbox.xml", "envmap.xml", "sunlight.xml", "showcase.xml"] {
         let (desc, w) = load_scene(&shipped(name)).unwrap_or_else(|e| panic!("{e}"));
         assert!(w.is_empty(), "{name}: {w:?}");
         assert!(!desc.shapes.is_empty());
