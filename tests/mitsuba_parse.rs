@@ -1141,7 +1141,9 @@ fn emitters() {
            <emitter type="directional"/>
            <emitter type="directional"><transform name="to_world"><lookat origin="0, 0, 0" target="0, -1, 0" up="0, 0, 1"/></transform></emitter>
            <shape type="rectangle"><emitter type="area"/></shape>
-           <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="3, 2, 1"/></emitter></shape>"#,
+           <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="3, 2, 1"/></emitter></shape>
+           <shape type="rectangle"><bsdf type="diffuse"/><emitter type="area"/></shape>
+           <shape type="rectangle"/>"#,
     );
     let (desc, w) = load_scene_str(&text, &dir.join("s.xml")).unwrap();
     assert!(w.is_empty(), "{w:?}");
@@ -1178,6 +1180,14 @@ fn emitters() {
     }
     assert_eq!(desc.shapes[0].area_radiance, Some(Rgb::ONE));
     assert_eq!(desc.shapes[1].area_radiance, Some(Rgb::new(3.0, 2.0, 1.0)));
+    // Mitsuba's default BSDF is diffuse 0.5, but black on an emitter
+    // (`render/shape.cpp`); a BSDF given explicitly is kept.
+    let black = Bsdf::Diffuse { albedo: Rgb::ZERO };
+    assert_eq!(desc.shapes[0].bsdf, black);
+    assert_eq!(desc.shapes[1].bsdf, black);
+    assert_eq!(desc.shapes[2].bsdf, Bsdf::default());
+    assert_eq!(desc.shapes[3].bsdf, Bsdf::default());
+    assert_eq!(desc.shapes[3].area_radiance, None);
 
     let e = |body: &str| load_err(&scene(body));
     assert!(
@@ -1579,7 +1589,7 @@ fn shipped(name: &str) -> PathBuf {
 
 #[test]
 fn shipped_scenes_load_without_warnings() {
-    for name in ["cbox.xml", "envmap.xml", "sunlight.xml"] {
+    for name in ["cbox.xml", "envmap.xml", "sunlight.xml", "showcase.xml"] {
         let (desc, w) = load_scene(&shipped(name)).unwrap_or_else(|e| panic!("{e}"));
         assert!(w.is_empty(), "{name}: {w:?}");
         assert!(!desc.shapes.is_empty());

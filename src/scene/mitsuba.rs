@@ -1928,6 +1928,9 @@ impl<'d> Ctx<'d> {
         }
         let bsdf = match bsdf {
             Some((spec, at)) => self.build_bsdf(&spec, at)?,
+            // Mitsuba's default (`render/shape.cpp`): diffuse 0.5, but
+            // black for an emitter, so lights do not reflect.
+            None if area.is_some() => Bsdf::Diffuse { albedo: Rgb::ZERO },
             None => Bsdf::default(),
         };
         Ok(ShapeDesc {

@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""Writes the small assets of the Mitsuba conformance scenes (run from any
+folder; files go next to this script). Plain Python, no packages:
+
+- icosphere.obj: a once-subdivided icosahedron (80 faces) without normals,
+  so both renderers compute smooth vertex normals;
+- prism.ply: a hexagonal prism, binary little-endian, with uvs and
+  per-corner normals (flat sides, split vertices);
+- stripes.pfm: a 32 x 16 lat-long map whose rows are all equal (it varies
+  with the azimuth only; see tests/mitsuba_conformance.rs for why), with a
+  bright sector and a colour ramp.
+"""
+
+import math
+import os
+import struct
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def icosphere():
+    t = (1 + 5 ** 0.5) / 2
+    verts = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0),
+             (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+             (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    verts = [tuple(c / math.sqrt(sum(x * x for x in v)) for c in v) for v in verts]
+    faces = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11),
+             (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6), (7, 1, 8),
+             (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9),
+             (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    mid = {}
+
+    def midpoint(a, b):
+        key = (min(a, b), max(a, b))
+        if key not in mid:
+            m = [(verts[a][i] + verts[b][i]) / 2 for i in range(3)]
+            n = math.sqrt(sum(x * x for x in m))
+            verts.append(tuple(x / n for x in m))
+            mid[key] = len(verts) - 1
+        return mid[key]
+
+    out = []
+    for a, b, c in faces:
+        ab, bc, ca = midpoint(a, b), midpoint(b, c), midpoint(c, a)
+        out += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+    with open(os.path.join(HERE, "icosphere.obj"), "w") as f:
+        f.write("# once-subdivided icosahedron, unit radius, no normals\n")
+        for v in verts:
+            f.write("v %.6f %.6f %.6f\n" % v)
+        for tri in out:
+            f.write("f %d %d %d\n" % tuple(i + 1 for i in tri))
+
+
+def prism():
+    """Hexagonal prism around +z, radius 1, z in [0, 1], outward normals."""
+    n = 6
+    verts = []  # (x, y, z, nx, ny, nz, u, v)
+    faces = []
+    ring = [(math.cos(2 * math.pi * i / n), math.sin(2 * math.pi * i / n)) for i in range(n)]
+    for i in range(n):
+        (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % n]
+        nx, ny = (x0 + x1) / 2, (y0 + y1) / 2
+        ln = math.hypot(nx, ny)
+        nx, ny = nx / ln, ny / ln
+        base = len(verts)
+        for (x, y, z, u, v) in [(x0, y0, 0, i / n, 0), (x1, y1, 0, (i + 1) / n, 0),
+                                (x1, y1, 1, (i + 1) / n, 1), (x0, y0, 1, i / n, 1)]:
+            verts.append((x, y, z, nx, ny, 0.0, u, v))
+        faces.append((base, base + 1, base + 2, base + 3))
+    for z, nz in [(0.0, -1.0), (1.0, 1.0)]:
+        base = len(verts)
+        for x, y in ring:
+            verts.append((x, y, z, 0.0, 0.0, nz, (x + 1) / 2, (y + 1) / 2))
+        idx = list(range(base, base + n))
+        faces.append(tuple(idx if nz > 0 else idx[::-1]))
+    # Triangles only (fans): every PLY reader takes those.
+    tris = [(f[0], f[k], f[k + 1]) for f in faces for k in range(1, len(f) - 1)]
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        "comment hexagonal prism for the lente/Mitsuba conformance check\n"
+        "element vertex %d\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "property float nx\nproperty float ny\nproperty float nz\n"
+        "property float u\nproperty float v\n"
+        "element face %d\nproperty list uchar int vertex_indices\nend_header\n"
+        % (len(verts), len(tris))
+    )
+    with open(os.path.join(HERE, "prism.ply"), "wb") as f:
+        f.write(header.encode("ascii"))
+        for v in verts:
+            f.write(struct.pack("<8f", *v))
+        for tri in tris:
+            f.write(struct.pack("<B3i", 3, *tri))
+
+
+def stripes():
+    w, h = 32, 16
+    row = []
+    for i in range(w):
+        u = (i + 0.5) / w
+        r = 0.3 + 0.5 * u
+        g = 0.4 + 0.3 * math.sin(2 * math.pi * u) ** 2
+        b = 0.9 - 0.6 * u
+        if 5 <= i <= 6:  # a bright sector, 2 texels wide
+            r, g, b = 12.0, 10.0, 7.0
+        row.append((r, g, b))
+    with open(os.path.join(HERE, "stripes.pfm"), "wb") as f:
+        f.write(b"PF\n%d %d\n-1.0\n" % (w, h))
+        for _ in range(h):
+            for px in row:
+                f.write(struct.pack("<3f", *px))
+
+
+if __name__ == "__main__":
+    icosphere()
+    prism()
+    stripes()
