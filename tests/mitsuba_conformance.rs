@@ -122,31 +122,31 @@ const CASES: &[Case] = &[
     Case {
         file: "area_box.xml",
         covers: "perspective; area; rectangle, cube, sphere; diffuse, plastic, roughconductor GGX (Au)",
-        spp: 256,
+        spp: 192,
         renders: 16,
     },
     Case {
         file: "env_metals.xml",
         covers: "perspective; envmap (rotated); disk, sphere; conductor none, conductor Cu, roughconductor Beckmann (Al)",
-        spp: 256,
+        spp: 192,
         renders: 16,
     },
     Case {
         file: "glass_constant.xml",
         covers: "perspective; constant; cube, rectangle, sphere; dielectric, thindielectric, roughdielectric GGX",
-        spp: 256,
+        spp: 192,
         renders: 16,
     },
     Case {
         file: "delta_lights.xml",
         covers: "perspective; point, directional; obj, ply, cylinder, rectangle; roughplastic, plastic, twosided (1 and 2 BSDFs)",
-        spp: 256,
+        spp: 192,
         renders: 16,
     },
     Case {
         file: "thinlens_env.xml",
         covers: "thinlens; envmap; rectangle, sphere; diffuse, conductor, plastic",
-        spp: 256,
+        spp: 192,
         renders: 16,
     },
 ];
