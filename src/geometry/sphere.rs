@@ -41,15 +41,14 @@ impl Sphere {
     /// Applies a similarity transform; anything that shears or scales
     /// unevenly would no longer be a sphere.
     pub fn transform(&mut self, t: &Transform) -> Result<(), String> {
-        let sx = t.vector(Vec3::X).length();
-        let sy = t.vector(Vec3::Y).length();
-        let sz = t.vector(Vec3::Z).length();
-        let tol = 1e-4 * sx.max(sy).max(sz);
-        if (sx - sy).abs() > tol || (sx - sz).abs() > tol {
-            return Err(format!(
-                "a sphere can only be transformed by a similarity, but the scale factors are {sx}, {sy}, {sz}"
-            ));
+        if !t.is_similarity() {
+            return Err(
+                "a sphere's transform must be a similarity (rotations, translations and \
+                 uniform scales only)"
+                    .into(),
+            );
         }
+        let sx = t.vector(Vec3::X).length();
         self.center = t.point(self.center);
         self.radius *= sx;
         Ok(())

@@ -1,6 +1,6 @@
 //! Affine transforms carried with their inverse.
 
-use super::{Mat4, Vec3};
+use super::{Mat3, Mat4, Vec3, Vec4};
 
 /// A 4x4 transform and its inverse, so normals and inverse mappings are cheap.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,6 +60,28 @@ impl Transform {
     /// Transforms a normal by the inverse transpose (not normalised).
     pub fn normal(&self, n: Vec3) -> Vec3 {
         self.inv.transpose().transform_vector3(n)
+    }
+
+    /// Linear (upper-left 3x3) part of the matrix.
+    pub fn linear(&self) -> Mat3 {
+        Mat3::from_mat4(self.m)
+    }
+
+    /// True if the linear part has orthogonal columns of equal length and
+    /// the last row is affine: rotations, mirrors, uniform scales and
+    /// translations, the transforms that keep a sphere a sphere.
+    pub fn is_similarity(&self) -> bool {
+        let m = self.linear();
+        let s2 = m.x_axis.length_squared();
+        if !(s2 > 0.0 && s2.is_finite()) || (self.m.row(3) - Vec4::W).abs().max_element() > 1e-6 {
+            return false;
+        }
+        let g = m.transpose() * m;
+        let tol = 1e-4 * s2;
+        (g - Mat3::from_diagonal(Vec3::splat(s2)))
+            .to_cols_array()
+            .iter()
+            .all(|x| x.abs() <= tol)
     }
 
     /// True if the transform flips handedness.

@@ -25,7 +25,8 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use super::props::{self, Kind, Props, Value};
-use super::xml::{Pos, SceneNode};
+use super::props::{int_in, positive, shorten};
+use super::xml::{describe, Pos, SceneNode};
 use super::{SceneDesc, SceneError, ShapeDesc, Warning};
 use crate::bsdf::presets::{conductor_preset_names, ior_preset_names};
 use crate::bsdf::{conductor_preset, ior_preset, Bsdf, MicrofacetType};
@@ -1886,13 +1887,6 @@ impl<'d> Ctx<'d> {
             }
             Source::Sphere(s) => {
                 let mut g = Geometry::Sphere(s);
-                if !is_similarity(&to_world) {
-                    return Err(self.err(
-                        to_world_pos,
-                        "a sphere's to_world must be a similarity (rotations, translations \
-                         and uniform scales only)",
-                    ));
-                }
                 g.transform(&to_world)
                     .map_err(|e| self.err(to_world_pos, e))?;
                 if flip_normals {
@@ -2690,14 +2684,10 @@ fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> std::result::Result<Mat4, St
     ))
 }
 
-fn linear_part(t: &Transform) -> Mat3 {
-    Mat3::from_mat4(t.m)
-}
-
 /// Mitsuba's `Transform::has_scale`: M M^T differs from the identity by
 /// more than 1e-3 somewhere (mirrors do not count as scale).
 fn has_scale(t: &Transform) -> bool {
-    let m = linear_part(t);
+    let m = t.linear();
     let g = m * m.transpose();
     (g - Mat3::IDENTITY)
         .to_cols_array()
@@ -2710,31 +2700,8 @@ fn is_rotation(t: &Transform) -> bool {
     !has_scale(t)
 }
 
-/// Orthogonal columns of equal length (and an affine last row).
-fn is_similarity(t: &Transform) -> bool {
-    let m = linear_part(t);
-    let s2 = m.x_axis.length_squared();
-    if !(s2 > 0.0 && s2.is_finite()) || (t.m.row(3) - Vec4::W).abs().max_element() > 1e-6 {
-        return false;
-    }
-    let g = m.transpose() * m;
-    let tol = 1e-4 * s2;
-    (g - Mat3::from_diagonal(Vec3::splat(s2)))
-        .to_cols_array()
-        .iter()
-        .all(|x| x.abs() <= tol)
-}
-
 fn is_texture(node: &SceneNode) -> bool {
     node.tag == "texture" || (node.tag == "spectrum" && node.attr("type").is_some())
-}
-
-/// `<shape type="obj">`, or `<shape>` for an untyped element.
-fn describe(node: &SceneNode) -> String {
-    match node.attr_value("type") {
-        Some(t) => format!("<{} type=\"{t}\">", node.tag),
-        None => format!("<{}>", node.tag),
-    }
 }
 
 fn check_attributes(
@@ -2807,34 +2774,6 @@ fn parent_dir(file: &Path) -> PathBuf {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     }
-}
-
-/// Integer property within [min, max].
-fn int_in(p: &mut Props, name: &str, default: i64, min: i64, max: i64) -> Result<i64> {
-    let v = p.get_int(name, default)?;
-    if v < min || v > max {
-        return Err(p.error(
-            name,
-            format!("'{name}' must be between {min} and {max}, found {v}"),
-        ));
-    }
-    Ok(v)
-}
-
-fn positive(p: &mut Props, name: &str, default: f32) -> Result<f32> {
-    let v = p.get_float(name, default)?;
-    if v <= 0.0 {
-        return Err(p.error(name, format!("'{name}' must be positive, found {v}")));
-    }
-    Ok(v)
-}
-
-fn shorten(s: &str) -> String {
-    let mut out: String = s.chars().take(30).collect();
-    if s.chars().count() > 30 {
-        out.push_str("...");
-    }
-    out
 }
 
 #[cfg(test)]

@@ -19,7 +19,8 @@
 use std::path::{Path, PathBuf};
 
 use super::props::{self, Kind, Props, Value};
-use super::xml::{Attribute, Pos, SceneNode};
+use super::props::{int_in, non_negative, positive, shorten};
+use super::xml::{describe, Attribute, Pos, SceneNode};
 use super::{SceneDesc, SceneError, ShapeDesc, Warning};
 use crate::bsdf::Bsdf;
 use crate::camera::{Aperture, CameraParams};
@@ -166,14 +167,6 @@ struct Ctx<'a> {
     /// Relative file names are resolved against this folder.
     dir: PathBuf,
     warnings: Vec<Warning>,
-}
-
-/// `<camera type="perspective">`, or `<scene>` for an untyped element.
-fn describe(node: &SceneNode) -> String {
-    match node.attr_value("type") {
-        Some(t) => format!("<{} type=\"{t}\">", node.tag),
-        None => format!("<{}>", node.tag),
-    }
 }
 
 /// A camera with its filter and the sampler nested in it, if any.
@@ -907,13 +900,6 @@ impl<'a> Ctx<'a> {
             Source::Sphere(s) => {
                 let mut g = Geometry::Sphere(s);
                 if let Some(t) = &to_world {
-                    if !is_similarity(t) {
-                        return Err(self.err(
-                            to_world_pos,
-                            "a sphere's toWorld must be a similarity (rotations, translations \
-                             and uniform scales only)",
-                        ));
-                    }
                     g.transform(t).map_err(|e| self.err(to_world_pos, e))?;
                 }
                 g
@@ -1286,34 +1272,6 @@ fn set_sampler(ctx: &Ctx, slot: &mut Option<(u32, Pos)>, spp: u32, pos: Pos) -> 
     Ok(())
 }
 
-/// Integer property within [min, max].
-fn int_in(p: &mut Props, name: &str, default: i64, min: i64, max: i64) -> Result<i64> {
-    let v = p.get_int(name, default)?;
-    if v < min || v > max {
-        return Err(p.error(
-            name,
-            format!("'{name}' must be between {min} and {max}, found {v}"),
-        ));
-    }
-    Ok(v)
-}
-
-fn positive(p: &mut Props, name: &str, default: f32) -> Result<f32> {
-    let v = p.get_float(name, default)?;
-    if v <= 0.0 {
-        return Err(p.error(name, format!("'{name}' must be positive, found {v}")));
-    }
-    Ok(v)
-}
-
-fn non_negative(p: &mut Props, name: &str, default: f32) -> Result<f32> {
-    let v = p.get_float(name, default)?;
-    if v < 0.0 {
-        return Err(p.error(name, format!("'{name}' must not be negative, found {v}")));
-    }
-    Ok(v)
-}
-
 /// Nori's lookAt: columns (left, up, dir, origin).
 fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> std::result::Result<Mat4, String> {
     let to = target - origin;
@@ -1340,28 +1298,9 @@ fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> std::result::Result<Mat4, St
     ))
 }
 
-fn linear_part(t: &Transform) -> Mat3 {
-    Mat3::from_mat4(t.m)
-}
-
-/// Orthogonal columns of equal length (and an affine last row).
-fn is_similarity(t: &Transform) -> bool {
-    let m = linear_part(t);
-    let s2 = m.x_axis.length_squared();
-    if !s2.is_finite() || s2 <= 0.0 || (t.m.row(3) - Vec4::W).abs().max_element() > 1e-6 {
-        return false;
-    }
-    let g = m.transpose() * m;
-    let tol = 1e-4 * s2;
-    (g - Mat3::from_diagonal(Vec3::splat(s2)))
-        .to_cols_array()
-        .iter()
-        .all(|x| x.abs() <= tol)
-}
-
 /// Orthonormal linear part (rotations, possibly with a mirror).
 fn is_rotation(t: &Transform) -> bool {
-    let m = linear_part(t);
+    let m = t.linear();
     let g = m.transpose() * m;
     (g - Mat3::IDENTITY)
         .to_cols_array()
@@ -1375,14 +1314,6 @@ fn quoted_list(names: &[&str]) -> String {
         .map(|n| format!("'{n}'"))
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-fn shorten(s: &str) -> String {
-    let mut out: String = s.chars().take(30).collect();
-    if s.chars().count() > 30 {
-        out.push_str("...");
-    }
-    out
 }
 
 #[cfg(test)]
@@ -1408,9 +1339,9 @@ mod tests {
         ))
         .unwrap();
         assert!(is_rotation(&rot));
-        assert!(is_similarity(&rot));
+        assert!(rot.is_similarity());
         let sim = Transform::new(Mat4::from_scale(Vec3::splat(2.0)) * rot.m).unwrap();
-        assert!(is_similarity(&sim));
+        assert!(sim.is_similarity());
         assert!(!is_rotation(&sim));
         let shear = Transform::new(Mat4::from_cols(
             Vec4::new(1.0, 0.0, 0.0, 0.0),
@@ -1419,6 +1350,6 @@ mod tests {
             Vec4::W,
         ))
         .unwrap();
-        assert!(!is_similarity(&shear));
+        assert!(!shear.is_similarity());
     }
 }

@@ -541,6 +541,42 @@ pub fn parse_bool(file: &Path, attr: &Attribute) -> Result<bool> {
     }
 }
 
+/// Integer property within [min, max].
+pub(crate) fn int_in(p: &mut Props, name: &str, default: i64, min: i64, max: i64) -> Result<i64> {
+    let v = p.get_int(name, default)?;
+    if v < min || v > max {
+        return Err(p.error(
+            name,
+            format!("'{name}' must be between {min} and {max}, found {v}"),
+        ));
+    }
+    Ok(v)
+}
+
+pub(crate) fn positive(p: &mut Props, name: &str, default: f32) -> Result<f32> {
+    let v = p.get_float(name, default)?;
+    if v <= 0.0 {
+        return Err(p.error(name, format!("'{name}' must be positive, found {v}")));
+    }
+    Ok(v)
+}
+
+pub(crate) fn non_negative(p: &mut Props, name: &str, default: f32) -> Result<f32> {
+    let v = p.get_float(name, default)?;
+    if v < 0.0 {
+        return Err(p.error(name, format!("'{name}' must not be negative, found {v}")));
+    }
+    Ok(v)
+}
+
+pub(crate) fn shorten(s: &str) -> String {
+    let mut out: String = s.chars().take(30).collect();
+    if s.chars().count() > 30 {
+        out.push_str("...");
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

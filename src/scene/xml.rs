@@ -427,6 +427,14 @@ fn scan_tags(text: &str, stop: usize) -> TagScan {
     }
 }
 
+/// `<camera type="perspective">`, or `<scene>` for an untyped element.
+pub(crate) fn describe(node: &SceneNode) -> String {
+    match node.attr_value("type") {
+        Some(t) => format!("<{} type=\"{t}\">", node.tag),
+        None => format!("<{}>", node.tag),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
