@@ -127,7 +127,7 @@ const CASES: &[Case] = &[
     },
     Case {
         file: "env_metals.xml",
-        covers: "perspective; envmap (rotated); disk, sphere; conductor none, conductor Cu, roughconductor Beckmann (Al)",
+        covers: "perspective; envmap (rotated); disk, sphere; conductor none, conductor Cu, anisotropic roughconductor Beckmann (Al, sphere) and GGX (Ag, disk)",
         spp: 192,
         renders: 16,
     },

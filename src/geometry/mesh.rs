@@ -125,6 +125,26 @@ impl TriangleMesh {
         (n, uv)
     }
 
+    /// dp/du of a triangle: the direction the surface moves as u grows,
+    /// from its uvs, or from the barycentric (b1, b2) when the mesh has none
+    /// (Mitsuba's rule; it orients anisotropic roughness). Zero when the
+    /// uvs are degenerate.
+    pub fn dpdu(&self, tri: usize) -> Vec3 {
+        let [a, b, c] = self.vertices(tri);
+        let (dp0, dp1) = (b - a, c - a);
+        if self.uvs.is_empty() {
+            return dp0;
+        }
+        let [i0, i1, i2] = self.indices[tri].map(|i| i as usize);
+        let duv0 = self.uvs[i1] - self.uvs[i0];
+        let duv1 = self.uvs[i2] - self.uvs[i0];
+        let det = duv0.x * duv1.y - duv0.y * duv1.x;
+        if det == 0.0 || !det.is_finite() {
+            return Vec3::ZERO;
+        }
+        (dp0 * duv1.y - dp1 * duv0.y) / det
+    }
+
     /// Samples a point uniformly by area.
     pub fn sample_area(&self, u_tri: f32, u: Vec2) -> SurfaceSample {
         let dist = self

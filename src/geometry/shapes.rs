@@ -31,7 +31,8 @@ pub fn rectangle_mesh() -> TriangleMesh {
 }
 
 /// The cube [-1, 1]^3: 6 faces of 2 triangles, 4 vertices each with the
-/// face's outward normal.
+/// face's outward normal. Each face's u runs along the axis Mitsuba's cube
+/// gives it (so anisotropic roughness is oriented the same way).
 pub fn cube_mesh() -> TriangleMesh {
     let mut positions = Vec::with_capacity(24);
     let mut normals = Vec::with_capacity(24);
@@ -45,11 +46,14 @@ pub fn cube_mesh() -> TriangleMesh {
             let mut t1 = Vec3::ZERO;
             t1[(axis + 1) % 3] = 1.0;
             let t2 = n.cross(t1);
+            let tu = mitsuba_cube_u(axis, sign);
+            let tv = n.cross(tu);
             let base = positions.len() as u32;
             for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                positions.push(n + t1 * a + t2 * b);
+                let q = n + t1 * a + t2 * b;
+                positions.push(q);
                 normals.push(n);
-                uvs.push(Vec2::new((a + 1.0) * 0.5, (b + 1.0) * 0.5));
+                uvs.push(Vec2::new((q.dot(tu) + 1.0) * 0.5, (q.dot(tv) + 1.0) * 0.5));
             }
             indices.push([base, base + 1, base + 2]);
             indices.push([base, base + 2, base + 3]);
@@ -58,23 +62,42 @@ pub fn cube_mesh() -> TriangleMesh {
     TriangleMesh::new(positions, normals, uvs, indices)
 }
 
+/// The direction of u on the cube face with outward normal `sign` along
+/// `axis`, as Mitsuba's `cube` parameterizes it (read off Mitsuba 3.9.1's
+/// shading frames).
+fn mitsuba_cube_u(axis: usize, sign: f32) -> Vec3 {
+    match (axis, sign > 0.0) {
+        (1, true) => -Vec3::X,
+        (1, false) => Vec3::Z,
+        (2, false) => -Vec3::Y,
+        _ => Vec3::Y,
+    }
+}
+
 /// The unit disk at z = 0 facing +z, as a fan of `segments` triangles
-/// (at least 3) with the disk's exact area.
+/// (at least 3) with the disk's exact area. uv = (radius, angle / 2π) as
+/// in Mitsuba, so dp/du points outward along each triangle's middle
+/// radius (each triangle has its own centre vertex for that).
 pub fn disk_mesh(segments: usize) -> TriangleMesh {
     let n = segments.max(3);
     let step = 2.0 * PI as f64 / n as f64;
     // A regular n-gon of circumradius r has area n/2 r^2 sin(step).
     let r = (PI as f64 / (0.5 * n as f64 * step.sin())).sqrt();
-    let mut positions = vec![Vec3::ZERO];
-    let mut uvs = vec![Vec2::new(0.5, 0.5)];
-    for i in 0..n {
+    // Rim vertices 0..=n (the seam repeated so the angle can reach 1),
+    // then one centre vertex per triangle.
+    let mut positions = Vec::with_capacity(2 * n + 1);
+    let mut uvs = Vec::with_capacity(2 * n + 1);
+    for i in 0..=n {
         let (s, c) = (i as f64 * step).sin_cos();
         positions.push(Vec3::new((r * c) as f32, (r * s) as f32, 0.0));
-        uvs.push(Vec2::new(0.5 + 0.5 * c as f32, 0.5 + 0.5 * s as f32));
+        uvs.push(Vec2::new(1.0, i as f32 / n as f32));
     }
-    let indices = (0..n as u32)
-        .map(|i| [0, 1 + i, 1 + (i + 1) % n as u32])
-        .collect();
+    for i in 0..n {
+        positions.push(Vec3::ZERO);
+        uvs.push(Vec2::new(0.0, (i as f32 + 0.5) / n as f32));
+    }
+    let rim = n as u32 + 1;
+    let indices = (0..n as u32).map(|i| [rim + i, i, i + 1]).collect();
     let normals = vec![Vec3::Z; positions.len()];
     TriangleMesh::new(positions, normals, uvs, indices)
 }

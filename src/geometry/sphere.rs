@@ -24,9 +24,28 @@ impl Cone {
 pub struct Sphere {
     pub center: Vec3,
     pub radius: f32,
+    /// Unit polar axis of the (u, v) parameterization: object-space +z
+    /// carried by the transform, as in Mitsuba. Shading frames follow
+    /// dp/du, the azimuthal direction around it.
+    pub axis: Vec3,
 }
 
 impl Sphere {
+    /// A sphere with its polar axis along +z.
+    pub fn new(center: Vec3, radius: f32) -> Sphere {
+        Sphere {
+            center,
+            radius,
+            axis: Vec3::Z,
+        }
+    }
+
+    /// dp/du at the point with outward normal `n`: around the polar axis
+    /// (zero at the poles).
+    pub fn dpdu(&self, n: Vec3) -> Vec3 {
+        self.axis.cross(n)
+    }
+
     pub fn bounds(&self) -> Aabb {
         Aabb {
             min: self.center - Vec3::splat(self.radius),
@@ -51,6 +70,7 @@ impl Sphere {
         let sx = t.vector(Vec3::X).length();
         self.center = t.point(self.center);
         self.radius *= sx;
+        self.axis = t.vector(self.axis).normalize();
         Ok(())
     }
 
@@ -156,10 +176,7 @@ mod tests {
 
     #[test]
     fn hits_from_outside_and_inside() {
-        let s = Sphere {
-            center: Vec3::new(0.0, 0.0, 5.0),
-            radius: 1.0,
-        };
+        let s = Sphere::new(Vec3::new(0.0, 0.0, 5.0), 1.0);
         let t = s
             .intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY)
             .unwrap();
@@ -175,10 +192,7 @@ mod tests {
 
     #[test]
     fn far_small_sphere_is_precise() {
-        let s = Sphere {
-            center: Vec3::new(0.0, 0.0, 1e4),
-            radius: 0.01,
-        };
+        let s = Sphere::new(Vec3::new(0.0, 0.0, 1e4), 0.01);
         let t = s
             .intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY)
             .unwrap();

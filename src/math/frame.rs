@@ -21,6 +21,23 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    /// The frame around unit normal `n` whose `s` axis follows `tangent`
+    /// projected into the tangent plane (Gram-Schmidt), as Mitsuba orients
+    /// its shading frames by dp/du: it decides which way anisotropic
+    /// roughness runs. Falls back to [`Frame::from_normal`] when the
+    /// tangent is zero, not finite or parallel to `n`.
+    pub fn from_normal_tangent(n: Vec3, tangent: Vec3) -> Frame {
+        let s = (tangent - n * n.dot(tangent)).normalize_or_zero();
+        if s == Vec3::ZERO {
+            return Frame::from_normal(n);
+        }
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
+    }
+
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
@@ -55,6 +72,24 @@ mod tests {
             assert!(f.s.cross(f.t).dot(n) > 0.999);
             let v = Vec3::new(0.2, 0.5, -0.7);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn tangent_frame_follows_the_tangent() {
+        let n = Vec3::new(0.3, -0.4, 0.866).normalize();
+        let f = Frame::from_normal_tangent(n, Vec3::new(1.0, 0.2, 0.5));
+        assert!(f.s.dot(n).abs() < 1e-6 && (f.s.length() - 1.0).abs() < 1e-6);
+        assert!(f.s.cross(f.t).dot(n) > 0.999);
+        // s is the tangent's projection: the tangent lies in span(s, n).
+        let rest = Vec3::new(1.0, 0.2, 0.5) - f.s * f.s.dot(Vec3::new(1.0, 0.2, 0.5));
+        assert!(rest.cross(n).length() < 1e-5);
+        assert!(f.s.dot(Vec3::new(1.0, 0.2, 0.5)) > 0.0);
+        // Degenerate tangents fall back to the normal-only frame.
+        for bad in [Vec3::ZERO, n * 2.0, Vec3::splat(f32::NAN)] {
+            let g = Frame::from_normal_tangent(n, bad);
+            let h = Frame::from_normal(n);
+            assert_eq!((g.s, g.t), (h.s, h.t));
         }
     }
 }

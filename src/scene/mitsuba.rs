@@ -1832,7 +1832,7 @@ impl<'d> Ctx<'d> {
             _ => {
                 let center = p.get_point("center", Vec3::ZERO)?;
                 let radius = positive(&mut p, "radius", 1.0)?;
-                Source::Sphere(Sphere { center, radius })
+                Source::Sphere(Sphere::new(center, radius))
             }
         };
         p.finish(&mut self.warnings);

@@ -319,7 +319,7 @@ impl Scene {
     pub fn intersect(&self, ray: &Ray) -> Option<Intersection> {
         let h = self.bvh.intersect(ray)?;
         let p = ray.at(h.t);
-        let (ng, ns, uv, p, err) = match &self.geometry[h.shape as usize] {
+        let (ng, ns, dpdu, uv, p, err) = match &self.geometry[h.shape as usize] {
             Geometry::Mesh(m) => {
                 let tri = h.index as usize;
                 let ng = m.geometric_normal(tri);
@@ -329,13 +329,13 @@ impl Scene {
                 let b0 = 1.0 - h.b1 - h.b2;
                 let pb = a * b0 + b * h.b1 + c * h.b2;
                 let err = crate::math::barycentric_error(b0, h.b1, h.b2, a, b, c);
-                (ng, ns, uv, pb, err)
+                (ng, ns, m.dpdu(tri), uv, pb, err)
             }
             Geometry::Sphere(s) => {
                 let (n, uv) = s.normal_uv(p);
                 // Reproject onto the surface to remove the error of o + t d.
                 let pp = s.center + n * s.radius;
-                (n, n, uv, pp, s.point_error(n))
+                (n, n, s.dpdu(n), uv, pp, s.point_error(n))
             }
         };
         // The geometric normal defines the front side; orient it to agree
@@ -346,7 +346,7 @@ impl Scene {
             p,
             err,
             ng,
-            shading: Frame::from_normal(ns),
+            shading: Frame::from_normal_tangent(ns, dpdu),
             uv,
             shape: h.shape,
         })

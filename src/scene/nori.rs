@@ -854,7 +854,7 @@ impl<'a> Ctx<'a> {
             "sphere" => {
                 let center = p.get_point("center", Vec3::ZERO)?;
                 let radius = positive(&mut p, "radius", 1.0)?;
-                Source::Sphere(Sphere { center, radius })
+                Source::Sphere(Sphere::new(center, radius))
             }
             _ => unreachable!(),
         };

@@ -203,7 +203,7 @@ pub fn diffuse(a: f32) -> Bsdf {
 }
 
 pub fn sphere(center: Vec3, radius: f32) -> Geometry {
-    Geometry::Sphere(Sphere { center, radius })
+    Geometry::Sphere(Sphere::new(center, radius))
 }
 
 /// An independent random stream per (seed, sample index): hashed seeds,
