@@ -34,7 +34,7 @@ enum Command {
     Render(RenderArgs),
     /// Load a scene and print what it contains, without rendering.
     Info {
-        /// Scene file (Nori XML).
+        /// Scene file (Nori or Mitsuba 3 XML; the dialect is detected).
         scene: PathBuf,
         /// Set a Mitsuba scene parameter ($NAME), overriding its <default>.
         #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
@@ -110,7 +110,7 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file (Nori XML).
+    /// Scene file (Nori or Mitsuba 3 XML; the dialect is detected).
     scene: PathBuf,
     /// Output path without extension (default: next to the scene file,
     /// with its name). A given .exr or .png extension is dropped.
