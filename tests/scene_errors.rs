@@ -764,7 +764,26 @@ fn invalid_utf8_is_located() {
     std::fs::write(&path, b"<scene>\n  <camera type=\"\xff\"/>\n</scene>\n").unwrap();
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (2, 17), "{e}");
-    assert!(e.message.contains("UTF-8"));
+    assert!(
+        e.message.contains("the scene file is not valid UTF-8"),
+        "{e}"
+    );
+}
+
+#[test]
+fn nori_test_files_share_the_scene_reader_errors() {
+    use lente::scene::nori_test::load_test;
+    let dir = temp_dir("testfile");
+    let path = dir.join("test.xml");
+    std::fs::write(&path, b"<test type=\"ttest\">\n\n  <x\xc3/>\n</test>\n").unwrap();
+    let e = load_test(&path).unwrap_err();
+    assert_eq!((e.line, e.col), (3, 5), "{e}");
+    assert!(
+        e.message.contains("the test file is not valid UTF-8"),
+        "{e}"
+    );
+    let e = load_test(&dir.join("missing.xml")).unwrap_err();
+    assert!(e.message.starts_with("cannot read the test file: "), "{e}");
 }
 
 /// A small deterministic generator (SplitMix64).

@@ -409,7 +409,7 @@ impl Pre {
                 format!("cannot read the included file '{}': {e}", path.display()),
             )
         })?;
-        let text = super::decode_utf8(&path, bytes)?;
+        let text = super::decode_utf8(&path, bytes, "scene file")?;
         let root = super::xml::parse(&text).map_err(|e| SceneError {
             file: path.clone(),
             line: e.pos.map_or(0, |p| p.line),

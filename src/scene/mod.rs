@@ -103,18 +103,25 @@ pub fn load_scene_with(
     path: &Path,
     defines: &[(String, String)],
 ) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    let text = read_text(path, "scene file")?;
+    load_scene_str_with(&text, path, defines)
+}
+
+/// The text of an XML file (`what` names it in messages: "scene file");
+/// an unreadable file or invalid UTF-8 is an error, the latter at its
+/// position.
+pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError {
         file: path.to_path_buf(),
         line: 0,
         col: 0,
-        message: format!("cannot read the scene file: {e}"),
+        message: format!("cannot read the {what}: {e}"),
     })?;
-    let text = decode_utf8(path, bytes)?;
-    load_scene_str_with(&text, path, defines)
+    decode_utf8(path, bytes, what)
 }
 
-/// The text of a scene file; invalid UTF-8 is an error at its position.
-pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>) -> Result<String, SceneError> {
+/// The text of a file's bytes; invalid UTF-8 is an error at its position.
+pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>, what: &str) -> Result<String, SceneError> {
     match String::from_utf8(bytes) {
         Ok(t) => Ok(t),
         Err(e) => {
@@ -128,7 +135,7 @@ pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>) -> Result<String, SceneEr
             Err(SceneError::new(
                 path,
                 xml::Pos::new(line, col),
-                "the scene file is not valid UTF-8",
+                format!("the {what} is not valid UTF-8"),
             ))
         }
     }

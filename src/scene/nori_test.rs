@@ -105,26 +105,7 @@ pub struct TestFile {
 
 /// Reads a Nori test file.
 pub fn load_test(path: &Path) -> Result<(TestFile, Vec<Warning>)> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError {
-        file: path.to_path_buf(),
-        line: 0,
-        col: 0,
-        message: format!("cannot read the test file: {e}"),
-    })?;
-    let text = match String::from_utf8(bytes) {
-        Ok(t) => t,
-        Err(e) => {
-            let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-            let line = valid.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
-            let start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-            let col = String::from_utf8_lossy(&valid[start..]).chars().count() as u32 + 1;
-            return Err(SceneError::new(
-                path,
-                Pos::new(line, col),
-                "the test file is not valid UTF-8",
-            ));
-        }
-    };
+    let text = super::read_text(path, "test file")?;
     load_test_str(&text, path)
 }
 
