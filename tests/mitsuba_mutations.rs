@@ -2,6 +2,8 @@
 //! that uses every part of the dialect either load or fail with a located
 //! error.
 
+mod mutation;
+
 use std::path::PathBuf;
 
 use lente::scene::load_scene_str_with;
@@ -14,23 +16,6 @@ fn temp_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-/// A small deterministic generator (SplitMix64).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
 }
 
 /// A valid scene that touches every part of the dialect.
@@ -155,51 +140,10 @@ fn random_mutations_never_panic() {
     assert_eq!(desc.shapes.len(), 7);
     assert_eq!(desc.emitters.len(), 3);
 
-    let base: Vec<char> = RICH_SCENE.chars().collect();
-    let pool: Vec<char> = "<>/=\"' ,.-+e0123456789\n\t&;!?xyz$\\:é\u{0}\u{feff}"
-        .chars()
-        .collect();
-    let mut rng = Rng(0x3175_0BA5);
-    let (mut ok, mut failed) = (0, 0);
-    // LENTE_MUTATIONS=100000 runs a longer search by hand.
-    let count: usize = std::env::var("LENTE_MUTATIONS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(2000);
-    for i in 0..count {
-        let mut s = base.clone();
-        for _ in 0..1 + rng.below(4) {
-            let at = rng.below(s.len() + 1).min(s.len());
-            match rng.below(5) {
-                0 if !s.is_empty() => {
-                    s.remove(at.min(s.len() - 1));
-                }
-                1 => {
-                    let end = (at + 1 + rng.below(20)).min(s.len());
-                    s.drain(at..end);
-                }
-                2 => {
-                    let end = (at + 1 + rng.below(40)).min(s.len());
-                    let run: Vec<char> = s[at..end].to_vec();
-                    s.splice(at..at, run);
-                }
-                _ => {
-                    let c = pool[rng.below(pool.len())];
-                    s.insert(at, c);
-                }
-            }
-        }
-        let text: String = s.into_iter().collect();
-        let result = std::panic::catch_unwind(|| load_scene_str_with(&text, &path, &defines));
-        match result {
-            Ok(Ok(_)) => ok += 1,
-            Ok(Err(e)) => {
-                failed += 1;
-                assert!(e.line > 0 || e.message.contains("no element"), "{e}");
-            }
-            Err(_) => panic!("mutation {i} made the loader panic:\n{text}"),
-        }
-    }
-    eprintln!("{count} mutants: {ok} loaded, {failed} rejected");
-    assert!(ok > 50 && failed > 50, "ok {ok}, failed {failed}");
+    mutation::loads_or_fails_located(
+        RICH_SCENE,
+        "<>/=\"' ,.-+e0123456789\n\t&;!?xyz$\\:é\u{0}\u{feff}",
+        0x3175_0BA5,
+        |text| load_scene_str_with(text, &path, &defines),
+    );
 }

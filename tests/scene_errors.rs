@@ -1,6 +1,8 @@
 //! Bad scene files: every error and warning names the file, the right line
 //! and column, and what went wrong; no input makes the loader panic.
 
+mod mutation;
+
 use std::path::{Path, PathBuf};
 
 use lente::scene::{load_scene, load_scene_str, SceneError, Warning};
@@ -786,23 +788,6 @@ fn nori_test_files_share_the_scene_reader_errors() {
     assert!(e.message.starts_with("cannot read the test file: "), "{e}");
 }
 
-/// A small deterministic generator (SplitMix64).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
-
 /// A valid scene that touches every part of the dialect.
 const RICH_SCENE: &str = r#"<?xml version="1.0"?>
 <scene>
@@ -875,55 +860,10 @@ fn random_mutations_never_panic() {
     let (_, warnings) = load_scene_str(RICH_SCENE, &path).expect("the base scene must load");
     assert!(warnings.is_empty(), "{warnings:?}");
 
-    let base: Vec<char> = RICH_SCENE.chars().collect();
-    let pool: Vec<char> = "<>/=\"' ,.-+e0123456789\n\t&;!?xyzé\u{0}\u{feff}"
-        .chars()
-        .collect();
-    let mut rng = Rng(0x5EED_1E47);
-    let (mut ok, mut failed) = (0, 0);
-    // LENTE_MUTATIONS=100000 runs a longer search by hand.
-    let count: usize = std::env::var("LENTE_MUTATIONS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(2000);
-    for i in 0..count {
-        let mut s = base.clone();
-        for _ in 0..1 + rng.below(4) {
-            let at = rng.below(s.len() + 1).min(s.len());
-            match rng.below(5) {
-                0 if !s.is_empty() => {
-                    s.remove(at.min(s.len() - 1));
-                }
-                1 => {
-                    // Delete a run of characters.
-                    let end = (at + 1 + rng.below(20)).min(s.len());
-                    s.drain(at..end);
-                }
-                2 => {
-                    // Duplicate a run of characters in place.
-                    let end = (at + 1 + rng.below(40)).min(s.len());
-                    let run: Vec<char> = s[at..end].to_vec();
-                    s.splice(at..at, run);
-                }
-                _ => {
-                    let c = pool[rng.below(pool.len())];
-                    s.insert(at, c);
-                }
-            }
-        }
-        let text: String = s.into_iter().collect();
-        let result = std::panic::catch_unwind(|| load_scene_str(&text, &path));
-        match result {
-            Ok(Ok(_)) => ok += 1,
-            Ok(Err(e)) => {
-                failed += 1;
-                // Every error carries a position unless it truly has none.
-                assert!(e.line > 0 || e.message.contains("no element"), "{e}");
-            }
-            Err(_) => panic!("mutation {i} made the loader panic:\n{text}"),
-        }
-    }
-    eprintln!("{count} mutants: {ok} loaded, {failed} rejected");
-    // Both outcomes must occur, or the mutations test nothing.
-    assert!(ok > 50 && failed > 50, "ok {ok}, failed {failed}");
+    mutation::loads_or_fails_located(
+        RICH_SCENE,
+        "<>/=\"' ,.-+e0123456789\n\t&;!?xyzé\u{0}\u{feff}",
+        0x5EED_1E47,
+        |text| load_scene_str(text, &path),
+    );
 }
