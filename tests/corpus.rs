@@ -35,10 +35,9 @@ fn render_tiny(label: &str, mut desc: SceneDesc) -> Bitmap {
             .all(|p| p.is_finite() && p.min_element() >= 0.0),
         "{label} rendered a non-finite or negative pixel"
     );
-    let dir = std::env::temp_dir().join(format!("lente-corpus-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tempfile::tempdir().unwrap();
     for ext in ["exr", "png"] {
-        let p = dir.join(format!("out.{ext}"));
+        let p = dir.path().join(format!("out.{ext}"));
         lente::image::io::save_image(&p, &out.image).unwrap();
         let (back, _) = lente::image::io::load_image(&p).unwrap();
         assert_eq!((back.width, back.height), (32, 24), "{label}");

@@ -393,8 +393,11 @@ fn lente_matches_mitsuba_3() {
         }
     };
     let start = Instant::now();
-    let out = std::env::temp_dir().join(format!("lente-conformance-{}", std::process::id()));
-    std::fs::create_dir_all(&out).unwrap();
+    let out_dir = tempfile::Builder::new()
+        .prefix("lente-conformance-")
+        .tempdir()
+        .unwrap();
+    let out = out_dir.path().to_path_buf();
     let keep = std::env::var_os("LENTE_CONFORMANCE_OUT").map(PathBuf::from);
 
     let only = std::env::var("LENTE_CONFORMANCE_ONLY").unwrap_or_default();

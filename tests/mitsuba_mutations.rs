@@ -4,18 +4,13 @@
 
 mod mutation;
 
-use std::path::PathBuf;
-
 use lente::scene::load_scene_str_with;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "lente-mitsuba-mutations-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("lente-mitsuba-mutations-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// A valid scene that touches every part of the dialect.
@@ -128,10 +123,10 @@ fn sky_pfm() -> Vec<u8> {
 #[test]
 fn random_mutations_never_panic() {
     let dir = temp_dir("mutations");
-    std::fs::write(dir.join("tri.obj"), TRI_OBJ).unwrap();
-    std::fs::write(dir.join("quad.ply"), QUAD_PLY).unwrap();
-    std::fs::write(dir.join("sky.pfm"), sky_pfm()).unwrap();
-    let path = dir.join("scene.xml");
+    std::fs::write(dir.path().join("tri.obj"), TRI_OBJ).unwrap();
+    std::fs::write(dir.path().join("quad.ply"), QUAD_PLY).unwrap();
+    std::fs::write(dir.path().join("sky.pfm"), sky_pfm()).unwrap();
+    let path = dir.path().join("scene.xml");
     let defines = vec![("radius".to_string(), "0.75".to_string())];
     let (desc, warnings) =
         load_scene_str_with(RICH_SCENE, &path, &defines).expect("the base scene must load");

@@ -16,11 +16,11 @@ use lente::scene::{
     Warning,
 };
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lente-mitsuba-parse-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("lente-mitsuba-parse-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 #[track_caller]
@@ -576,7 +576,7 @@ fn load_with_err(text: &str, defines: &[(&str, &str)]) -> SceneError {
 #[test]
 fn command_line_defines() {
     let dir = temp_dir("cli");
-    let path = dir.join("s.xml");
+    let path = dir.path().join("s.xml");
     std::fs::write(
         &path,
         r#"<scene version="3.0.0">
@@ -609,16 +609,16 @@ fn command_line_defines() {
 fn includes_splice_files() {
     let dir = temp_dir("include");
     std::fs::write(
-        dir.join("parts.xml"),
+        dir.path().join("parts.xml"),
         "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"grey\"><rgb name=\"reflectance\" value=\"$g\"/></bsdf>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>\n</scene>\n",
     )
     .unwrap();
     std::fs::write(
-        dir.join("bad.xml"),
+        dir.path().join("bad.xml"),
         "<scene version=\"3.0.0\">\n  <shape type=\"sphre\"/>\n</scene>\n",
     )
     .unwrap();
-    let path = dir.join("main.xml");
+    let path = dir.path().join("main.xml");
     std::fs::write(
         &path,
         "<scene version=\"3.0.0\">\n<default name=\"g\" value=\"0.3\"/>\n<sensor type=\"perspective\"/>\n<include filename=\"parts.xml\"/>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>\n</scene>\n",
@@ -640,7 +640,7 @@ fn includes_splice_files() {
     )
     .unwrap();
     let e = load_scene(&path).unwrap_err();
-    assert_eq!(e.file, dir.join("bad.xml"));
+    assert_eq!(e.file, dir.path().join("bad.xml"));
     assert_eq!((e.line, e.col), (2, 16), "{e}");
     std::fs::write(
         &path,
@@ -803,12 +803,12 @@ fn points_vectors_colours_and_spectra() {
 fn every_shape() {
     let dir = temp_dir("shapes");
     std::fs::write(
-        dir.join("tri.obj"),
+        dir.path().join("tri.obj"),
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nf 2 4 3\n",
     )
     .unwrap();
     std::fs::write(
-        dir.join("quad.ply"),
+        dir.path().join("quad.ply"),
         "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n2 0 0\n2 2 0\n0 2 0\n4 0 1 2 3\n",
     )
     .unwrap();
@@ -823,7 +823,7 @@ fn every_shape() {
            <shape type="ply"><string name="filename" value="quad.ply"/><boolean name="face_normals" value="true"/></shape>
            <shape type="obj"><string name="filename" value="tri.obj"/><boolean name="face_normals" value="true"/></shape>"#,
     );
-    let path = dir.join("s.xml");
+    let path = dir.path().join("s.xml");
     let (desc, w) = load_scene_str(&text, &path).unwrap();
     assert!(w.is_empty(), "{w:?}");
     close_f(mesh(&desc, 0).area(), 4.0 * 6.0, 1e-4);
@@ -1098,7 +1098,7 @@ fn ply_errors_are_clear() {
         .contains("unknown property type"));
     // A load error names the file.
     let dir = temp_dir("ply");
-    let e = lente::geometry::load_ply(&dir.join("missing.ply")).unwrap_err();
+    let e = lente::geometry::load_ply(&dir.path().join("missing.ply")).unwrap_err();
     assert!(e.contains("missing.ply"), "{e}");
     // Random corruption never panics.
     let mut rng = 0x1234_5678_u64;
@@ -1130,7 +1130,7 @@ fn emitters() {
             pfm.extend((c * (i + 1) as f32).to_le_bytes());
         }
     }
-    std::fs::write(dir.join("sky.pfm"), pfm).unwrap();
+    std::fs::write(dir.path().join("sky.pfm"), pfm).unwrap();
     let text = scene(
         r#"<emitter type="envmap">
                <string name="filename" value="sky.pfm"/>
@@ -1145,7 +1145,7 @@ fn emitters() {
            <shape type="rectangle"><bsdf type="diffuse"/><emitter type="area"/></shape>
            <shape type="rectangle"/>"#,
     );
-    let (desc, w) = load_scene_str(&text, &dir.join("s.xml")).unwrap();
+    let (desc, w) = load_scene_str(&text, &dir.path().join("s.xml")).unwrap();
     assert!(w.is_empty(), "{w:?}");
     match &desc.emitters[0] {
         Emitter::Environment(env) => {

@@ -440,8 +440,9 @@ fn env_of(desc: &SceneDesc) -> &EnvMap {
 /// (u = atan2(z, x) / 2 pi).
 #[test]
 fn environment_map_as_the_zaragoza_fork_writes_it() {
-    let dir = std::env::temp_dir().join(format!("lente-nori-forks-{}", std::process::id()));
-    let cols = write_columns_map(&dir);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let cols = write_columns_map(dir);
     let path = dir.join("scene.xml");
     let scene = |transform: &str| {
         format!(
@@ -493,7 +494,6 @@ fn environment_map_as_the_zaragoza_fork_writes_it() {
         );
         close(env.eval(d), *c * gain, 1e-5);
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 // ------------------------------------------------------------ mesh toWorld

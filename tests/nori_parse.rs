@@ -1,6 +1,6 @@
 //! Valid Nori scenes: defaults, transforms, filters, files, value syntax.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use lente::bsdf::Bsdf;
 use lente::camera::{Aperture, CameraParams};
@@ -12,11 +12,11 @@ use lente::integrator::{Integrator, PathParams, Strategy};
 use lente::math::{Transform, Vec3, PI};
 use lente::scene::{load_scene, load_scene_str, SceneDesc, Warning};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lente-nori-parse-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("lente-nori-parse-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 #[track_caller]
@@ -324,8 +324,8 @@ const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 #[test]
 fn obj_paths_are_relative_to_the_scene_file() {
     let dir = temp_dir("relative-obj");
-    std::fs::create_dir_all(dir.join("meshes")).unwrap();
-    std::fs::write(dir.join("meshes/tri.obj"), TRI_OBJ).unwrap();
+    std::fs::create_dir_all(dir.path().join("meshes")).unwrap();
+    std::fs::write(dir.path().join("meshes/tri.obj"), TRI_OBJ).unwrap();
     let scene = r#"<scene>
     <integrator type="normals"/>
     <camera type="perspective"/>
@@ -341,7 +341,7 @@ fn obj_paths_are_relative_to_the_scene_file() {
     </mesh>
 </scene>
 "#;
-    let path = dir.join("scene.xml");
+    let path = dir.path().join("scene.xml");
     std::fs::write(&path, scene).unwrap();
     // Loaded from another working folder: only the scene's folder counts.
     let (desc, warnings) = load_scene(&path).unwrap();
@@ -529,7 +529,7 @@ fn environment_map_loads_relative_to_the_scene() {
     // Image loading is implemented elsewhere; whatever it answers, the
     // loader must ask for the file next to the scene and report it there.
     let dir = temp_dir("envmap");
-    let path = dir.join("scene.xml");
+    let path = dir.path().join("scene.xml");
     let scene = r#"<scene>
     <integrator type="path_mis"/>
     <camera type="perspective"/>
@@ -547,7 +547,7 @@ fn environment_map_loads_relative_to_the_scene() {
     match load_scene_str(scene, &path) {
         Err(e) => {
             assert_eq!((e.line, e.col), (4, 5), "{e}");
-            let tried = dir.join("probes/sky.exr");
+            let tried = dir.path().join("probes/sky.exr");
             assert!(e.to_string().contains(&tried.display().to_string()), "{e}");
         }
         Ok((desc, _)) => match &desc.emitters[0] {

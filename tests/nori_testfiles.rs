@@ -73,7 +73,7 @@ fn all_test_files_pass() {
 
 /// A copy of a test file with every reference multiplied by `factor`,
 /// written where it can still find the meshes.
-fn with_scaled_references(name: &str, factor: f64) -> PathBuf {
+fn with_scaled_references(name: &str, factor: f64) -> (tempfile::TempDir, PathBuf) {
     let text = std::fs::read_to_string(scenes_dir().join(name)).unwrap();
     let key = "name=\"references\" value=\"";
     let start = text.find(key).unwrap() + key.len();
@@ -86,17 +86,16 @@ fn with_scaled_references(name: &str, factor: f64) -> PathBuf {
     let meshes = scenes_dir().join("meshes");
     let text = format!("{}{}{}", &text[..start], scaled.join(", "), &text[end..])
         .replace("\"meshes/", &format!("\"{}/", meshes.display()));
-    let dir = std::env::temp_dir().join(format!("lente-nori-tests-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("{factor}-{name}"));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(format!("{factor}-{name}"));
     std::fs::write(&path, text).unwrap();
-    path
+    (dir, path)
 }
 
 #[test]
 fn references_two_percent_off_fail() {
     for name in ["furnace.xml", "ttest-dielectric.xml"] {
-        let path = with_scaled_references(name, 1.02);
+        let (_dir, path) = with_scaled_references(name, 1.02);
         let out = lente_test(std::slice::from_ref(&path));
         assert!(!out.status.success(), "{}", dump(&out));
         let lines = test_lines(&out);
@@ -110,7 +109,7 @@ fn references_two_percent_off_fail() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains("tests failed"), "{err}");
         // The unscaled copy passes: the failures are the references' doing.
-        let same = with_scaled_references(name, 1.0);
+        let (_same_dir, same) = with_scaled_references(name, 1.0);
         let out = lente_test(&[same]);
         assert!(out.status.success(), "{}", dump(&out));
     }
@@ -118,9 +117,8 @@ fn references_two_percent_off_fail() {
 
 #[test]
 fn a_broken_file_is_reported_with_its_position_and_fails() {
-    let dir = std::env::temp_dir().join(format!("lente-nori-broken-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("broken.xml");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("broken.xml");
     std::fs::write(
         &path,
         "<test type=\"ttest\">\n  <string name=\"angles\" value=\"0\"/>\n  \

@@ -5,18 +5,18 @@
 use lente::geometry::load_obj;
 use lente::math::Vec3;
 
-fn write(name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("lente-obj-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
+/// Writes `text` to a file `name` in a fresh folder (kept while the TempDir lives).
+fn write(name: &str, text: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join(name);
     std::fs::write(&p, text).unwrap();
-    p
+    (dir, p)
 }
 
 #[test]
 fn polygons_and_negative_indices() {
     // A pentagon with relative indices, and a quad with absolute ones.
-    let p = write(
+    let (_dir, p) = write(
         "poly.obj",
         "v 0 0 0\nv 1 0 0\nv 1.5 1 0\nv 0.5 1.8 0\nv -0.5 1 0\nf -5 -4 -3 -2 -1\n\
          v 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 6 7 8 9\n",
@@ -46,7 +46,7 @@ fn polygons_and_negative_indices() {
 
 #[test]
 fn shading_normals_are_interpolated() {
-    let p = write(
+    let (_dir, p) = write(
         "normals.obj",
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn -1 0 1\nvn 1 0 1\nvn 0 1 1\nvt 0 0\nvt 1 0\nvt 0 1\n\
          f 1/1/1 2/2/2 3/3/3\n",
@@ -64,8 +64,8 @@ fn broken_files_are_errors() {
     assert!(load_obj(&missing)
         .unwrap_err()
         .contains("lente-no-such-file.obj"));
-    let p = write("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 9\n");
+    let (_dir, p) = write("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 9\n");
     assert!(load_obj(&p).is_err());
-    let p = write("empty.obj", "# nothing\n");
+    let (_dir, p) = write("empty.obj", "# nothing\n");
     assert!(load_obj(&p).is_err());
 }

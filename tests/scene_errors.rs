@@ -5,26 +5,30 @@ mod mutation;
 
 use std::path::{Path, PathBuf};
 
+use tempfile::TempDir;
+
 use lente::scene::{load_scene, load_scene_str, SceneError, Warning};
 
-/// A fresh folder for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lente-scene-errors-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh folder for one test, removed when dropped.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("lente-scene-errors-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
-fn write_scene(name: &str, text: &str) -> PathBuf {
-    let path = temp_dir(name).join("scene.xml");
+/// Writes `text` as scene.xml in a fresh folder (kept while the TempDir lives).
+fn write_scene(name: &str, text: &str) -> (TempDir, PathBuf) {
+    let dir = temp_dir(name);
+    let path = dir.path().join("scene.xml");
     std::fs::write(&path, text).unwrap();
-    path
+    (dir, path)
 }
 
 /// Loads the scene from disk and checks the error's position and words.
 #[track_caller]
 fn assert_error(name: &str, text: &str, line: u32, col: u32, words: &[&str]) -> SceneError {
-    let path = write_scene(name, text);
+    let (_dir, path) = write_scene(name, text);
     let e = match load_scene(&path) {
         Ok(_) => panic!("scene '{name}' should not load"),
         Err(e) => e,
@@ -46,7 +50,7 @@ fn assert_error(name: &str, text: &str, line: u32, col: u32, words: &[&str]) -> 
 /// Loads the scene and checks that exactly one warning matches.
 #[track_caller]
 fn assert_warning(name: &str, text: &str, line: u32, col: u32, words: &[&str]) -> Warning {
-    let path = write_scene(name, text);
+    let (_dir, path) = write_scene(name, text);
     let (_, warnings) = match load_scene(&path) {
         Ok(r) => r,
         Err(e) => panic!("scene '{name}' should load, got {e}"),
@@ -317,7 +321,7 @@ fn missing_mesh_file_names_the_path() {
     </mesh>
 </scene>
 "#;
-    let path = write_scene("missing-mesh", scene);
+    let (_dir, path) = write_scene("missing-mesh", scene);
     let tried = path.parent().unwrap().join("meshes/missing.obj");
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (4, 5), "{e}");
@@ -689,7 +693,7 @@ fn environment_errors() {
     </emitter>
 </scene>
 "#;
-    let path = write_scene("envmap-missing", missing);
+    let (_dir, path) = write_scene("envmap-missing", missing);
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (4, 5), "{e}");
     let tried = path.parent().unwrap().join("probe.exr");
@@ -752,7 +756,8 @@ fn other_roots() {
 
 #[test]
 fn unreadable_file_has_no_position() {
-    let path = temp_dir("no-file").join("nope.xml");
+    let dir = temp_dir("no-file");
+    let path = dir.path().join("nope.xml");
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (0, 0));
     assert!(e
@@ -762,7 +767,8 @@ fn unreadable_file_has_no_position() {
 
 #[test]
 fn invalid_utf8_is_located() {
-    let path = temp_dir("utf8").join("scene.xml");
+    let dir = temp_dir("utf8");
+    let path = dir.path().join("scene.xml");
     std::fs::write(&path, b"<scene>\n  <camera type=\"\xff\"/>\n</scene>\n").unwrap();
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (2, 17), "{e}");
@@ -776,7 +782,7 @@ fn invalid_utf8_is_located() {
 fn nori_test_files_share_the_scene_reader_errors() {
     use lente::scene::nori_test::load_test;
     let dir = temp_dir("testfile");
-    let path = dir.join("test.xml");
+    let path = dir.path().join("test.xml");
     std::fs::write(&path, b"<test type=\"ttest\">\n\n  <x\xc3/>\n</test>\n").unwrap();
     let e = load_test(&path).unwrap_err();
     assert_eq!((e.line, e.col), (3, 5), "{e}");
@@ -784,7 +790,7 @@ fn nori_test_files_share_the_scene_reader_errors() {
         e.message.contains("the test file is not valid UTF-8"),
         "{e}"
     );
-    let e = load_test(&dir.join("missing.xml")).unwrap_err();
+    let e = load_test(&dir.path().join("missing.xml")).unwrap_err();
     assert!(e.message.starts_with("cannot read the test file: "), "{e}");
 }
 
@@ -855,8 +861,8 @@ const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 #[test]
 fn random_mutations_never_panic() {
     let dir = temp_dir("mutations");
-    std::fs::write(dir.join("tri.obj"), TRI_OBJ).unwrap();
-    let path = dir.join("scene.xml");
+    std::fs::write(dir.path().join("tri.obj"), TRI_OBJ).unwrap();
+    let path = dir.path().join("scene.xml");
     let (_, warnings) = load_scene_str(RICH_SCENE, &path).expect("the base scene must load");
     assert!(warnings.is_empty(), "{warnings:?}");
 

@@ -85,8 +85,8 @@ const MITSUBA_FRAMES: &[Row] = &[
 
 #[test]
 fn shading_frames_match_mitsuba() {
-    let dir = std::env::temp_dir().join(format!("lente-frames-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
     std::fs::write(dir.join("tri.obj"), TRI_NORMALS).unwrap();
     std::fs::write(dir.join("triuv.obj"), TRI_UVS).unwrap();
     let mut failures = Vec::new();
@@ -111,6 +111,5 @@ fn shading_frames_match_mitsuba() {
             ));
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

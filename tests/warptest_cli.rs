@@ -61,13 +61,12 @@ fn microfacet_brdf() {
 
 #[test]
 fn png_shows_observed_and_expected_side_by_side() {
-    let dir = std::env::temp_dir().join(format!("lente-warptest-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tempfile::tempdir().unwrap();
     for (warp, height) in [
         ("disk", 2 * 12 + 51 * 8),
         ("cosine_hemisphere", 2 * 12 + 51 * 4),
     ] {
-        let png = dir.join(format!("{warp}.png"));
+        let png = dir.path().join(format!("{warp}.png"));
         let out = warptest(&[warp, "--png", png.to_str().unwrap()]);
         assert!(out.status.success(), "{}", dump(&out));
         let (img, _) = load_image(&png).unwrap();
