@@ -410,12 +410,7 @@ impl Pre {
             )
         })?;
         let text = super::decode_utf8(&path, bytes, "scene file")?;
-        let root = super::xml::parse(&text).map_err(|e| SceneError {
-            file: path.clone(),
-            line: e.pos.map_or(0, |p| p.line),
-            col: e.pos.map_or(0, |p| p.col),
-            message: e.message,
-        })?;
+        let root = super::parse_xml(&text, &path)?;
         self.files.push(path.clone());
         let inc = self.files.len() - 1;
         self.include_stack.push(path);

@@ -120,6 +120,17 @@ pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, SceneError> {
     decode_utf8(path, bytes, what)
 }
 
+/// The element tree of an XML file's text; a syntax error names `path` and
+/// its position.
+pub(crate) fn parse_xml(text: &str, path: &Path) -> Result<xml::SceneNode, SceneError> {
+    xml::parse(text).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        line: e.pos.map_or(0, |p| p.line),
+        col: e.pos.map_or(0, |p| p.col),
+        message: e.message,
+    })
+}
+
 /// The text of a file's bytes; invalid UTF-8 is an error at its position.
 pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>, what: &str) -> Result<String, SceneError> {
     match String::from_utf8(bytes) {
@@ -153,12 +164,7 @@ pub fn load_scene_str_with(
     path: &Path,
     defines: &[(String, String)],
 ) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
-    let root = xml::parse(text).map_err(|e| SceneError {
-        file: path.to_path_buf(),
-        line: e.pos.map_or(0, |p| p.line),
-        col: e.pos.map_or(0, |p| p.col),
-        message: e.message,
-    })?;
+    let root = parse_xml(text, path)?;
     match root.tag.as_str() {
         "scene" if root.attr("version").is_some() => mitsuba::load(&root, path, defines),
         "scene" => {

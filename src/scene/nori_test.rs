@@ -22,7 +22,7 @@
 use std::path::{Path, PathBuf};
 
 use super::props::{self, Props};
-use super::xml::{self, Pos, SceneNode};
+use super::xml::{Pos, SceneNode};
 use super::{nori, SceneDesc, SceneError, Warning};
 use crate::bsdf::Bsdf;
 
@@ -112,12 +112,7 @@ pub fn load_test(path: &Path) -> Result<(TestFile, Vec<Warning>)> {
 /// Reads a test file from text; `path` names it in messages and is the
 /// base of relative file names inside it.
 pub fn load_test_str(text: &str, path: &Path) -> Result<(TestFile, Vec<Warning>)> {
-    let root = xml::parse(text).map_err(|e| SceneError {
-        file: path.to_path_buf(),
-        line: e.pos.map_or(0, |p| p.line),
-        col: e.pos.map_or(0, |p| p.col),
-        message: e.message,
-    })?;
+    let root = super::parse_xml(text, path)?;
     if root.tag != "test" {
         let hint = if root.tag == "scene" {
             "; this is a scene file: render it with `lente render`"
