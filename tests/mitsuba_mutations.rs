@@ -6,13 +6,6 @@ mod mutation;
 
 use lente::scene::load_scene_str_with;
 
-fn temp_dir(name: &str) -> tempfile::TempDir {
-    tempfile::Builder::new()
-        .prefix(&format!("lente-mitsuba-mutations-{name}-"))
-        .tempdir()
-        .unwrap()
-}
-
 /// A valid scene that touches every part of the dialect.
 const RICH_SCENE: &str = r#"<?xml version="1.0"?>
 <scene version="3.0.0">
@@ -122,7 +115,7 @@ fn sky_pfm() -> Vec<u8> {
 
 #[test]
 fn random_mutations_never_panic() {
-    let dir = temp_dir("mutations");
+    let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tri.obj"), TRI_OBJ).unwrap();
     std::fs::write(dir.path().join("quad.ply"), QUAD_PLY).unwrap();
     std::fs::write(dir.path().join("sky.pfm"), sky_pfm()).unwrap();

@@ -16,13 +16,6 @@ use lente::scene::{
     Warning,
 };
 
-fn temp_dir(name: &str) -> tempfile::TempDir {
-    tempfile::Builder::new()
-        .prefix(&format!("lente-mitsuba-parse-{name}-"))
-        .tempdir()
-        .unwrap()
-}
-
 #[track_caller]
 fn load_with(text: &str, defines: &[(&str, &str)]) -> (SceneDesc, Vec<Warning>) {
     let defines: Vec<(String, String)> = defines
@@ -575,7 +568,7 @@ fn load_with_err(text: &str, defines: &[(&str, &str)]) -> SceneError {
 
 #[test]
 fn command_line_defines() {
-    let dir = temp_dir("cli");
+    let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("s.xml");
     std::fs::write(
         &path,
@@ -607,7 +600,7 @@ fn command_line_defines() {
 
 #[test]
 fn includes_splice_files() {
-    let dir = temp_dir("include");
+    let dir = tempfile::tempdir().unwrap();
     std::fs::write(
         dir.path().join("parts.xml"),
         "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"grey\"><rgb name=\"reflectance\" value=\"$g\"/></bsdf>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>\n</scene>\n",
@@ -801,7 +794,7 @@ fn points_vectors_colours_and_spectra() {
 
 #[test]
 fn every_shape() {
-    let dir = temp_dir("shapes");
+    let dir = tempfile::tempdir().unwrap();
     std::fs::write(
         dir.path().join("tri.obj"),
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nf 2 4 3\n",
@@ -1097,7 +1090,7 @@ fn ply_errors_are_clear() {
     assert!(err(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty wibble w\nend_header\n")
         .contains("unknown property type"));
     // A load error names the file.
-    let dir = temp_dir("ply");
+    let dir = tempfile::tempdir().unwrap();
     let e = lente::geometry::load_ply(&dir.path().join("missing.ply")).unwrap_err();
     assert!(e.contains("missing.ply"), "{e}");
     // Random corruption never panics.
@@ -1122,7 +1115,7 @@ fn ply_errors_are_clear() {
 
 #[test]
 fn emitters() {
-    let dir = temp_dir("emitters");
+    let dir = tempfile::tempdir().unwrap();
     // A 4 x 2 PFM environment map.
     let mut pfm = b"PF\n4 2\n-1.0\n".to_vec();
     for i in 0..8 {

@@ -12,13 +12,6 @@ use lente::integrator::{Integrator, PathParams, Strategy};
 use lente::math::{Transform, Vec3, PI};
 use lente::scene::{load_scene, load_scene_str, SceneDesc, Warning};
 
-fn temp_dir(name: &str) -> tempfile::TempDir {
-    tempfile::Builder::new()
-        .prefix(&format!("lente-nori-parse-{name}-"))
-        .tempdir()
-        .unwrap()
-}
-
 #[track_caller]
 fn load(text: &str) -> (SceneDesc, Vec<Warning>) {
     match load_scene_str(text, Path::new("test.xml")) {
@@ -323,7 +316,7 @@ const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
 #[test]
 fn obj_paths_are_relative_to_the_scene_file() {
-    let dir = temp_dir("relative-obj");
+    let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir_all(dir.path().join("meshes")).unwrap();
     std::fs::write(dir.path().join("meshes/tri.obj"), TRI_OBJ).unwrap();
     let scene = r#"<scene>
@@ -528,7 +521,7 @@ fn sky_becomes_an_environment_map() {
 fn environment_map_loads_relative_to_the_scene() {
     // Image loading is implemented elsewhere; whatever it answers, the
     // loader must ask for the file next to the scene and report it there.
-    let dir = temp_dir("envmap");
+    let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.xml");
     let scene = r#"<scene>
     <integrator type="path_mis"/>

@@ -9,17 +9,9 @@ use tempfile::TempDir;
 
 use lente::scene::{load_scene, load_scene_str, SceneError, Warning};
 
-/// A fresh folder for one test, removed when dropped.
-fn temp_dir(name: &str) -> TempDir {
-    tempfile::Builder::new()
-        .prefix(&format!("lente-scene-errors-{name}-"))
-        .tempdir()
-        .unwrap()
-}
-
 /// Writes `text` as scene.xml in a fresh folder (kept while the TempDir lives).
-fn write_scene(name: &str, text: &str) -> (TempDir, PathBuf) {
-    let dir = temp_dir(name);
+fn write_scene(text: &str) -> (TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.xml");
     std::fs::write(&path, text).unwrap();
     (dir, path)
@@ -28,7 +20,7 @@ fn write_scene(name: &str, text: &str) -> (TempDir, PathBuf) {
 /// Loads the scene from disk and checks the error's position and words.
 #[track_caller]
 fn assert_error(name: &str, text: &str, line: u32, col: u32, words: &[&str]) -> SceneError {
-    let (_dir, path) = write_scene(name, text);
+    let (_dir, path) = write_scene(text);
     let e = match load_scene(&path) {
         Ok(_) => panic!("scene '{name}' should not load"),
         Err(e) => e,
@@ -50,7 +42,7 @@ fn assert_error(name: &str, text: &str, line: u32, col: u32, words: &[&str]) -> 
 /// Loads the scene and checks that exactly one warning matches.
 #[track_caller]
 fn assert_warning(name: &str, text: &str, line: u32, col: u32, words: &[&str]) -> Warning {
-    let (_dir, path) = write_scene(name, text);
+    let (_dir, path) = write_scene(text);
     let (_, warnings) = match load_scene(&path) {
         Ok(r) => r,
         Err(e) => panic!("scene '{name}' should load, got {e}"),
@@ -321,7 +313,7 @@ fn missing_mesh_file_names_the_path() {
     </mesh>
 </scene>
 "#;
-    let (_dir, path) = write_scene("missing-mesh", scene);
+    let (_dir, path) = write_scene(scene);
     let tried = path.parent().unwrap().join("meshes/missing.obj");
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (4, 5), "{e}");
@@ -693,7 +685,7 @@ fn environment_errors() {
     </emitter>
 </scene>
 "#;
-    let (_dir, path) = write_scene("envmap-missing", missing);
+    let (_dir, path) = write_scene(missing);
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (4, 5), "{e}");
     let tried = path.parent().unwrap().join("probe.exr");
@@ -756,7 +748,7 @@ fn other_roots() {
 
 #[test]
 fn unreadable_file_has_no_position() {
-    let dir = temp_dir("no-file");
+    let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("nope.xml");
     let e = load_scene(&path).unwrap_err();
     assert_eq!((e.line, e.col), (0, 0));
@@ -767,7 +759,7 @@ fn unreadable_file_has_no_position() {
 
 #[test]
 fn invalid_utf8_is_located() {
-    let dir = temp_dir("utf8");
+    let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.xml");
     std::fs::write(&path, b"<scene>\n  <camera type=\"\xff\"/>\n</scene>\n").unwrap();
     let e = load_scene(&path).unwrap_err();
@@ -781,7 +773,7 @@ fn invalid_utf8_is_located() {
 #[test]
 fn nori_test_files_share_the_scene_reader_errors() {
     use lente::scene::nori_test::load_test;
-    let dir = temp_dir("testfile");
+    let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("test.xml");
     std::fs::write(&path, b"<test type=\"ttest\">\n\n  <x\xc3/>\n</test>\n").unwrap();
     let e = load_test(&path).unwrap_err();
@@ -860,7 +852,7 @@ const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
 #[test]
 fn random_mutations_never_panic() {
-    let dir = temp_dir("mutations");
+    let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tri.obj"), TRI_OBJ).unwrap();
     let path = dir.path().join("scene.xml");
     let (_, warnings) = load_scene_str(RICH_SCENE, &path).expect("the base scene must load");
