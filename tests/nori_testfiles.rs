@@ -2,9 +2,12 @@
 //! all of them pass, wrong references fail, and the references are what
 //! the formulas in the files' comments say.
 
+mod cli_util;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use cli_util::dump;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
 use lente::scene::nori_test::{load_test, NoriTest};
@@ -39,15 +42,6 @@ fn test_lines(out: &Output) -> Vec<String> {
         .filter(|l| l.starts_with("PASS ") || l.starts_with("FAIL "))
         .map(str::to_string)
         .collect()
-}
-
-fn dump(out: &Output) -> String {
-    format!(
-        "status {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
 }
 
 #[test]

@@ -1,25 +1,18 @@
 //! `lente warptest`: Nori's warps pass their chi-square tests, the heat
 //! map is written, and bad arguments are refused.
 
-use std::process::{Command, Output};
+mod cli_util;
 
+use std::process::Output;
+
+use cli_util::dump;
 use lente::image::io::load_image;
 
 fn warptest(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lente"))
-        .arg("warptest")
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn dump(out: &Output) -> String {
-    format!(
-        "status {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
+    let all: Vec<&str> = std::iter::once("warptest")
+        .chain(args.iter().copied())
+        .collect();
+    cli_util::run(&all)
 }
 
 fn passes(args: &[&str]) {

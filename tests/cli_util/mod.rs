@@ -97,6 +97,16 @@ pub fn run(args: &[&str]) -> Output {
         .expect("cannot run lente")
 }
 
+/// A finished run's status and output, for assertion messages.
+pub fn dump(out: &Output) -> String {
+    format!(
+        "status {:?}\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
 pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
