@@ -6,10 +6,11 @@ use std::sync::atomic::AtomicBool;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use lente::geometry::{Bvh, Geometry, TriangleMesh};
+use lente::load::load_scene;
 use lente::math::{Ray, Vec3};
 use lente::render::{render, RenderOptions};
 use lente::sampling::{warp, Sampler};
-use lente::scene::{load_scene, Scene};
+use lente::scene::Scene;
 
 /// A UV sphere with `n` x 2n quads (4 n^2 triangles).
 fn uv_sphere(n: usize) -> TriangleMesh {

@@ -15,9 +15,10 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use lente::image::Bitmap;
+use lente::load::load_scene;
+use lente::load::nori_testfile::{load_test, NoriTest};
 use lente::render::{render, RenderOptions};
-use lente::scene::nori_test::{load_test, NoriTest};
-use lente::scene::{load_scene, Scene, SceneDesc};
+use lente::scene::{Scene, SceneDesc};
 
 const WIDTH: u32 = 48;
 const HEIGHT: u32 = 36;
@@ -80,7 +81,7 @@ fn main() {
     for f in &files {
         let label = f.strip_prefix(&root).unwrap_or(f).display().to_string();
         let text = std::fs::read_to_string(f).unwrap_or_default();
-        let is_test = lente::scene::xml::parse(&text).is_ok_and(|root| root.tag == "test");
+        let is_test = lente::load::xml::parse(&text).is_ok_and(|root| root.tag == "test");
         if is_test {
             match load_test(f) {
                 Ok((test, _)) => {

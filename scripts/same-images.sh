@@ -12,7 +12,7 @@ base=${1:-HEAD}
 rev=$(git rev-parse --verify "$base^{commit}")
 work=$(mktemp -d)
 trap 'git worktree remove --force "$work/tree" >/dev/null 2>&1 || true; rm -rf "$work"' EXIT
-git worktree add --detach "$work/tree" "$rev" >/dev/null
+git worktree add --quiet --detach "$work/tree" "$rev"
 # One target folder for base builds, so a second run rebuilds little.
 CARGO_TARGET_DIR="$PWD/target/same-images-base" \
     cargo build --release --quiet --example render_digests --manifest-path "$work/tree/Cargo.toml"

@@ -9,6 +9,7 @@ pub mod emitter;
 pub mod geometry;
 pub mod image;
 pub mod integrator;
+pub mod load;
 pub mod math;
 pub mod preview;
 pub mod render;

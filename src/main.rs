@@ -13,9 +13,10 @@ use std::io::IsTerminal;
 
 use lente::image::io::save_image;
 use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
+use lente::load::load_scene_with;
 use lente::preview::{Checkpointer, PreviewServer, PreviewState};
 use lente::render::{render_with_passes, PassInfo, RenderOptions};
-use lente::scene::{load_scene_with, Scene, SceneDesc};
+use lente::scene::{Scene, SceneDesc};
 
 #[derive(Parser)]
 #[command(
@@ -545,7 +546,7 @@ fn cmd_info(scene_path: &Path, defines: &[(String, String)]) -> Result<()> {
 }
 
 fn cmd_test(files: &[PathBuf], seed: u64) -> Result<()> {
-    use lente::scene::nori_test::load_test;
+    use lente::load::nori_testfile::load_test;
     use lente::verify::run_test_file;
     let (mut passed, mut total, mut broken) = (0usize, 0usize, 0usize);
     for path in files {

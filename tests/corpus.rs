@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use lente::image::Bitmap;
+use lente::load::load_scene;
+use lente::load::nori_testfile::{load_test, NoriTest};
 use lente::render::{render, RenderOptions};
-use lente::scene::nori_test::{load_test, NoriTest};
-use lente::scene::{load_scene, Scene, SceneDesc};
+use lente::scene::{Scene, SceneDesc};
 
 /// Renders `desc` at 32x24, 2 spp; the image must be finite and
 /// non-negative, and survive a round trip through EXR and PNG.
@@ -176,7 +177,7 @@ fn every_scene_under_tests_renders_finite_images() {
     let (mut rendered, mut skipped) = (0, 0);
     for f in &files {
         let text = std::fs::read_to_string(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
-        let tree = lente::scene::xml::parse(&text)
+        let tree = lente::load::xml::parse(&text)
             .unwrap_or_else(|e| panic!("{} is not XML: {}", f.display(), e.message));
         match tree.tag.as_str() {
             "test" => {

@@ -86,8 +86,9 @@ use std::time::Instant;
 use lente::color::Rgb;
 use lente::image::io::{load_image, save_image};
 use lente::image::Bitmap;
+use lente::load::load_scene_with;
 use lente::render::{render, RenderOptions};
-use lente::scene::{load_scene_with, Scene};
+use lente::scene::Scene;
 use statrs::distribution::{ContinuousCDF, Normal};
 
 /// Edge of the square blocks whose means are compared.

@@ -4,7 +4,7 @@
 
 mod mutation;
 
-use lente::scene::load_scene_str_with;
+use lente::load::load_scene_str_with;
 
 /// A valid scene that touches every part of the dialect.
 const RICH_SCENE: &str = r#"<?xml version="1.0"?>

@@ -10,11 +10,11 @@ use lente::emitter::Emitter;
 use lente::geometry::{parse_ply, Geometry, TriangleMesh};
 use lente::image::Filter;
 use lente::integrator::{Integrator, PathParams, Strategy};
-use lente::math::{Mat4, Transform, Vec2, Vec3, PI};
-use lente::scene::{
-    load_scene, load_scene_str, load_scene_str_with, load_scene_with, SceneDesc, SceneError,
-    Warning,
+use lente::load::{
+    load_scene, load_scene_str, load_scene_str_with, load_scene_with, SceneError, Warning,
 };
+use lente::math::{Mat4, Transform, Vec2, Vec3, PI};
+use lente::scene::SceneDesc;
 
 #[track_caller]
 fn load_with(text: &str, defines: &[(&str, &str)]) -> (SceneDesc, Vec<Warning>) {

@@ -7,9 +7,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use lente::image::FilmBlock;
 use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::load::load_scene;
 use lente::math::{Vec2, Vec3};
 use lente::sampling::Sampler;
-use lente::scene::{load_scene, Scene};
+use lente::scene::Scene;
 
 struct Counting;
 

@@ -13,9 +13,10 @@ use lente::emitter::{Emitter, EnvMap};
 use lente::geometry::Geometry;
 use lente::image::Bitmap;
 use lente::integrator::{Integrator, Strategy};
+use lente::load::{load_scene_str, SceneError, Warning};
 use lente::math::{Vec2, Vec3, PI};
 use lente::render::{render, RenderOptions};
-use lente::scene::{load_scene_str, Scene, SceneDesc, SceneError, Warning};
+use lente::scene::{Scene, SceneDesc};
 use lente::stats::{sidak, t_test};
 use lente::verify::scene_mean;
 
@@ -668,7 +669,7 @@ fn a_zaragoza_assignment_scene_loads_and_renders() {
 /// its lights are the intensities it says.
 #[test]
 fn fork_lights_test_file_references_are_the_closed_forms() {
-    use lente::scene::nori_test::{load_test, NoriTest};
+    use lente::load::nori_testfile::{load_test, NoriTest};
     use std::f64::consts::PI as PI64;
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/fork-lights.xml");
     let (file, warnings) = load_test(&path).unwrap();

@@ -9,8 +9,9 @@ use lente::emitter::Emitter;
 use lente::geometry::Geometry;
 use lente::image::Filter;
 use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::load::{load_scene, load_scene_str, Warning};
 use lente::math::{Transform, Vec3, PI};
-use lente::scene::{load_scene, load_scene_str, SceneDesc, Warning};
+use lente::scene::SceneDesc;
 
 #[track_caller]
 fn load(text: &str) -> (SceneDesc, Vec<Warning>) {

@@ -10,7 +10,7 @@ use std::process::{Command, Output};
 use cli_util::dump;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
-use lente::scene::nori_test::{load_test, NoriTest};
+use lente::load::nori_testfile::{load_test, NoriTest};
 use lente::stats::quadrature::{adaptive_simpson_2d, Adaptive};
 
 fn scenes_dir() -> PathBuf {

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use tempfile::TempDir;
 
-use lente::scene::{load_scene, load_scene_str, SceneError, Warning};
+use lente::load::{load_scene, load_scene_str, SceneError, Warning};
 
 /// Writes `text` as scene.xml in a fresh folder (kept while the TempDir lives).
 fn write_scene(text: &str) -> (TempDir, PathBuf) {
@@ -772,7 +772,7 @@ fn invalid_utf8_is_located() {
 
 #[test]
 fn nori_test_files_share_the_scene_reader_errors() {
-    use lente::scene::nori_test::load_test;
+    use lente::load::nori_testfile::load_test;
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("test.xml");
     std::fs::write(&path, b"<test type=\"ttest\">\n\n  <x\xc3/>\n</test>\n").unwrap();

@@ -4,8 +4,9 @@
 //! same XML, `si.sh_frame`); `s` is compared up to sign, which anisotropic
 //! microfacet distributions cannot tell apart.
 
+use lente::load::load_scene_str;
 use lente::math::{Ray, Vec3};
-use lente::scene::{load_scene_str, Scene};
+use lente::scene::Scene;
 
 /// Triangle with vertex normals and no uvs: Mitsuba takes dp/du = p1 - p0.
 const TRI_NORMALS: &str = "v 0 0 0\nv 1 0.2 0.1\nv 0.1 1 0.3\n\

@@ -12,9 +12,9 @@ use rayon::prelude::*;
 
 use crate::bsdf::Bsdf;
 use crate::color::luminance;
+use crate::load::nori_testfile::{NoriTest, TestFile};
 use crate::math::{Vec2, Vec3, PI};
 use crate::sampling::Sampler;
-use crate::scene::nori_test::{NoriTest, TestFile};
 use crate::scene::Scene;
 use crate::stats::nori::{direction_table, students_t_test, table_test, DirectionTable};
 use crate::stats::{sidak, MeanVar, TestResult};

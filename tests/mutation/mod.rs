@@ -1,7 +1,7 @@
 //! Random text mutations of a valid scene, for the readers' no-panic tests:
 //! every mutant must either load or fail with a located error.
 
-use lente::scene::SceneError;
+use lente::load::SceneError;
 
 /// A small deterministic generator (SplitMix64).
 struct Rng(u64);

@@ -23,8 +23,9 @@ use std::path::{Path, PathBuf};
 
 use super::props::{self, Props};
 use super::xml::{Pos, SceneNode};
-use super::{nori, SceneDesc, SceneError, Warning};
+use super::{nori, SceneError, Warning};
 use crate::bsdf::Bsdf;
+use crate::scene::SceneDesc;
 
 type Result<T> = std::result::Result<T, SceneError>;
 

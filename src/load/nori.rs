@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use super::props::{self, Kind, Props, Value};
 use super::props::{int_in, non_negative, positive, shorten};
 use super::xml::{describe, Attribute, Pos, SceneNode};
-use super::{SceneDesc, SceneError, ShapeDesc, Warning};
+use super::{SceneError, Warning};
 use crate::bsdf::Bsdf;
 use crate::camera::{Aperture, CameraParams};
 use crate::color::Rgb;
@@ -31,6 +31,7 @@ use crate::geometry::{load_obj, Geometry, Sphere};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Mat3, Mat4, Transform, Vec3, Vec4, PI};
+use crate::scene::{SceneDesc, ShapeDesc};
 
 type Result<T> = std::result::Result<T, SceneError>;
 

@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 use super::props::{self, Kind, Props, Value};
 use super::props::{int_in, positive, shorten};
 use super::xml::{describe, Pos, SceneNode};
-use super::{SceneDesc, SceneError, ShapeDesc, Warning};
+use super::{SceneError, Warning};
 use crate::bsdf::presets::{conductor_preset_names, ior_preset_names};
 use crate::bsdf::{conductor_preset, ior_preset, Bsdf, MicrofacetType};
 use crate::camera::{Aperture, CameraParams};
@@ -37,6 +37,7 @@ use crate::geometry::{self, Geometry, Sphere, TriangleMesh};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Aabb, Frame, Mat3, Mat4, Transform, Vec3, Vec4};
+use crate::scene::{SceneDesc, ShapeDesc};
 
 type Result<T> = std::result::Result<T, SceneError>;
 

@@ -1,0 +1,182 @@
+//! Scene files in, scene descriptions out.
+//!
+//! `xml` parses any scene file into a format-neutral tree with positions;
+//! `props` gives typed, checked access to a node's properties; `nori` and
+//! `mitsuba` map Nori's and Mitsuba 3's dialects onto the scene objects;
+//! `nori_testfile` reads Nori's `<test>` files.
+
+pub mod mitsuba;
+pub mod nori;
+pub mod nori_testfile;
+pub mod props;
+pub mod xml;
+
+use std::path::{Path, PathBuf};
+
+use crate::scene::SceneDesc;
+
+/// A scene file that cannot be loaded: where, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneError {
+    pub file: PathBuf,
+    /// 1-based; 0 only if the problem has no place in the file.
+    pub line: u32,
+    pub col: u32,
+    pub message: String,
+}
+
+impl SceneError {
+    pub fn new(file: &Path, pos: xml::Pos, message: impl Into<String>) -> SceneError {
+        SceneError {
+            file: file.to_path_buf(),
+            line: pos.line,
+            col: pos.col,
+            message: message.into(),
+        }
+    }
+}
+
+impl std::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}: {}",
+            self.file.display(),
+            self.line,
+            self.col,
+            self.message
+        )
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Something suspicious in a scene file that does not stop it loading.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    pub file: PathBuf,
+    pub line: u32,
+    pub col: u32,
+    pub message: String,
+}
+
+impl Warning {
+    pub fn new(file: &Path, pos: xml::Pos, message: impl Into<String>) -> Warning {
+        Warning {
+            file: file.to_path_buf(),
+            line: pos.line,
+            col: pos.col,
+            message: message.into(),
+        }
+    }
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}: warning: {}",
+            self.file.display(),
+            self.line,
+            self.col,
+            self.message
+        )
+    }
+}
+
+/// Reads a scene file: Nori's XML dialect, or Mitsuba 3's
+/// (`<scene version="...">`).
+pub fn load_scene(path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    load_scene_with(path, &[])
+}
+
+/// Reads a scene file with `-D name=value` parameters: they set Mitsuba's
+/// `$name` substitutions, overriding the file's `<default>`s.
+pub fn load_scene_with(
+    path: &Path,
+    defines: &[(String, String)],
+) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    let text = read_text(path, "scene file")?;
+    load_scene_str_with(&text, path, defines)
+}
+
+/// The text of an XML file (`what` names it in messages: "scene file");
+/// an unreadable file or invalid UTF-8 is an error, the latter at its
+/// position.
+pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, SceneError> {
+    let bytes = std::fs::read(path).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        line: 0,
+        col: 0,
+        message: format!("cannot read the {what}: {e}"),
+    })?;
+    decode_utf8(path, bytes, what)
+}
+
+/// The element tree of an XML file's text; a syntax error names `path` and
+/// its position.
+pub(crate) fn parse_xml(text: &str, path: &Path) -> Result<xml::SceneNode, SceneError> {
+    xml::parse(text).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        line: e.pos.map_or(0, |p| p.line),
+        col: e.pos.map_or(0, |p| p.col),
+        message: e.message,
+    })
+}
+
+/// The text of a file's bytes; invalid UTF-8 is an error at its position.
+pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>, what: &str) -> Result<String, SceneError> {
+    match String::from_utf8(bytes) {
+        Ok(t) => Ok(t),
+        Err(e) => {
+            let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+            let line = valid.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
+            let line_start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+            let col = String::from_utf8_lossy(&valid[line_start..])
+                .chars()
+                .count() as u32
+                + 1;
+            Err(SceneError::new(
+                path,
+                xml::Pos::new(line, col),
+                format!("the {what} is not valid UTF-8"),
+            ))
+        }
+    }
+}
+
+/// Reads a scene from text; `path` names it in messages and is the base of
+/// relative file names inside it.
+pub fn load_scene_str(text: &str, path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    load_scene_str_with(text, path, &[])
+}
+
+/// [`load_scene_str`] with `-D name=value` parameters (see [`load_scene_with`]).
+pub fn load_scene_str_with(
+    text: &str,
+    path: &Path,
+    defines: &[(String, String)],
+) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+    let root = parse_xml(text, path)?;
+    match root.tag.as_str() {
+        "scene" if root.attr("version").is_some() => mitsuba::load(&root, path, defines),
+        "scene" => {
+            let (desc, mut warnings) = nori::load(&root, path)?;
+            if let Some((name, _)) = defines.first() {
+                warnings.push(Warning::new(
+                    path,
+                    root.pos,
+                    format!(
+                        "-D {name}=... is ignored: only Mitsuba scenes (<scene version=...>) have $parameters"
+                    ),
+                ));
+            }
+            Ok((desc, warnings))
+        }
+        other => Err(SceneError::new(
+            path,
+            root.pos,
+            format!("expected <scene> as the root element, found <{other}>"),
+        )),
+    }
+}
