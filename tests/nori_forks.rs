@@ -601,7 +601,8 @@ fn zaragoza_only_types_are_errors_naming_the_fork() {
         let e = load_err(&bsdf(ty));
         assert_eq!((e.line, e.col), (5, 13), "{e}");
         assert!(
-            e.message.contains(&format!("unknown <bsdf> type '{ty}'")),
+            e.message
+                .contains(&format!("<bsdf type=\"{ty}\"> is not supported by lente")),
             "{e}"
         );
         for w in words {

@@ -9,6 +9,7 @@ pub mod mitsuba;
 pub mod nori;
 pub mod nori_testfile;
 pub mod props;
+mod reader;
 pub mod xml;
 
 use std::path::{Path, PathBuf};
