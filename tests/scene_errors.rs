@@ -660,7 +660,7 @@ fn transform_errors() {
         short,
         5,
         28,
-        &["expected 16 numbers, found 4"],
+        &["needs 16 numbers (4x4), found 4"],
     );
     let sphere = r#"<scene>
     <integrator type="normals"/>

@@ -18,9 +18,9 @@
 
 use std::path::{Path, PathBuf};
 
+use super::props::{int_in, non_negative, positive};
 use super::props::{Kind, Props};
 use super::reader::{self, Dialect};
-use super::props::{int_in, non_negative, positive};
 use super::xml::{Pos, SceneNode};
 use super::{SceneError, Warning};
 use crate::bsdf::Bsdf;
@@ -122,7 +122,12 @@ const EMITTER_TYPES: &[&str] = &[
 pub const ZARAGOZA_POINT_POSITION: Vec3 = Vec3::new(0.0, 100.0, 0.0);
 
 /// Object types other Nori forks define and lente does not.
-const FORK_TYPES: &[&str] = &["roughconductor", "roughsubstrate", "roughdielectric", "depth"];
+const FORK_TYPES: &[&str] = &[
+    "roughconductor",
+    "roughsubstrate",
+    "roughdielectric",
+    "depth",
+];
 
 /// Object types other Nori forks define and lente does not: what they are
 /// there, and what to use instead (appended to the unknown-type error).

@@ -494,15 +494,6 @@ pub fn parse_float(file: &Path, attr: &Attribute) -> Result<f32> {
     }
 }
 
-/// Exactly `n` numbers.
-pub fn parse_n(file: &Path, attr: &Attribute, n: usize) -> Result<Vec<f32>> {
-    let v = parse_numbers(file, attr)?;
-    if v.len() != n {
-        return Err(count_error(file, attr, &format!("{n} numbers"), v.len()));
-    }
-    Ok(v)
-}
-
 /// Three numbers, or one repeated thrice if `allow_one`.
 pub fn parse_vec3(file: &Path, attr: &Attribute, allow_one: bool) -> Result<Vec3> {
     let v = parse_numbers(file, attr)?;

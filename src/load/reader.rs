@@ -46,7 +46,8 @@ pub(crate) struct Dialect {
     pub object_attributes: &'static [&'static str],
     /// How a colour property's element is spelled (`color`, `rgb`).
     pub color_tag: &'static str,
-    /// Vectors may be given as `x`, `y`, `z` attributes instead of `value`.
+    /// Points and vectors may be given as `x`, `y`, `z` attributes instead
+    /// of `value`, or as one number for all three.
     pub xyz_attributes: bool,
     /// A `<matrix>` may be 3x3 as well as 4x4.
     pub matrix3: bool,
@@ -147,7 +148,11 @@ impl Dialect {
             .min_by_key(|(d, _)| *d)
             .map(|(_, k)| format!(" (did you mean <{k}>?)"))
             .unwrap_or_default();
-        SceneError::new(file, node.pos, format!("unknown element <{}>{hint}", node.tag))
+        SceneError::new(
+            file,
+            node.pos,
+            format!("unknown element <{}>{hint}", node.tag),
+        )
     }
 
     /// Checks an object element's attributes and returns its type, one of
@@ -240,8 +245,8 @@ impl Dialect {
                 ("integer", Some(v)) => Value::Int(props::parse_int(file, v)?),
                 ("float", Some(v)) => Value::Float(props::parse_float(file, v)?),
                 ("string", Some(v)) => Value::String(v.value.clone()),
-                ("point", _) => Value::Point(self.xyz(file, node, 0.0, false)?),
-                ("vector", _) => Value::Vector(self.xyz(file, node, 0.0, false)?),
+                ("point", _) => Value::Point(self.xyz(file, node, 0.0, self.xyz_attributes)?),
+                ("vector", _) => Value::Vector(self.xyz(file, node, 0.0, self.xyz_attributes)?),
                 (t, Some(v)) if t == self.color_tag => {
                     Value::Color(props::parse_vec3(file, v, true)?)
                 }
@@ -316,8 +321,11 @@ impl Dialect {
             let tag = op.tag.as_str();
             if !self.transform_ops.contains(&tag) {
                 if self.is_object(op) || self.property_tags.contains(&tag) {
-                    let ops: Vec<String> =
-                        self.transform_ops.iter().map(|t| format!("<{t}>")).collect();
+                    let ops: Vec<String> = self
+                        .transform_ops
+                        .iter()
+                        .map(|t| format!("<{t}>"))
+                        .collect();
                     return Err(SceneError::new(
                         file,
                         op.pos,
@@ -415,6 +423,9 @@ impl Dialect {
                             attr.value_pos,
                             "the last row of a <matrix> must be 0 0 0 1 (projective transforms are not supported)",
                         ));
+                    }
+                    if Transform::new(mm).is_none() {
+                        return Err(err(op.pos, "this <matrix> is singular"));
                     }
                     mm
                 }

@@ -1,0 +1,154 @@
+//! Emitters: area, point, directional, constant and envmap.
+
+use super::{Ctx, ROTATION_TOLERANCE};
+use crate::color::Rgb;
+use crate::emitter::{Emitter, EnvFilter, EnvMap};
+use crate::load::props::Props;
+use crate::load::reader;
+use crate::load::xml::SceneNode;
+use crate::load::SceneError;
+use crate::math::{Transform, Vec3};
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// An emitter read from the file, before it is placed.
+pub(super) enum EmitterDesc {
+    Area(Rgb),
+    Free { emitter: Emitter, environment: bool },
+}
+
+impl<'d> Ctx<'d> {
+    /// Mitsuba's `emitters/`: area (radiance, default 1), point
+    /// (intensity, default 1; position or to_world), directional
+    /// (irradiance, default 1; direction or to_world, default +z),
+    /// constant (radiance, default 1), envmap (filename, scale, to_world;
+    /// Mitsuba's lat-long mapping is lente's, see `emitter/envmap.rs`).
+    pub(super) fn emitter(&mut self, node: &'d SceneNode, in_shape: bool) -> Result<EmitterDesc> {
+        let ty = self.object_type(
+            node,
+            &["area", "point", "directional", "constant", "envmap"],
+            &[
+                "spot",
+                "projector",
+                "sunsky",
+                "sky",
+                "sun",
+                "directionalarea",
+                "smootharea",
+            ],
+        )?;
+        let owner = format!("<emitter type=\"{ty}\">");
+        if in_shape && ty != "area" {
+            return Err(self.err(
+                node.pos,
+                format!(
+                    "{owner} cannot stand inside a <shape>; only area emitters can, \
+                     a {ty} emitter belongs directly inside <scene>"
+                ),
+            ));
+        }
+        if !in_shape && ty == "area" {
+            return Err(self.err(
+                node.pos,
+                format!(
+                    "{owner} cannot stand inside <scene>; an area emitter belongs inside a <shape>"
+                ),
+            ));
+        }
+        let (mut p, children) = self.read_object(node, &owner)?;
+        self.no_children(&children, &owner)?;
+        let both = |p: &Props, a: &str, b: &str| -> Result<()> {
+            if p.has(a) && p.has(b) {
+                return Err(p.error(b, format!("give either '{a}' or '{b}', not both")));
+            }
+            Ok(())
+        };
+        let desc = match ty {
+            "area" => {
+                if p.has("to_world") {
+                    return Err(p.error(
+                        "to_world",
+                        "an area emitter takes no to_world: it inherits its shape's",
+                    ));
+                }
+                EmitterDesc::Area(p.get_rgb_or_float("radiance", Rgb::ONE)?)
+            }
+            "point" => {
+                both(&p, "position", "to_world")?;
+                let position = match p.opt_point("position")? {
+                    Some(v) => v,
+                    None => p
+                        .get_transform("to_world", Transform::IDENTITY)?
+                        .point(Vec3::ZERO),
+                };
+                EmitterDesc::Free {
+                    emitter: Emitter::Point {
+                        position,
+                        intensity: p.get_rgb_or_float("intensity", Rgb::ONE)?,
+                    },
+                    environment: false,
+                }
+            }
+            "directional" => {
+                both(&p, "direction", "to_world")?;
+                let d = match p.opt_vector("direction")? {
+                    Some(v) => v,
+                    None => p
+                        .get_transform("to_world", Transform::IDENTITY)?
+                        .vector(Vec3::Z),
+                };
+                let Some(direction) = d.try_normalize() else {
+                    return Err(p.error("direction", "the direction must not be zero"));
+                };
+                EmitterDesc::Free {
+                    emitter: Emitter::Directional {
+                        direction,
+                        irradiance: p.get_rgb_or_float("irradiance", Rgb::ONE)?,
+                    },
+                    environment: false,
+                }
+            }
+            "constant" => EmitterDesc::Free {
+                emitter: Emitter::Constant {
+                    radiance: p.get_rgb_or_float("radiance", Rgb::ONE)?,
+                },
+                environment: true,
+            },
+            _ => {
+                let name = p.require_string("filename")?;
+                if name.trim().is_empty() {
+                    return Err(p.error("filename", "'filename' is empty"));
+                }
+                let scale = p.get_float("scale", 1.0)?;
+                if scale < 0.0 {
+                    return Err(p.error(
+                        "scale",
+                        format!("'scale' must not be negative, found {scale}"),
+                    ));
+                }
+                let to_world = p.get_transform("to_world", Transform::IDENTITY)?;
+                if !reader::is_rotation(&to_world, ROTATION_TOLERANCE) {
+                    return Err(p.error(
+                        "to_world",
+                        "an environment map's to_world must be a rotation (an orthogonal matrix)",
+                    ));
+                }
+                p.finish(&mut self.warnings);
+                let path = self.resolve(&name);
+                let (image, image_warnings) = crate::image::io::load_image(&path).map_err(|e| {
+                    self.err(node.pos, format!("cannot load the environment map: {e}"))
+                })?;
+                for w in image_warnings {
+                    self.warn(node.pos, format!("{}: {w}", path.display()));
+                }
+                let env = EnvMap::new(image, scale, to_world, EnvFilter::Bilinear);
+                return Ok(EmitterDesc::Free {
+                    emitter: Emitter::Environment(Box::new(env)),
+                    environment: true,
+                });
+            }
+        };
+        p.finish(&mut self.warnings);
+        Ok(desc)
+    }
+}

@@ -1,0 +1,113 @@
+//! Integrators: Mitsuba's `path` and `direct` (and the volumetric and
+//! differentiable path tracers, rendered with `path`).
+
+use super::Ctx;
+use crate::integrator::{Integrator, PathParams, Strategy};
+use crate::load::props::int_in;
+use crate::load::xml::SceneNode;
+use crate::load::SceneError;
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+impl<'d> Ctx<'d> {
+    /// `path` (`integrators/path.cpp`: max_depth -1 = unlimited, rr_depth
+    /// 5, hide_emitters false) and `direct` (`direct.cpp`).
+    pub(super) fn integrator(&mut self, node: &'d SceneNode) -> Result<Integrator> {
+        let ty = self.object_type(
+            node,
+            &[
+                "path",
+                "direct",
+                "volpath",
+                "volpathmis",
+                "prb",
+                "prb_basic",
+            ],
+            &[
+                "aov",
+                "depth",
+                "moment",
+                "stokes",
+                "ptracer",
+                "prbvolpath",
+                "direct_projective",
+                "prb_projective",
+            ],
+        )?;
+        let owner = format!("<integrator type=\"{ty}\">");
+        let (mut p, children) = self.read_object(node, &owner)?;
+        self.no_children(&children, &owner)?;
+        let hide_emitters = p.get_bool("hide_emitters", false)?;
+        let integrator = if ty == "direct" {
+            let shading = p.get_int("shading_samples", 1)?;
+            let em = p.get_int("emitter_samples", shading)?;
+            let bs = p.get_int("bsdf_samples", shading)?;
+            if (em, bs) != (1, 1) {
+                let name = ["emitter_samples", "bsdf_samples", "shading_samples"]
+                    .into_iter()
+                    .find(|n| p.has(n))
+                    .unwrap_or("emitter_samples");
+                p.warn(
+                    name,
+                    format!(
+                        "lente's direct integrator takes one emitter and one BSDF sample per \
+                         path (asked for {em} and {bs}); raise sample_count instead"
+                    ),
+                );
+            }
+            if hide_emitters {
+                // The same estimator as Integrator::Direct, with emitters hidden.
+                Integrator::Path {
+                    strategy: Strategy::Mis,
+                    params: PathParams {
+                        max_depth: Some(2),
+                        rr_depth: u32::MAX,
+                        hide_emitters,
+                    },
+                }
+            } else {
+                Integrator::Direct {
+                    strategy: Strategy::Mis,
+                }
+            }
+        } else {
+            if ty != "path" {
+                self.warn(
+                    node.pos,
+                    format!(
+                        "the {ty} integrator is rendered with lente's path tracer (the same \
+                         image for scenes without participating media)"
+                    ),
+                );
+            }
+            let max_depth = match p.get_int("max_depth", -1)? {
+                -1 => None,
+                d if (1..=u32::MAX as i64).contains(&d) => Some(d as u32),
+                0 => {
+                    return Err(p.error(
+                        "max_depth",
+                        "'max_depth' 0 renders a black image; use 1 (emitters only) or more, \
+                         or -1 for unlimited",
+                    ))
+                }
+                d => {
+                    return Err(p.error(
+                        "max_depth",
+                        format!("'max_depth' must be -1 (unlimited) or positive, found {d}"),
+                    ))
+                }
+            };
+            let rr_depth = int_in(&mut p, "rr_depth", 5, 1, u32::MAX as i64)? as u32;
+            Integrator::Path {
+                strategy: Strategy::Mis,
+                params: PathParams {
+                    max_depth,
+                    rr_depth,
+                    hide_emitters,
+                },
+            }
+        };
+        p.finish(&mut self.warnings);
+        Ok(integrator)
+    }
+}

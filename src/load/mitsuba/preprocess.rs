@@ -1,0 +1,303 @@
+//! Pass 1 of reading a Mitsuba scene: the version, `$name` parameters
+//! (from `-D` and `<default>`) and `<include>`d files, which leave one list
+//! of top-level elements with their files.
+
+use std::path::PathBuf;
+
+use super::{parent_dir, MAX_INCLUDE_DEPTH};
+use crate::load::props::shorten;
+use crate::load::reader::{check_attributes, no_content};
+use crate::load::xml::{Pos, SceneNode};
+use crate::load::{SceneError, Warning};
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+pub(super) struct Param {
+    pub(super) name: String,
+    pub(super) value: String,
+    pub(super) used: bool,
+    pub(super) from_command_line: bool,
+}
+
+/// A top-level element and the file it comes from.
+pub(super) struct Item {
+    pub(super) file: usize,
+    pub(super) node: SceneNode,
+}
+
+pub(super) struct Pre {
+    pub(super) files: Vec<PathBuf>,
+    pub(super) params: Vec<Param>,
+    pub(super) warnings: Vec<Warning>,
+    pub(super) items: Vec<Item>,
+    pub(super) include_stack: Vec<PathBuf>,
+}
+
+impl Pre {
+    pub(super) fn err(&self, file: usize, pos: Pos, message: impl Into<String>) -> SceneError {
+        SceneError::new(&self.files[file], pos, message)
+    }
+
+    /// The root element: `<scene version="...">`.
+    pub(super) fn check_root(&mut self, root: &SceneNode, file: usize) -> Result<()> {
+        for a in &root.attributes {
+            if !matches!(a.name.as_str(), "version" | "id" | "name" | "type") {
+                return Err(self.err(
+                    file,
+                    a.pos,
+                    format!(
+                        "unexpected attribute '{}' on <scene> (it takes 'version')",
+                        a.name
+                    ),
+                ));
+            }
+        }
+        let Some(v) = root.attr("version") else {
+            return Err(self.err(
+                file,
+                root.pos,
+                "a Mitsuba scene needs a version attribute, e.g. <scene version=\"3.0.0\">",
+            ));
+        };
+        let parts: Vec<&str> = v.value.trim().split('.').collect();
+        let nums: Option<Vec<u32>> = parts.iter().map(|p| p.trim().parse().ok()).collect();
+        let major = match nums {
+            Some(n) if (1..=3).contains(&n.len()) => n[0],
+            _ => {
+                return Err(self.err(
+                    file,
+                    v.value_pos,
+                    format!(
+                        "cannot read '{}' as a version number (expected e.g. 3.0.0)",
+                        v.value.trim()
+                    ),
+                ))
+            }
+        };
+        match major {
+            0 | 1 => Err(self.err(
+                file,
+                v.value_pos,
+                format!(
+                    "this is a Mitsuba {} scene; lente reads Mitsuba 2 and 3 scenes. \
+                     Mitsuba 3 renames the properties of older files in memory \
+                     (camelCase such as toWorld, sampleCount, intIOR becomes snake_case: \
+                     to_world, sample_count, int_ior); do the same in the file and set \
+                     version=\"3.0.0\"",
+                    v.value.trim()
+                ),
+            )),
+            2 | 3 => Ok(()),
+            _ => {
+                self.warnings.push(Warning::new(
+                    &self.files[file],
+                    v.value_pos,
+                    format!(
+                        "version {} is newer than the Mitsuba 3 format lente knows; reading it as 3.x",
+                        v.value.trim()
+                    ),
+                ));
+                Ok(())
+            }
+        }
+    }
+
+    /// Children of a `<scene>` root: each becomes an item, after
+    /// substitution; `<default>`s define parameters, `<include>`s splice.
+    pub(super) fn top_level(&mut self, children: &[SceneNode], file: usize) -> Result<()> {
+        for ch in children {
+            let mut node = ch.clone();
+            self.substitute_attributes(&mut node, file)?;
+            match node.tag.as_str() {
+                "default" => self.define(&node, file)?,
+                "include" => self.include(&node, file)?,
+                _ => {
+                    self.substitute_children(&mut node, file)?;
+                    self.items.push(Item { file, node });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn substitute_children(&mut self, node: &mut SceneNode, file: usize) -> Result<()> {
+        let children = std::mem::take(&mut node.children);
+        let mut kept = Vec::with_capacity(children.len());
+        for mut ch in children {
+            self.substitute_attributes(&mut ch, file)?;
+            match ch.tag.as_str() {
+                "default" => self.define(&ch, file)?,
+                "include" => {
+                    return Err(self.err(
+                        file,
+                        ch.pos,
+                        "lente supports <include> only directly inside <scene>",
+                    ))
+                }
+                _ => {
+                    self.substitute_children(&mut ch, file)?;
+                    kept.push(ch);
+                }
+            }
+        }
+        node.children = kept;
+        Ok(())
+    }
+
+    /// Replaces `$name` by the parameter's value in every attribute of
+    /// `node` (the longest defined name wins; `\$` is a literal `$`).
+    fn substitute_attributes(&mut self, node: &mut SceneNode, file: usize) -> Result<()> {
+        for attr in &mut node.attributes {
+            if !attr.value.contains('$') {
+                continue;
+            }
+            let v = attr.value.clone();
+            let mut out = String::with_capacity(v.len());
+            let mut i = 0;
+            while i < v.len() {
+                let rest = &v[i..];
+                if rest.starts_with("\\$") {
+                    out.push('$');
+                    i += 2;
+                    continue;
+                }
+                if !rest.starts_with('$') {
+                    let c = rest.chars().next().unwrap_or(' ');
+                    out.push(c);
+                    i += c.len_utf8();
+                    continue;
+                }
+                let name_part = &rest[1..];
+                let best = self
+                    .params
+                    .iter_mut()
+                    .filter(|p| !p.name.is_empty() && name_part.starts_with(p.name.as_str()))
+                    .max_by_key(|p| p.name.len());
+                match best {
+                    Some(p) => {
+                        out.push_str(&p.value);
+                        p.used = true;
+                        i += 1 + p.name.len();
+                    }
+                    None => {
+                        let name: String = name_part
+                            .chars()
+                            .take_while(|c| c.is_alphanumeric() || *c == '_')
+                            .collect();
+                        return Err(SceneError::new(
+                            &self.files[file],
+                            attr.pos_in_value(i),
+                            format!(
+                                "undefined parameter ${name}: define it with \
+                                 <default name=\"{name}\" value=\"...\"/> before its first use, \
+                                 or on the command line with -D {name}=..."
+                            ),
+                        ));
+                    }
+                }
+            }
+            attr.set_value(out);
+        }
+        Ok(())
+    }
+
+    /// `<default name=".." value=".."/>`: defines the parameter unless it
+    /// is defined already (by `-D` or an earlier default).
+    fn define(&mut self, node: &SceneNode, file: usize) -> Result<()> {
+        check_attributes(
+            &self.files[file],
+            node,
+            &["name", "value"],
+            &["name", "value"],
+        )?;
+        no_content(&self.files[file], node)?;
+        let name = node.attr_value("name").unwrap_or_default();
+        if name.is_empty() {
+            return Err(self.err(file, node.pos, "<default> needs a non-empty name"));
+        }
+        if !self.params.iter().any(|p| p.name == name) {
+            self.params.push(Param {
+                name: name.to_string(),
+                value: node.attr_value("value").unwrap_or_default().to_string(),
+                used: false,
+                from_command_line: false,
+            });
+        }
+        Ok(())
+    }
+
+    /// `<include filename=".."/>`: a `<scene>` file contributes its
+    /// children, any other file its root object.
+    fn include(&mut self, node: &SceneNode, file: usize) -> Result<()> {
+        check_attributes(
+            &self.files[file],
+            node,
+            &["filename", "name"],
+            &["filename"],
+        )?;
+        no_content(&self.files[file], node)?;
+        let name = node.attr_value("filename").unwrap_or_default();
+        let dir = parent_dir(&self.files[file]);
+        let path = dir.join(name);
+        if self.include_stack.len() > MAX_INCLUDE_DEPTH {
+            return Err(self.err(
+                file,
+                node.pos,
+                format!("<include> files are nested more than {MAX_INCLUDE_DEPTH} deep"),
+            ));
+        }
+        let canonical = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
+        if self
+            .include_stack
+            .iter()
+            .any(|f| std::fs::canonicalize(f).unwrap_or_else(|_| f.clone()) == canonical)
+        {
+            return Err(self.err(
+                file,
+                node.pos,
+                format!("'{}' includes itself", path.display()),
+            ));
+        }
+        let bytes = std::fs::read(&path).map_err(|e| {
+            self.err(
+                file,
+                node.pos,
+                format!("cannot read the included file '{}': {e}", path.display()),
+            )
+        })?;
+        let text = crate::load::decode_utf8(&path, bytes, "scene file")?;
+        let root = crate::load::parse_xml(&text, &path)?;
+        self.files.push(path.clone());
+        let inc = self.files.len() - 1;
+        self.include_stack.push(path);
+        if root.tag == "scene" {
+            self.check_root(&root, inc)?;
+            if let Some(t) = root.text.first() {
+                return Err(self.err(
+                    inc,
+                    t.pos,
+                    format!("unexpected text '{}' inside <scene>", shorten(&t.text)),
+                ));
+            }
+            self.top_level(&root.children, inc)?;
+        } else {
+            let mut node = root;
+            if node.attr("version").is_none() {
+                return Err(self.err(
+                    inc,
+                    node.pos,
+                    format!(
+                        "the root element <{}> of an included file needs a version attribute",
+                        node.tag
+                    ),
+                ));
+            }
+            node.attributes.retain(|a| a.name != "version");
+            self.substitute_attributes(&mut node, inc)?;
+            self.substitute_children(&mut node, inc)?;
+            self.items.push(Item { file: inc, node });
+        }
+        self.include_stack.pop();
+        Ok(())
+    }
+}

@@ -1,0 +1,438 @@
+//! Sensors and what they hold: `perspective` and `thinlens` sensors, the
+//! `hdrfilm`, reconstruction filters and samplers.
+
+use super::{Child, Ctx};
+use crate::camera::{Aperture, CameraParams};
+use crate::image::Filter;
+use crate::load::props::{int_in, positive, Kind, Props};
+use crate::load::reader;
+use crate::load::xml::{Pos, SceneNode};
+use crate::load::SceneError;
+use crate::math::{Aabb, Mat4, Transform, Vec3};
+use crate::scene::ShapeDesc;
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// A sensor with its film and sampler.
+pub(super) struct SensorDesc {
+    pub camera: CameraParams,
+    pub filter: Filter,
+    pub spp: u32,
+}
+
+impl<'d> Ctx<'d> {
+    /// `perspective` and `thinlens` (Mitsuba's `sensors/perspective.cpp`,
+    /// `thinlens.cpp`, `render/sensor.cpp`): image x runs towards camera -x
+    /// and y towards -y, exactly lente's camera, so `to_world` is used as it
+    /// is.
+    pub(super) fn sensor(&mut self, node: &'d SceneNode) -> Result<SensorDesc> {
+        let ty = self.object_type(
+            node,
+            &["perspective", "thinlens"],
+            &[
+                "orthographic",
+                "telecentric",
+                "radiancemeter",
+                "irradiancemeter",
+                "distant",
+                "batch",
+                "fisheye",
+            ],
+        )?;
+        let owner = format!("<sensor type=\"{ty}\">");
+        let (mut p, children) = self.read_object(node, &owner)?;
+        let mut film: Option<Child> = None;
+        let mut sampler: Option<Child> = None;
+        for c in children {
+            let slot = match c.node.tag.as_str() {
+                "film" => &mut film,
+                "sampler" => &mut sampler,
+                _ => return Err(self.misplaced(&c, &owner)),
+            };
+            if let Some(first) = slot {
+                return Err(self.err(
+                    c.at,
+                    format!(
+                        "a sensor can have only one <{}> (the first is at {})",
+                        c.node.tag, first.at
+                    ),
+                ));
+            }
+            *slot = Some(c);
+        }
+        let (width, height, filter) = match &film {
+            Some(c) => self.enter(c, |x| x.film(c.node))?,
+            None => (768, 576, mitsuba_gaussian(0.5)),
+        };
+        let spp = match &sampler {
+            Some(c) => self.enter(c, |x| x.sampler(c.node))?,
+            None => 4,
+        };
+        let aspect = width as f64 / height as f64;
+        let fov_x = horizontal_fov(&mut p, aspect)?;
+        let near_clip = p.get_float("near_clip", 1e-2)?;
+        let far_clip = p.get_float("far_clip", 1e4)?;
+        if near_clip <= 0.0 {
+            return Err(p.error(
+                "near_clip",
+                format!("'near_clip' must be positive, found {near_clip}"),
+            ));
+        }
+        if far_clip <= near_clip {
+            return Err(p.error(
+                "far_clip",
+                format!("'far_clip' ({far_clip}) must be greater than 'near_clip' ({near_clip})"),
+            ));
+        }
+        // Read by both types (Mitsuba's ProjectiveCamera); default far_clip.
+        let focus_distance = p.get_float("focus_distance", far_clip)?;
+        let to_world = p.get_transform("to_world", Transform::IDENTITY)?;
+        if has_scale(&to_world) {
+            return Err(p.error(
+                "to_world",
+                "scale factors in a sensor's to_world are not allowed (Mitsuba refuses them too); \
+                 use only rotations, translations and lookat",
+            ));
+        }
+        let lens_radius = if ty == "thinlens" {
+            let r = p.require_float("aperture_radius")?;
+            if r < 0.0 {
+                return Err(p.error(
+                    "aperture_radius",
+                    format!("'aperture_radius' must not be negative, found {r}"),
+                ));
+            }
+            if r == 0.0 {
+                p.warn(
+                    "aperture_radius",
+                    "'aperture_radius' is 0: this thin lens is a pinhole",
+                );
+            }
+            if r > 0.0 && focus_distance <= 0.0 {
+                return Err(p.error(
+                    "focus_distance",
+                    format!("'focus_distance' must be positive, found {focus_distance}"),
+                ));
+            }
+            r
+        } else {
+            0.0
+        };
+        for name in ["principal_point_offset_x", "principal_point_offset_y"] {
+            let v = p.get_float(name, 0.0)?;
+            if v != 0.0 {
+                return Err(p.error(name, format!("'{name}' is not supported (only 0)")));
+            }
+        }
+        let open = p.get_float("shutter_open", 0.0)?;
+        let close = p.get_float("shutter_close", 0.0)?;
+        if close < open {
+            return Err(p.error(
+                "shutter_close",
+                "'shutter_close' must not come before 'shutter_open'",
+            ));
+        }
+        p.finish(&mut self.warnings);
+        Ok(SensorDesc {
+            camera: CameraParams {
+                width,
+                height,
+                fov_x_deg: fov_x,
+                near_clip,
+                far_clip,
+                to_world,
+                lens_radius,
+                focal_distance: focus_distance,
+                aperture: Aperture::Circular,
+                autofocus: false,
+            },
+            filter,
+            spp,
+        })
+    }
+
+    /// `hdrfilm` (Mitsuba's `render/film.cpp`, `films/hdrfilm.cpp`):
+    /// 768 x 576 and a gaussian filter by default. Output formats are
+    /// accepted and ignored (lente writes EXR and PNG).
+    fn film(&mut self, node: &'d SceneNode) -> Result<(u32, u32, Filter)> {
+        let ty = self.object_type(node, &["hdrfilm"], &["specfilm", "tape"])?;
+        let owner = format!("<film type=\"{ty}\">");
+        let (mut p, children) = self.read_object(node, &owner)?;
+        let width = int_in(&mut p, "width", 768, 1, 65536)? as u32;
+        let height = int_in(&mut p, "height", 576, 1, 65536)? as u32;
+        let cx = p.get_int("crop_offset_x", 0)?;
+        let cy = p.get_int("crop_offset_y", 0)?;
+        let cw = p.get_int("crop_width", width as i64)?;
+        let ch = p.get_int("crop_height", height as i64)?;
+        if (cx, cy, cw, ch) != (0, 0, width as i64, height as i64) {
+            let name = [
+                "crop_offset_x",
+                "crop_offset_y",
+                "crop_width",
+                "crop_height",
+            ]
+            .into_iter()
+            .find(|n| p.has(n))
+            .unwrap_or("crop_width");
+            return Err(p.error(
+                name,
+                "crop windows are not supported: render the full image and crop it afterwards",
+            ));
+        }
+        p.get_bool("sample_border", false)?;
+        for (name, default, known) in [
+            (
+                "pixel_format",
+                "rgb",
+                &["luminance", "luminance_alpha", "rgb", "rgba", "xyz", "xyza"][..],
+            ),
+            (
+                "component_format",
+                "float16",
+                &["float16", "float32", "uint32"][..],
+            ),
+            (
+                "file_format",
+                "openexr",
+                &["openexr", "exr", "rgbe", "pfm"][..],
+            ),
+        ] {
+            let v = p.get_string(name, default.into())?.to_ascii_lowercase();
+            if !known.contains(&v.as_str()) {
+                p.warn(
+                    name,
+                    format!(
+                        "unknown {name} '{v}' (Mitsuba knows {}); ignored: lente writes RGB EXR and PNG",
+                        known.join(", ")
+                    ),
+                );
+            }
+        }
+        p.finish(&mut self.warnings);
+        let mut filter: Option<(Filter, Pos)> = None;
+        for c in children {
+            if c.node.tag != "rfilter" {
+                return Err(self.misplaced(&c, &owner));
+            }
+            if let Some((_, first)) = filter {
+                return Err(self.err(
+                    c.at,
+                    format!("a film can have only one <rfilter> (the first is at {first})"),
+                ));
+            }
+            filter = Some((self.enter(&c, |x| x.rfilter(c.node))?, c.at));
+        }
+        Ok((
+            width,
+            height,
+            filter.map_or_else(|| mitsuba_gaussian(0.5), |f| f.0),
+        ))
+    }
+
+    /// Mitsuba's `rfilters/`: box (radius 0.5), tent (radius 1), gaussian
+    /// (stddev 0.5, cut off at 4 stddev), mitchell (B = C = 1/3, radius 2),
+    /// catmullrom (Mitchell with B = 0, C = 1/2).
+    fn rfilter(&mut self, node: &'d SceneNode) -> Result<Filter> {
+        let ty = self.object_type(
+            node,
+            &["box", "tent", "gaussian", "mitchell", "catmullrom"],
+            &["lanczos"],
+        )?;
+        let owner = format!("<rfilter type=\"{ty}\">");
+        let (mut p, children) = self.read_object(node, &owner)?;
+        self.no_children(&children, &owner)?;
+        let filter = match ty {
+            "box" => Filter::Box { radius: 0.5 },
+            "tent" => Filter::Tent {
+                radius: positive(&mut p, "radius", 1.0)?,
+            },
+            "gaussian" => mitsuba_gaussian(positive(&mut p, "stddev", 0.5)?),
+            "mitchell" => Filter::Mitchell {
+                radius: 2.0,
+                b: p.get_float("B", 1.0 / 3.0)?,
+                c: p.get_float("C", 1.0 / 3.0)?,
+            },
+            _ => Filter::Mitchell {
+                radius: 2.0,
+                b: 0.0,
+                c: 0.5,
+            },
+        };
+        p.finish(&mut self.warnings);
+        Ok(filter)
+    }
+
+    /// Samplers: `sample_count` (default 4). lente has one sampler; the
+    /// others give the same expected image with different noise.
+    fn sampler(&mut self, node: &'d SceneNode) -> Result<u32> {
+        let ty = self.object_type(
+            node,
+            &[
+                "independent",
+                "stratified",
+                "multijitter",
+                "ldsampler",
+                "orthogonal",
+            ],
+            &[],
+        )?;
+        let owner = format!("<sampler type=\"{ty}\">");
+        let (mut p, children) = self.read_object(node, &owner)?;
+        self.no_children(&children, &owner)?;
+        let spp = int_in(&mut p, "sample_count", 4, 1, u32::MAX as i64)? as u32;
+        if p.has("seed") {
+            p.get_int("seed", 0)?;
+            p.warn("seed", "'seed' is ignored; use lente's --seed");
+        }
+        if ty != "independent" {
+            p.get_bool("jitter", true)?;
+            p.get_int("strength", 2)?;
+            self.warn(
+                node.pos,
+                format!(
+                    "the {ty} sampler is rendered with independent sampling \
+                     (the same image in expectation, with different noise)"
+                ),
+            );
+        }
+        p.finish(&mut self.warnings);
+        Ok(spp)
+    }
+}
+
+/// The horizontal field of view in degrees from `fov` + `fov_axis` or
+/// `focal_length` (Mitsuba's `parse_fov` in `render/sensor.cpp`; `aspect`
+/// is width / height).
+fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<f32> {
+    if p.has("fov") && p.has("focal_length") {
+        return Err(p.error(
+            "focal_length",
+            "give either 'fov' or 'focal_length', not both",
+        ));
+    }
+    let (fov, axis, from) = if p.has("fov") {
+        let fov = p.require_float("fov")? as f64;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(p.error(
+                "fov",
+                format!("'fov' must be between 0 and 180 degrees (exclusive), found {fov}"),
+            ));
+        }
+        let mut axis = p.get_string("fov_axis", "x".into())?.to_ascii_lowercase();
+        if axis == "smaller" {
+            axis = if aspect > 1.0 { "y" } else { "x" }.into();
+        } else if axis == "larger" {
+            axis = if aspect > 1.0 { "x" } else { "y" }.into();
+        }
+        (fov, axis, "fov")
+    } else {
+        let f = if p.kind_of("focal_length") == Some(Kind::Float)
+            || p.kind_of("focal_length") == Some(Kind::Int)
+        {
+            p.require_float("focal_length")? as f64
+        } else {
+            let s = p.get_string("focal_length", "50mm".into())?;
+            let t = s.trim();
+            let t = t.strip_suffix("mm").unwrap_or(t).trim();
+            t.parse::<f64>().map_err(|_| {
+                p.error(
+                    "focal_length",
+                    format!("cannot read the focal length '{s}' (expected e.g. 50mm)"),
+                )
+            })?
+        };
+        if !(f > 0.0 && f.is_finite()) {
+            return Err(p.error(
+                "focal_length",
+                format!("the focal length must be positive, found {f}"),
+            ));
+        }
+        // The diagonal of 35 mm film (36 x 24 mm).
+        let diag = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
+        (
+            2.0 * (diag / (2.0 * f)).atan().to_degrees(),
+            "diagonal".to_string(),
+            "focal_length",
+        )
+    };
+    let half = (0.5 * fov).to_radians();
+    let x = match axis.as_str() {
+        "x" => fov,
+        "y" => 2.0 * (half.tan() * aspect).atan().to_degrees(),
+        "diagonal" => {
+            let diagonal = 2.0 * half.tan();
+            let width = diagonal / (1.0 + 1.0 / (aspect * aspect)).sqrt();
+            2.0 * (0.5 * width).atan().to_degrees()
+        }
+        other => {
+            return Err(p.error(
+                "fov_axis",
+                format!("unknown fov_axis '{other}'; use x, y, diagonal, smaller or larger"),
+            ))
+        }
+    };
+    if !(x > 0.0 && x < 180.0) {
+        return Err(p.error(
+            from,
+            format!("the horizontal field of view must be between 0 and 180 degrees, found {x}"),
+        ));
+    }
+    Ok(x as f32)
+}
+
+/// Mitsuba's gaussian filter: cut off at 4 standard deviations.
+fn mitsuba_gaussian(stddev: f32) -> Filter {
+    Filter::Gaussian {
+        radius: 4.0 * stddev,
+        stddev,
+    }
+}
+
+/// Mitsuba's camera for a scene without a sensor (`render/scene.cpp`): fov
+/// 45 along x, looking down +z from in front of the bounding box, centred
+/// on it and far enough back to see all of it.
+pub(super) fn default_sensor(shapes: &[ShapeDesc]) -> SensorDesc {
+    let bounds = shapes
+        .iter()
+        .fold(Aabb::EMPTY, |b, s| b.union(s.geometry.bounds()));
+    let mut camera = CameraParams {
+        width: 768,
+        height: 576,
+        fov_x_deg: 45.0,
+        near_clip: 1e-2,
+        far_clip: 1e4,
+        to_world: Transform::IDENTITY,
+        lens_radius: 0.0,
+        focal_distance: 1e4,
+        aperture: Aperture::Circular,
+        autofocus: false,
+    };
+    if !bounds.is_empty() {
+        let c = bounds.center();
+        let ext = bounds.diagonal();
+        let max = ext.max_element();
+        let distance = max / (2.0 * 22.5f32.to_radians().tan());
+        if max > 0.0 && distance.is_finite() {
+            camera.far_clip = max * 5.0 + distance;
+            camera.near_clip = distance / 100.0;
+            camera.focal_distance = distance + ext.z / 2.0;
+            camera.to_world = Transform::new(Mat4::from_translation(Vec3::new(
+                c.x,
+                c.y,
+                bounds.min.z - distance,
+            )))
+            .unwrap_or(Transform::IDENTITY);
+        }
+    }
+    SensorDesc {
+        camera,
+        filter: mitsuba_gaussian(0.5),
+        spp: 4,
+    }
+}
+
+/// Mitsuba's `Transform::has_scale`: M M^T differs from the identity by
+/// more than 1e-3 somewhere (mirrors do not count as scale).
+fn has_scale(t: &Transform) -> bool {
+    !reader::is_rotation(t, super::ROTATION_TOLERANCE)
+}
