@@ -72,18 +72,18 @@ fn samples_per_second(c: &mut Criterion) {
         "scenes/envmap/envmap.xml",
         "scenes/showcase/showcase-mirror.xml",
     ] {
-        let (mut desc, _) = load_scene(&root.join(file)).unwrap();
-        desc.camera.width = 128;
-        desc.camera.height = 128;
-        let scene = Scene::new(desc).unwrap();
+        let (mut loaded, _) = load_scene(&root.join(file)).unwrap();
+        loaded.scene.camera.width = 128;
+        loaded.scene.camera.height = 128;
+        loaded.job.spp = 4;
+        let scene = Scene::new(loaded.scene).unwrap();
         let opts = RenderOptions {
-            spp: 4,
             seed: 0,
             progress: false,
         };
         g.throughput(Throughput::Elements(128 * 128 * 4));
         g.bench_function(file, |b| {
-            b.iter(|| render(&scene, &opts, &AtomicBool::new(false)))
+            b.iter(|| render(&scene, &loaded.job, &opts, &AtomicBool::new(false)))
         });
     }
     g.finish();

@@ -15,26 +15,26 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use lente::image::Bitmap;
-use lente::load::load_scene;
 use lente::load::nori_testfile::{load_test, NoriTest};
+use lente::load::{load_scene, SceneFile};
 use lente::render::{render, RenderOptions};
-use lente::scene::{Scene, SceneDesc};
+use lente::scene::Scene;
 
 const WIDTH: u32 = 48;
 const HEIGHT: u32 = 36;
 const SPP: u32 = 16;
 const SEED: u64 = 7;
 
-fn render_small(mut desc: SceneDesc) -> Result<Bitmap, String> {
-    desc.camera.width = WIDTH;
-    desc.camera.height = HEIGHT;
-    let scene = Scene::new(desc)?;
+fn render_small(mut file: SceneFile) -> Result<Bitmap, String> {
+    file.scene.camera.width = WIDTH;
+    file.scene.camera.height = HEIGHT;
+    file.job.spp = SPP;
+    let scene = Scene::new(file.scene).map_err(|e| e.to_string())?;
     let opts = RenderOptions {
-        spp: SPP,
         seed: SEED,
         progress: false,
     };
-    Ok(render(&scene, &opts, &AtomicBool::new(false)).image)
+    Ok(render(&scene, &file.job, &opts, &AtomicBool::new(false)).image)
 }
 
 /// FNV-1a over the pixels' f32 bit patterns.
@@ -87,7 +87,7 @@ fn main() {
                 Ok((test, _)) => {
                     if let NoriTest::SceneTTest { scenes, .. } = test.test {
                         for case in scenes {
-                            report(&format!("{label}:{}", case.pos), render_small(case.desc));
+                            report(&format!("{label}:{}", case.pos), render_small(case.file));
                         }
                     }
                 }
@@ -96,7 +96,7 @@ fn main() {
             continue;
         }
         match load_scene(f) {
-            Ok((desc, _)) => report(&label, render_small(desc)),
+            Ok((file, _)) => report(&label, render_small(file)),
             Err(e) => println!("{label} skipped: {e}"),
         }
     }

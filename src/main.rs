@@ -13,10 +13,10 @@ use std::io::IsTerminal;
 
 use lente::image::io::save_image;
 use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
-use lente::load::load_scene_with;
+use lente::load::{load_scene_with, SceneFile};
 use lente::preview::{Checkpointer, PreviewServer, PreviewState};
 use lente::render::{render_with_passes, PassInfo, RenderOptions};
-use lente::scene::{Scene, SceneDesc};
+use lente::scene::Scene;
 
 #[derive(Parser)]
 #[command(
@@ -227,16 +227,12 @@ fn main() -> ExitCode {
 }
 
 /// Parses a scene file with `-D` parameters, printing its warnings.
-fn load(path: &Path, defines: &[(String, String)]) -> Result<SceneDesc> {
-    let (desc, warnings) = load_scene_with(path, defines).map_err(|e| anyhow::anyhow!("{e}"))?;
+fn load(path: &Path, defines: &[(String, String)]) -> Result<SceneFile> {
+    let (file, warnings) = load_scene_with(path, defines)?;
     for w in warnings {
         eprintln!("{w}");
     }
-    Ok(desc)
-}
-
-fn build(desc: SceneDesc) -> Result<Scene> {
-    Scene::new(desc).map_err(|e| anyhow::anyhow!("{e}"))
+    Ok(file)
 }
 
 /// OUT without extension: the given path minus .exr/.png, or the scene
@@ -284,13 +280,19 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if let Some(0) = threads {
         bail!("--threads must be at least 1");
     }
-    let mut desc = load(&scene_path, &define)?;
+    let SceneFile {
+        scene: mut desc,
+        mut job,
+    } = load(&scene_path, &define)?;
     if let Some((w, h)) = resolution {
         desc.camera.width = w;
         desc.camera.height = h;
     }
-    let spp = spp.unwrap_or(desc.spp);
-    let scene = build(desc)?;
+    if let Some(spp) = spp {
+        job.spp = spp;
+    }
+    let spp = job.spp;
+    let scene = Scene::new(desc)?;
     let base = output_base(&scene_path, output);
     let (width, height) = (scene.camera.width(), scene.camera.height());
 
@@ -328,7 +330,6 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         });
     }
     let opts = RenderOptions {
-        spp,
         seed,
         progress: !quiet && std::io::stderr().is_terminal(),
     };
@@ -358,7 +359,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
         }
     };
-    let out = pool.install(|| render_with_passes(&scene, &opts, &cancel, on_pass));
+    let out = pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass));
 
     let exr = with_ext(&base, "exr");
     let png = with_ext(&base, "png");
@@ -499,12 +500,12 @@ fn check_image_extension(path: &Path) -> Result<()> {
 }
 
 fn cmd_info(scene_path: &Path, defines: &[(String, String)]) -> Result<()> {
-    let desc = load(scene_path, defines)?;
-    let spp = desc.spp;
-    let scene = build(desc)?;
+    let SceneFile { scene: desc, job } = load(scene_path, defines)?;
+    let spp = job.spp;
+    let scene = Scene::new(desc)?;
     let c = &scene.camera.params;
     println!("scene       {}", scene_path.display());
-    println!("integrator  {}", scene.integrator.name());
+    println!("integrator  {}", job.integrator.name());
     println!("image       {}x{}, {} spp", c.width, c.height, spp);
     println!("camera      fov {:.3} deg (horizontal)", c.fov_x_deg);
     if c.lens_radius > 0.0 {

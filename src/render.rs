@@ -17,7 +17,8 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
-use crate::image::{Bitmap, Film, FilmBlock};
+use crate::image::{Bitmap, Film, FilmBlock, Filter};
+use crate::integrator::Integrator;
 use crate::math::Vec2;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -28,10 +29,21 @@ pub const TILE_SIZE: u32 = 32;
 /// Largest number of samples per pixel in one pass.
 pub const MAX_PASS_SPP: u32 = 16;
 
-/// Options for one render.
+/// What to compute for a scene: the part of a scene file that is not the
+/// world (Mitsuba's integrator, sampler and film; Nori's integrator,
+/// sampler and the camera's filter).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderJob {
+    pub integrator: Integrator,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Pixel reconstruction filter.
+    pub filter: Filter,
+}
+
+/// How to run one render of a job.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
-    pub spp: u32,
     pub seed: u64,
     /// Show a progress bar on stderr.
     pub progress: bool,
@@ -100,8 +112,15 @@ pub fn pass_schedule(spp: u32) -> Vec<(u32, u32)> {
 }
 
 /// Renders samples `s0..s1` of every pixel of one tile into a film block.
-pub fn render_tile(scene: &Scene, tile: Tile, s0: u32, s1: u32, seed: u64) -> FilmBlock {
-    let mut block = FilmBlock::new(tile.x, tile.y, tile.w, tile.h, scene.filter);
+pub fn render_tile(
+    scene: &Scene,
+    job: &RenderJob,
+    tile: Tile,
+    s0: u32,
+    s1: u32,
+    seed: u64,
+) -> FilmBlock {
+    let mut block = FilmBlock::new(tile.x, tile.y, tile.w, tile.h, job.filter);
     for y in tile.y..tile.y + tile.h {
         for x in tile.x..tile.x + tile.w {
             for s in s0..s1 {
@@ -109,7 +128,7 @@ pub fn render_tile(scene: &Scene, tile: Tile, s0: u32, s1: u32, seed: u64) -> Fi
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let aperture = sampler.next_2d();
                 let ray = scene.camera.generate_ray(film, aperture);
-                let l = scene.integrator.li(scene, &ray, &mut sampler);
+                let l = job.integrator.li(scene, &ray, &mut sampler);
                 block.put(film, l);
             }
         }
@@ -133,13 +152,19 @@ fn progress_bar(show: bool, total: u64) -> ProgressBar {
 
 /// Renders the whole image. Setting `cancel` stops the render after the
 /// tiles in flight; everything finished is still in the image.
-pub fn render(scene: &Scene, opts: &RenderOptions, cancel: &AtomicBool) -> RenderOutput {
-    render_with_passes(scene, opts, cancel, |_| {})
+pub fn render(
+    scene: &Scene,
+    job: &RenderJob,
+    opts: &RenderOptions,
+    cancel: &AtomicBool,
+) -> RenderOutput {
+    render_with_passes(scene, job, opts, cancel, |_| {})
 }
 
 /// Like [`render`], calling `on_pass` after every completed pass.
 pub fn render_with_passes(
     scene: &Scene,
+    job: &RenderJob,
     opts: &RenderOptions,
     cancel: &AtomicBool,
     mut on_pass: impl FnMut(&PassInfo),
@@ -147,12 +172,12 @@ pub fn render_with_passes(
     let start = Instant::now();
     let (w, h) = (scene.camera.width(), scene.camera.height());
     let tiles = tiles(w, h);
-    let total = w as u64 * h as u64 * opts.spp as u64;
+    let total = w as u64 * h as u64 * job.spp as u64;
     let bar = progress_bar(opts.progress, total);
     let samples = AtomicU64::new(0);
     let mut film = Film::new(w as usize, h as usize);
     let mut spp_done = 0;
-    for (s0, s1) in pass_schedule(opts.spp) {
+    for (s0, s1) in pass_schedule(job.spp) {
         if cancel.load(Ordering::Relaxed) {
             break;
         }
@@ -161,7 +186,7 @@ pub fn render_with_passes(
             if cancel.load(Ordering::Relaxed) {
                 return;
             }
-            let block = render_tile(scene, tile, s0, s1, opts.seed);
+            let block = render_tile(scene, job, tile, s0, s1, opts.seed);
             let n = (tile.w * tile.h) as u64 * (s1 - s0) as u64;
             samples.fetch_add(n, Ordering::Relaxed);
             blocks.lock().expect("no panics while holding the lock")[i] = Some(block);
@@ -183,7 +208,7 @@ pub fn render_with_passes(
         on_pass(&PassInfo {
             film: &film,
             spp_done,
-            spp_total: opts.spp,
+            spp_total: job.spp,
             samples: samples.load(Ordering::Relaxed),
             elapsed: start.elapsed(),
         });

@@ -1,16 +1,12 @@
 //! The renderable scene: geometry with its BVH, BSDFs, emitters and the
 //! camera, built from a [`SceneDesc`] (what a scene file describes).
 
-use std::path::PathBuf;
-
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::color::Rgb;
 use crate::emitter::{Emitter, EmitterContext};
 use crate::geometry::{Bvh, Geometry, Intersection};
-use crate::image::Filter;
-use crate::integrator::Integrator;
-use crate::math::{Aabb, Frame, Ray, Vec3};
+use crate::math::{Aabb, Ray, Vec3};
 use crate::sampling::Distribution1D;
 
 /// A shape as a scene file describes it.
@@ -22,26 +18,19 @@ pub struct ShapeDesc {
     pub area_radiance: Option<Rgb>,
 }
 
-/// Everything a scene file describes, before acceleration structures.
+/// The world a scene file describes, before acceleration structures.
 #[derive(Clone, Debug)]
 pub struct SceneDesc {
     pub camera: crate::camera::CameraParams,
-    pub filter: Filter,
-    pub spp: u32,
-    pub integrator: Integrator,
     pub shapes: Vec<ShapeDesc>,
     /// Emitters that are not attached to shapes (point, constant, environment).
     pub emitters: Vec<Emitter>,
-    /// The file the scene came from (outputs go next to it).
-    pub source: PathBuf,
 }
 
-/// A scene ready to render.
+/// The world, ready to render: geometry and its BVH, BSDFs, emitters and
+/// the camera. What to compute from it is a [`crate::render::RenderJob`].
 pub struct Scene {
     pub camera: Camera,
-    pub filter: Filter,
-    pub spp: u32,
-    pub integrator: Integrator,
     pub geometry: Vec<Geometry>,
     pub bsdfs: Vec<Bsdf>,
     /// For each shape, the index of its area emitter.
@@ -54,13 +43,12 @@ pub struct Scene {
     pub bvh: Bvh,
     pub bounds: Aabb,
     pub scene_radius: f32,
-    pub source: PathBuf,
 }
 
 impl Scene {
     /// Builds the acceleration structure and light tables. Fails only if
     /// the camera asks for autofocus and its optical axis hits nothing.
-    pub fn new(desc: SceneDesc) -> Result<Scene, String> {
+    pub fn new(desc: SceneDesc) -> Result<Scene, BuildError> {
         let mut geometry = Vec::new();
         let mut bsdfs = Vec::new();
         let mut shape_emitter = Vec::new();
@@ -105,11 +93,13 @@ impl Scene {
         } else {
             None
         };
-        let mut scene = Scene {
-            camera: Camera::new(desc.camera),
-            filter: desc.filter,
-            spp: desc.spp,
-            integrator: desc.integrator,
+        let camera = if desc.camera.autofocus {
+            Camera::new(autofocus(desc.camera, &bvh, &geometry)?)
+        } else {
+            Camera::new(desc.camera)
+        };
+        Ok(Scene {
+            camera,
             geometry,
             bsdfs,
             shape_emitter,
@@ -119,31 +109,7 @@ impl Scene {
             bvh,
             bounds,
             scene_radius,
-            source: desc.source,
-        };
-        if scene.camera.params.autofocus {
-            scene.autofocus()?;
-        }
-        Ok(scene)
-    }
-
-    /// Sets the focal distance to the camera-space depth of the first
-    /// surface hit by the pinhole ray through the image centre.
-    fn autofocus(&mut self) -> Result<(), String> {
-        let mut params = self.camera.params.clone();
-        params.lens_radius = 0.0;
-        let pinhole = Camera::new(params.clone());
-        let centre = crate::math::Vec2::new(0.5 * params.width as f32, 0.5 * params.height as f32);
-        let ray = pinhole.generate_ray(centre, crate::math::Vec2::ZERO);
-        let its = self.intersect(&ray).ok_or_else(|| {
-            "autofocus: the ray through the image centre hits nothing".to_string()
-        })?;
-        let p_cam = params.to_world.inverse().point(its.p);
-        let mut focused = self.camera.params.clone();
-        focused.focal_distance = p_cam.z;
-        focused.autofocus = false;
-        self.camera = Camera::new(focused);
-        Ok(())
+        })
     }
 
     pub fn emitter_context(&self) -> EmitterContext<'_> {
@@ -155,39 +121,8 @@ impl Scene {
 
     /// Closest surface along the ray.
     pub fn intersect(&self, ray: &Ray) -> Option<Intersection> {
-        let h = self.bvh.intersect(ray)?;
-        let p = ray.at(h.t);
-        let (ng, ns, dpdu, uv, p, err) = match &self.geometry[h.shape as usize] {
-            Geometry::Mesh(m) => {
-                let tri = h.index as usize;
-                let ng = m.geometric_normal(tri);
-                let (ns, uv) = m.shading(tri, h.b1, h.b2);
-                // Recompute the point from barycentrics: more precise than o + t d.
-                let [a, b, c] = m.vertices(tri);
-                let b0 = 1.0 - h.b1 - h.b2;
-                let pb = a * b0 + b * h.b1 + c * h.b2;
-                let err = crate::math::barycentric_error(b0, h.b1, h.b2, a, b, c);
-                (ng, ns, m.dpdu(tri), uv, pb, err)
-            }
-            Geometry::Sphere(s) => {
-                let (n, uv) = s.normal_uv(p);
-                // Reproject onto the surface to remove the error of o + t d.
-                let pp = s.center + n * s.radius;
-                (n, n, s.dpdu(n), uv, pp, s.point_error(n))
-            }
-        };
-        // The geometric normal defines the front side; orient it to agree
-        // with the shading normal so emission and shading see one surface.
-        let ng = if ng.dot(ns) < 0.0 { -ng } else { ng };
-        Some(Intersection {
-            t: h.t,
-            p,
-            err,
-            ng,
-            shading: Frame::from_normal_tangent(ns, dpdu),
-            uv,
-            shape: h.shape,
-        })
+        let hit = self.bvh.intersect(ray)?;
+        Some(self.geometry[hit.shape as usize].intersection(ray, &hit))
     }
 
     /// True if something blocks the segment between two points, each moved
@@ -234,4 +169,31 @@ impl Scene {
             })
             .sum()
     }
+}
+
+/// Why a scene description cannot become a scene.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    #[error("autofocus: the ray through the image centre hits nothing")]
+    NothingToFocusOn,
+}
+
+/// The camera with its focal distance set to the camera-space depth of
+/// the first surface the pinhole ray through the image centre hits.
+fn autofocus(
+    mut params: crate::camera::CameraParams,
+    bvh: &Bvh,
+    geometry: &[Geometry],
+) -> Result<crate::camera::CameraParams, BuildError> {
+    let pinhole = Camera::new(crate::camera::CameraParams {
+        lens_radius: 0.0,
+        ..params.clone()
+    });
+    let centre = crate::math::Vec2::new(0.5 * params.width as f32, 0.5 * params.height as f32);
+    let ray = pinhole.generate_ray(centre, crate::math::Vec2::ZERO);
+    let hit = bvh.intersect(&ray).ok_or(BuildError::NothingToFocusOn)?;
+    let p = geometry[hit.shape as usize].intersection(&ray, &hit).p;
+    params.focal_distance = params.to_world.inverse().point(p).z;
+    params.autofocus = false;
+    Ok(params)
 }

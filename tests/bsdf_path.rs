@@ -14,13 +14,12 @@ use lente::color::Rgb;
 use lente::emitter::Emitter;
 use lente::integrator::Strategy;
 use lente::math::Vec3;
-use lente::scene::Scene;
 use lente::stats::{sidak, welch_t_test};
 
 /// A ball with `bsdf` filling the view, a grey floor-ball below it for
 /// indirect light, under a constant sky (whose emitter sampling keeps the
 /// NEE-only estimator's variance bounded, so every comparison has power).
-fn scene(bsdf: Bsdf, strategy: Strategy) -> Scene {
+fn scene(bsdf: Bsdf, strategy: Strategy) -> TestScene {
     let mut d = desc(
         look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, 4.0), 30.0, 16, 16),
         path(strategy),
@@ -33,7 +32,7 @@ fn scene(bsdf: Bsdf, strategy: Strategy) -> Scene {
         None,
     ));
     d.emitters.push(Emitter::Constant { radiance: Rgb::ONE });
-    Scene::new(d).unwrap()
+    d.build()
 }
 
 #[test]

@@ -9,21 +9,22 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use lente::image::Bitmap;
-use lente::load::load_scene;
 use lente::load::nori_testfile::{load_test, NoriTest};
+use lente::load::{load_scene, SceneFile};
 use lente::render::{render, RenderOptions};
-use lente::scene::{Scene, SceneDesc};
+use lente::scene::Scene;
 
 /// Renders `desc` at 32x24, 2 spp; the image must be finite and
 /// non-negative, and survive a round trip through EXR and PNG.
-fn render_tiny(label: &str, mut desc: SceneDesc) -> Bitmap {
-    desc.camera.width = 32;
-    desc.camera.height = 24;
-    let scene = Scene::new(desc).unwrap_or_else(|e| panic!("{label}: {e}"));
+fn render_tiny(label: &str, mut file: SceneFile) -> Bitmap {
+    file.scene.camera.width = 32;
+    file.scene.camera.height = 24;
+    file.job.spp = 2;
+    let scene = Scene::new(file.scene).unwrap_or_else(|e| panic!("{label}: {e}"));
     let out = render(
         &scene,
+        &file.job,
         &RenderOptions {
-            spp: 2,
             seed: 0,
             progress: false,
         },
@@ -186,7 +187,7 @@ fn every_scene_under_tests_renders_finite_images() {
                 if let NoriTest::SceneTTest { scenes, .. } = test.test {
                     for case in scenes {
                         let label = format!("{}:{}", f.display(), case.pos);
-                        render_tiny(&label, case.desc);
+                        render_tiny(&label, case.file);
                         rendered += 1;
                     }
                 }

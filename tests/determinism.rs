@@ -11,15 +11,13 @@ use lente::color::Rgb;
 use lente::geometry::Geometry;
 use lente::integrator::Strategy;
 use lente::math::Vec3;
-use lente::render::{render, RenderOptions};
-use lente::scene::Scene;
+use lente::render::{render, RenderJob, RenderOptions};
 
-fn small_scene() -> Scene {
+fn small_scene() -> TestScene {
     let mut d = desc(
         look_at(Vec3::new(0.0, 0.0, -0.95), Vec3::ZERO, 70.0, 40, 30),
         path(Strategy::Mis),
     );
-    d.filter = lente::image::Filter::default();
     d.shapes.push(shape(
         Geometry::Mesh(flipped(cube(1.0, 1))),
         diffuse(0.6),
@@ -40,20 +38,24 @@ fn small_scene() -> Scene {
         diffuse(0.0),
         Some(Rgb::splat(15.0)),
     ));
-    Scene::new(d).unwrap()
+    d.build()
 }
 
-fn render_with(threads: usize, scene: &Scene, spp: u32, seed: u64) -> lente::image::Bitmap {
+fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente::image::Bitmap {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     let opts = RenderOptions {
-        spp,
         seed,
         progress: false,
     };
-    pool.install(|| render(scene, &opts, &AtomicBool::new(false)).image)
+    let job = RenderJob {
+        integrator: scene.integrator,
+        spp,
+        filter: lente::image::Filter::default(),
+    };
+    pool.install(|| render(scene, &job, &opts, &AtomicBool::new(false)).image)
 }
 
 #[test]

@@ -3,8 +3,6 @@
 
 mod common;
 
-use std::sync::atomic::AtomicBool;
-
 use common::*;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
@@ -13,8 +11,6 @@ use lente::geometry::{Geometry, TriangleMesh};
 use lente::image::Bitmap;
 use lente::integrator::Strategy;
 use lente::math::{Transform, Vec2, Vec3};
-use lente::render::{render, RenderOptions};
-use lente::scene::Scene;
 use lente::stats::{sidak, welch_t_test};
 
 /// A 64x32 sky: blue gradient, plus a one-texel sun `sun` times brighter
@@ -54,7 +50,7 @@ fn ground(size: f32, y: f32) -> TriangleMesh {
     )
 }
 
-fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> Scene {
+fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> TestScene {
     let mut d = desc(
         look_at(
             Vec3::new(0.0, 1.2, 4.0),
@@ -101,7 +97,7 @@ fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> Scene {
         Transform::IDENTITY,
         EnvFilter::Bilinear,
     ))));
-    Scene::new(d).unwrap()
+    d.build()
 }
 
 #[test]
@@ -150,15 +146,9 @@ fn mse(a: &Bitmap, b: &Bitmap) -> f64 {
 #[test]
 fn mis_has_ten_times_lower_error_than_bsdf_sampling() {
     let sun = 10_000.0;
-    let opts = |spp, seed| RenderOptions {
-        spp,
-        seed,
-        progress: false,
-    };
-    let never = AtomicBool::new(false);
-    let reference = render(&scene(Strategy::Mis, sun, 48, 36), &opts(1024, 1), &never).image;
-    let mis = render(&scene(Strategy::Mis, sun, 48, 36), &opts(16, 2), &never).image;
-    let mats = render(&scene(Strategy::Mats, sun, 48, 36), &opts(16, 2), &never).image;
+    let reference = scene(Strategy::Mis, sun, 48, 36).render(1024, 1);
+    let mis = scene(Strategy::Mis, sun, 48, 36).render(16, 2);
+    let mats = scene(Strategy::Mats, sun, 48, 36).render(16, 2);
     let (e_mis, e_mats) = (mse(&mis, &reference), mse(&mats, &reference));
     eprintln!(
         "MSE at 16 spp: path_mis {e_mis:.4e}, path_mats {e_mats:.4e}, ratio {:.1}",
@@ -173,16 +163,7 @@ fn mis_has_ten_times_lower_error_than_bsdf_sampling() {
 #[test]
 #[ignore = "writes a picture of the test scene for a human to look at"]
 fn picture_of_the_test_scene() {
-    let img = render(
-        &scene(Strategy::Mis, 1000.0, 320, 240),
-        &RenderOptions {
-            spp: 64,
-            seed: 1,
-            progress: false,
-        },
-        &AtomicBool::new(false),
-    )
-    .image;
+    let img = scene(Strategy::Mis, 1000.0, 320, 240).render(64, 1);
     let out = std::env::temp_dir().join("lente-envmap-test-scene.png");
     lente::image::io::save_image(&out, &img).unwrap();
     eprintln!("wrote {}", out.display());

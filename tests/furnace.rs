@@ -9,12 +9,11 @@ use lente::emitter::Emitter;
 use lente::geometry::Geometry;
 use lente::integrator::Strategy;
 use lente::math::Vec3;
-use lente::scene::Scene;
 use lente::stats::{sidak, t_test};
 
 /// Inside a closed box whose walls all emit radiance 1 and reflect with
 /// albedo a, every ray sees 1 + a + a^2 + ... = 1 / (1 - a).
-fn emitting_box(a: f32, strategy: Strategy) -> Scene {
+fn emitting_box(a: f32, strategy: Strategy) -> TestScene {
     let mut d = desc(
         look_at(Vec3::ZERO, Vec3::new(0.3, 0.2, 1.0), 90.0, 32, 32),
         path(strategy),
@@ -24,7 +23,7 @@ fn emitting_box(a: f32, strategy: Strategy) -> Scene {
         diffuse(a),
         Some(Rgb::ONE),
     ));
-    Scene::new(d).unwrap()
+    d.build()
 }
 
 #[test]
@@ -108,7 +107,7 @@ fn white_furnace_all_strategies() {
             let mut d = desc(look_at(Vec3::ZERO, Vec3::Z, 20.0, 16, 16), path(s));
             d.shapes.push(shape(geom, diffuse(rho), None));
             d.emitters.push(Emitter::Constant { radiance: Rgb::ONE });
-            let scene = Scene::new(d).unwrap();
+            let scene = d.build();
             // fov 20 at distance 4: the sphere of radius 1 fills the view.
             let mv = estimate(&scene, 20_000, (10 * i + j) as u64);
             let r = t_test(&mv, rho as f64);

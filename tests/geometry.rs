@@ -152,7 +152,7 @@ fn huge_triangles_do_not_shadow_themselves() {
     );
     d.shapes
         .push(common::shape(Geometry::Mesh(m), common::diffuse(0.5), None));
-    let scene = lente::scene::Scene::new(d).unwrap();
+    let scene = d.build();
     let mut s = Sampler::new(3, 3);
     let mut self_hits = 0;
     for _ in 0..100_000 {

@@ -264,7 +264,8 @@ fn lente_estimate(case: &Case, defines: &[(&str, &str)]) -> Estimate {
     let (desc, warnings) = load_scene_with(&path, &defs).unwrap_or_else(|e| panic!("{e}"));
     // Nothing may be approximated.
     assert!(warnings.is_empty(), "{}: {warnings:?}", case.file);
-    let scene = Scene::new(desc).unwrap_or_else(|e| panic!("{}: {e}", case.file));
+    let scene = Scene::new(desc.scene).unwrap_or_else(|e| panic!("{}: {e}", case.file));
+    assert_eq!(desc.job.spp, case.spp, "{}", case.file);
     let (w, h) = (
         scene.camera.width() as usize,
         scene.camera.height() as usize,
@@ -274,11 +275,10 @@ fn lente_estimate(case: &Case, defines: &[(&str, &str)]) -> Estimate {
     let mut m2 = vec![[0.0f64; 3]; w * h];
     for k in 0..n {
         let opts = RenderOptions {
-            spp: case.spp,
             seed: k as u64 + 1,
             progress: false,
         };
-        let img = render(&scene, &opts, &AtomicBool::new(false)).image;
+        let img = render(&scene, &desc.job, &opts, &AtomicBool::new(false)).image;
         for (i, px) in pixels(&img).iter().enumerate() {
             for c in 0..3 {
                 // Welford.

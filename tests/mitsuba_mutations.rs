@@ -125,8 +125,8 @@ fn random_mutations_never_panic() {
         load_scene_str_with(RICH_SCENE, &path, &defines).expect("the base scene must load");
     // Every BSDF in it is Mitsuba's own model now: nothing to warn about.
     assert!(warnings.is_empty(), "{warnings:?}");
-    assert_eq!(desc.shapes.len(), 7);
-    assert_eq!(desc.emitters.len(), 3);
+    assert_eq!(desc.scene.shapes.len(), 7);
+    assert_eq!(desc.scene.emitters.len(), 3);
 
     mutation::loads_or_fails_located(
         RICH_SCENE,

@@ -10,14 +10,14 @@ use lente::emitter::Emitter;
 use lente::geometry::{parse_ply, Geometry, TriangleMesh};
 use lente::image::Filter;
 use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::load::SceneFile;
 use lente::load::{
     load_scene, load_scene_str, load_scene_str_with, load_scene_with, SceneError, Warning,
 };
 use lente::math::{Mat4, Transform, Vec2, Vec3, PI};
-use lente::scene::SceneDesc;
 
 #[track_caller]
-fn load_with(text: &str, defines: &[(&str, &str)]) -> (SceneDesc, Vec<Warning>) {
+fn load_with(text: &str, defines: &[(&str, &str)]) -> (SceneFile, Vec<Warning>) {
     let defines: Vec<(String, String)> = defines
         .iter()
         .map(|(a, b)| (a.to_string(), b.to_string()))
@@ -29,13 +29,13 @@ fn load_with(text: &str, defines: &[(&str, &str)]) -> (SceneDesc, Vec<Warning>) 
 }
 
 #[track_caller]
-fn load(text: &str) -> (SceneDesc, Vec<Warning>) {
+fn load(text: &str) -> (SceneFile, Vec<Warning>) {
     load_with(text, &[])
 }
 
 /// Loads a scene that must produce no warnings.
 #[track_caller]
-fn load_clean(text: &str) -> SceneDesc {
+fn load_clean(text: &str) -> SceneFile {
     let (desc, warnings) = load(text);
     assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
     desc
@@ -87,8 +87,8 @@ fn scene(body: &str) -> String {
     )
 }
 
-fn mesh(desc: &SceneDesc, i: usize) -> &TriangleMesh {
-    match &desc.shapes[i].geometry {
+fn mesh(desc: &SceneFile, i: usize) -> &TriangleMesh {
+    match &desc.scene.shapes[i].geometry {
         Geometry::Mesh(m) => m,
         g => panic!("shape {i} is not a mesh: {g:?}"),
     }
@@ -101,11 +101,11 @@ fn mesh(desc: &SceneDesc, i: usize) -> &TriangleMesh {
 #[test]
 fn minimal_scene_gets_mitsubas_defaults() {
     let desc = load_clean(&with_sensor("<sensor type=\"perspective\"/>"));
-    let c = &desc.camera;
+    let c = &desc.scene.camera;
     assert_eq!((c.width, c.height), (768, 576));
-    assert_eq!(desc.spp, 4);
+    assert_eq!(desc.job.spp, 4);
     assert_eq!(
-        desc.filter,
+        desc.job.filter,
         Filter::Gaussian {
             radius: 2.0,
             stddev: 0.5
@@ -124,7 +124,7 @@ fn minimal_scene_gets_mitsubas_defaults() {
         1e-3,
     );
     assert_eq!(
-        desc.integrator,
+        desc.job.integrator,
         Integrator::Path {
             strategy: Strategy::Mis,
             params: PathParams {
@@ -135,12 +135,12 @@ fn minimal_scene_gets_mitsubas_defaults() {
         }
     );
     // A sphere with Mitsuba's defaults and the default BSDF.
-    match &desc.shapes[0].geometry {
+    match &desc.scene.shapes[0].geometry {
         Geometry::Sphere(s) => assert_eq!((s.center, s.radius), (Vec3::ZERO, 1.0)),
         g => panic!("{g:?}"),
     }
     assert_eq!(
-        desc.shapes[0].bsdf,
+        desc.scene.shapes[0].bsdf,
         Bsdf::Diffuse {
             albedo: Rgb::splat(0.5)
         }
@@ -155,7 +155,7 @@ fn missing_sensor_and_integrator_use_mitsubas_defaults() {
     assert_eq!(warnings.len(), 2, "{warnings:?}");
     assert!(warnings[0].message.contains("no <sensor>"));
     assert!(warnings[1].message.contains("no <integrator>"));
-    let c = &desc.camera;
+    let c = &desc.scene.camera;
     assert_eq!(c.fov_x_deg, 45.0);
     // The box [-1,1]^2 x [2,4]: distance = 2 / (2 tan 22.5 deg).
     let distance = 1.0 / 22.5f32.to_radians().tan();
@@ -166,7 +166,7 @@ fn missing_sensor_and_integrator_use_mitsubas_defaults() {
     close(c.to_world.vector(Vec3::Z), Vec3::Z);
     close_f(c.near_clip, distance / 100.0, 1e-5);
     assert!(matches!(
-        desc.integrator,
+        desc.job.integrator,
         Integrator::Path {
             params: PathParams {
                 rr_depth: 5,
@@ -178,7 +178,7 @@ fn missing_sensor_and_integrator_use_mitsubas_defaults() {
     ));
     // An empty scene loads too (Mitsuba renders it black).
     let (desc, _) = load("<!-- m -->\n<scene version=\"3.0.0\">\n</scene>\n");
-    assert!(desc.shapes.is_empty());
+    assert!(desc.scene.shapes.is_empty());
 }
 
 // ---------------------------------------------------------------------------
@@ -189,7 +189,7 @@ fn fov_x(sensor_body: &str, w: u32, h: u32) -> f32 {
     let s = format!(
         "<sensor type=\"perspective\">{sensor_body}<film type=\"hdrfilm\"><integer name=\"width\" value=\"{w}\"/><integer name=\"height\" value=\"{h}\"/></film></sensor>"
     );
-    load_clean(&with_sensor(&s)).camera.fov_x_deg
+    load_clean(&with_sensor(&s)).scene.camera.fov_x_deg
 }
 
 #[test]
@@ -281,7 +281,7 @@ fn thinlens_and_clip_planes() {
             <transform name="to_world"><lookat origin="1, 2, 3" target="1, 2, 0"/></transform>
         </sensor>"#,
     ));
-    let c = &desc.camera;
+    let c = &desc.scene.camera;
     assert_eq!((c.lens_radius, c.focal_distance), (0.2, 7.5));
     assert_eq!((c.near_clip, c.far_clip), (0.5, 200.0));
     close(c.to_world.point(Vec3::ZERO), Vec3::new(1.0, 2.0, 3.0));
@@ -290,7 +290,7 @@ fn thinlens_and_clip_planes() {
     let desc = load_clean(&with_sensor(
         "<sensor type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/></sensor>",
     ));
-    assert_eq!(desc.camera.focal_distance, 10000.0);
+    assert_eq!(desc.scene.camera.focal_distance, 10000.0);
     // aperture_radius is required.
     assert_err(
         &with_sensor("<sensor type=\"thinlens\"/>"),
@@ -329,8 +329,8 @@ fn mitsuba_camera_is_not_mirrored() {
             <film type="hdrfilm"><integer name="width" value="100"/><integer name="height" value="100"/></film>
         </sensor>"#,
     ));
-    let cam = Camera::new(desc.camera.clone());
-    let to_cam = desc.camera.to_world.inverse();
+    let cam = Camera::new(desc.scene.camera.clone());
+    let to_cam = desc.scene.camera.to_world.inverse();
     let left_wall = cam.camera_to_film(to_cam.point(Vec3::new(-0.9, 0.0, 0.0)));
     let ceiling = cam.camera_to_film(to_cam.point(Vec3::new(0.0, 0.9, 0.0)));
     assert!(left_wall.x < 50.0, "{left_wall}");
@@ -355,13 +355,17 @@ fn films_filters_and_samplers() {
             <sampler type="independent"><integer name="sample_count" value="17"/></sampler>
         </sensor>"#,
     ));
-    assert_eq!((desc.camera.width, desc.camera.height), (320, 200));
-    assert_eq!(desc.filter, Filter::Box { radius: 0.5 });
-    assert_eq!(desc.spp, 17);
+    assert_eq!(
+        (desc.scene.camera.width, desc.scene.camera.height),
+        (320, 200)
+    );
+    assert_eq!(desc.job.filter, Filter::Box { radius: 0.5 });
+    assert_eq!(desc.job.spp, 17);
     let filter = |body: &str| {
         load_clean(&with_sensor(&format!(
             "<sensor type=\"perspective\"><film type=\"hdrfilm\">{body}</film></sensor>"
         )))
+        .job
         .filter
     };
     assert_eq!(
@@ -395,7 +399,7 @@ fn films_filters_and_samplers() {
     let (desc, w) = load(&with_sensor(
         "<sensor type=\"perspective\"><sampler type=\"stratified\"><integer name=\"sample_count\" value=\"16\"/></sampler></sensor>",
     ));
-    assert_eq!(desc.spp, 16);
+    assert_eq!(desc.job.spp, 16);
     assert_eq!(w.len(), 1, "{w:?}");
     assert!(w[0].message.contains("independent"));
     // An unknown pixel format is a warning; crop windows are errors.
@@ -438,11 +442,11 @@ fn references_place_objects_where_they_stand() {
     let red = Bsdf::Diffuse {
         albedo: Rgb::new(0.8, 0.1, 0.1),
     };
-    assert_eq!(desc.shapes.len(), 6);
-    for s in &desc.shapes[..3] {
+    assert_eq!(desc.scene.shapes.len(), 6);
+    for s in &desc.scene.shapes[..3] {
         assert_eq!(s.bsdf, red);
     }
-    let albedo = |i: usize| match &desc.shapes[i].bsdf {
+    let albedo = |i: usize| match &desc.scene.shapes[i].bsdf {
         Bsdf::Diffuse { albedo } => *albedo,
         b => panic!("{b:?}"),
     };
@@ -527,14 +531,17 @@ fn defaults_and_parameters() {
         &[("depth", "3"), ("r", "2.5"), ("res", "48")],
     );
     assert!(w.is_empty(), "{w:?}");
-    assert_eq!((desc.camera.width, desc.camera.height), (48, 48));
-    assert_eq!(desc.spp, 16);
-    match &desc.shapes[0].geometry {
+    assert_eq!(
+        (desc.scene.camera.width, desc.scene.camera.height),
+        (48, 48)
+    );
+    assert_eq!(desc.job.spp, 16);
+    match &desc.scene.shapes[0].geometry {
         Geometry::Sphere(s) => assert_eq!(s.radius, 2.5),
         g => panic!("{g:?}"),
     }
     assert!(matches!(
-        desc.integrator,
+        desc.job.integrator,
         Integrator::Path {
             params: PathParams {
                 max_depth: Some(3),
@@ -593,9 +600,9 @@ fn command_line_defines() {
     );
     assert!(stdout.contains("80x32"), "{stdout}");
     let (desc, _) = load_scene_with(&path, &[("w".into(), "100".into())]).unwrap();
-    assert_eq!(desc.camera.width, 100);
+    assert_eq!(desc.scene.camera.width, 100);
     let (desc, _) = load_scene(&path).unwrap();
-    assert_eq!(desc.camera.width, 64);
+    assert_eq!(desc.scene.camera.width, 64);
 }
 
 #[test]
@@ -618,9 +625,9 @@ fn includes_splice_files() {
     )
     .unwrap();
     let (desc, w) = load_scene(&path).unwrap();
-    assert_eq!(desc.shapes.len(), 2);
+    assert_eq!(desc.scene.shapes.len(), 2);
     assert_eq!(
-        desc.shapes[1].bsdf,
+        desc.scene.shapes[1].bsdf,
         Bsdf::Diffuse {
             albedo: Rgb::splat(0.3)
         }
@@ -684,7 +691,7 @@ fn transforms_apply_in_document_order() {
     ));
     // The light sits at to_world * origin = S R T (0,0,0) = S R (1,0,0)
     // = S (0,1,0) = (0,1,0) (scale x only; y and z default to 1).
-    match &desc.emitters[0] {
+    match &desc.scene.emitters[0] {
         Emitter::Point { position, .. } => close(*position, Vec3::new(0.0, 1.0, 0.0)),
         e => panic!("{e:?}"),
     }
@@ -738,7 +745,7 @@ fn points_vectors_colours_and_spectra() {
            <emitter type="point"><point name="position" value="2"/><spectrum name="intensity" value="1, 2, 3"/></emitter>
            <emitter type="directional"><vector name="direction" y="-2"/><rgb name="irradiance" value="0.5"/></emitter>"#,
     ));
-    match &desc.emitters[..] {
+    match &desc.scene.emitters[..] {
         [Emitter::Point {
             position: p1,
             intensity: i1,
@@ -839,7 +846,7 @@ fn every_shape() {
         assert!(p.y.abs() < 1e-5 || (p.y - 3.0).abs() < 1e-5);
     }
     // Mitsuba's sphere: to_world applies after center and radius.
-    match &desc.shapes[4].geometry {
+    match &desc.scene.shapes[4].geometry {
         Geometry::Sphere(s) => {
             close(s.center, Vec3::new(2.0, 4.0, 6.0));
             close_f(s.radius, 1.0, 1e-6);
@@ -1140,14 +1147,14 @@ fn emitters() {
     );
     let (desc, w) = load_scene_str(&text, &dir.path().join("s.xml")).unwrap();
     assert!(w.is_empty(), "{w:?}");
-    match &desc.emitters[0] {
+    match &desc.scene.emitters[0] {
         Emitter::Environment(env) => {
             assert_eq!(env.scale, 2.0);
             close(env.to_world.vector(Vec3::Z), Vec3::X);
         }
         e => panic!("{e:?}"),
     }
-    match &desc.emitters[1] {
+    match &desc.scene.emitters[1] {
         Emitter::Point {
             position,
             intensity,
@@ -1157,7 +1164,7 @@ fn emitters() {
         }
         e => panic!("{e:?}"),
     }
-    match (&desc.emitters[2], &desc.emitters[3]) {
+    match (&desc.scene.emitters[2], &desc.scene.emitters[3]) {
         (
             Emitter::Directional {
                 direction: d1,
@@ -1171,16 +1178,19 @@ fn emitters() {
         }
         e => panic!("{e:?}"),
     }
-    assert_eq!(desc.shapes[0].area_radiance, Some(Rgb::ONE));
-    assert_eq!(desc.shapes[1].area_radiance, Some(Rgb::new(3.0, 2.0, 1.0)));
+    assert_eq!(desc.scene.shapes[0].area_radiance, Some(Rgb::ONE));
+    assert_eq!(
+        desc.scene.shapes[1].area_radiance,
+        Some(Rgb::new(3.0, 2.0, 1.0))
+    );
     // Mitsuba's default BSDF is diffuse 0.5, but black on an emitter
     // (`render/shape.cpp`); a BSDF given explicitly is kept.
     let black = Bsdf::Diffuse { albedo: Rgb::ZERO };
-    assert_eq!(desc.shapes[0].bsdf, black);
-    assert_eq!(desc.shapes[1].bsdf, black);
-    assert_eq!(desc.shapes[2].bsdf, Bsdf::default());
-    assert_eq!(desc.shapes[3].bsdf, Bsdf::default());
-    assert_eq!(desc.shapes[3].area_radiance, None);
+    assert_eq!(desc.scene.shapes[0].bsdf, black);
+    assert_eq!(desc.scene.shapes[1].bsdf, black);
+    assert_eq!(desc.scene.shapes[2].bsdf, Bsdf::default());
+    assert_eq!(desc.scene.shapes[3].bsdf, Bsdf::default());
+    assert_eq!(desc.scene.shapes[3].area_radiance, None);
 
     let e = |body: &str| load_err(&scene(body));
     assert!(
@@ -1213,7 +1223,7 @@ fn integrators() {
         let (d, w) = load(&format!(
             "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>"
         ));
-        (d.integrator, w)
+        (d.job.integrator, w)
     };
     let (i, w) = integ(
         "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/><integer name=\"rr_depth\" value=\"2\"/><boolean name=\"hide_emitters\" value=\"true\"/></integrator>",
@@ -1291,7 +1301,7 @@ fn bsdfs() {
     ));
     // Every BSDF is Mitsuba's own: no warnings.
     assert!(w.is_empty(), "{w:?}");
-    let b = |i: usize| desc.shapes[i].bsdf.clone();
+    let b = |i: usize| desc.scene.shapes[i].bsdf.clone();
     let (au_eta, au_k) = conductor_preset("Au").unwrap();
     let (cu_eta, cu_k) = conductor_preset("Cu").unwrap();
     let mirror = Bsdf::conductor(Rgb::ZERO, Rgb::ONE, Rgb::ONE);
@@ -1418,12 +1428,12 @@ fn bsdfs() {
            <shape type="sphere"><bsdf type="twosided"><ref id="rp"/></bsdf></shape>"#,
     ));
     assert!(w.is_empty(), "{w:?}");
-    assert_eq!(desc.shapes[0].bsdf, desc.shapes[1].bsdf);
+    assert_eq!(desc.scene.shapes[0].bsdf, desc.scene.shapes[1].bsdf);
     assert!(matches!(
-        desc.shapes[0].bsdf,
+        desc.scene.shapes[0].bsdf,
         Bsdf::RoughPlastic(ref p) if p.distr.kind == MicrofacetType::Beckmann && p.distr.alpha_u == 0.3
     ));
-    assert!(matches!(desc.shapes[2].bsdf, Bsdf::TwoSided { .. }));
+    assert!(matches!(desc.scene.shapes[2].bsdf, Bsdf::TwoSided { .. }));
 
     // A twosided BSDF cannot hold a transmissive one: an error at the
     // nested element (or at the reference to it).
@@ -1585,7 +1595,7 @@ fn shipped_scenes_load_without_warnings() {
     for name in ["cbox.xml", "envmap.xml", "sunlight.xml", "showcase.xml"] {
         let (desc, w) = load_scene(&shipped(name)).unwrap_or_else(|e| panic!("{e}"));
         assert!(w.is_empty(), "{name}: {w:?}");
-        assert!(!desc.shapes.is_empty());
+        assert!(!desc.scene.shapes.is_empty());
     }
 }
 
@@ -1598,13 +1608,16 @@ fn rendered_cbox_has_the_red_wall_on_the_left() {
         ("max_depth".to_string(), "2".to_string()),
     ];
     let (desc, _) = load_scene_with(&shipped("cbox.xml"), &defines).unwrap();
-    let scene = lente::scene::Scene::new(desc).unwrap();
+    let scene = lente::scene::Scene::new(desc.scene).unwrap();
     let opts = RenderOptions {
-        spp: 16,
         seed: 1,
         progress: false,
     };
-    let out = render(&scene, &opts, &AtomicBool::new(false));
+    let job = lente::render::RenderJob {
+        spp: 16,
+        ..desc.job
+    };
+    let out = render(&scene, &job, &opts, &AtomicBool::new(false));
     let img = &out.image;
     // Mean redness (r - g) of the leftmost and rightmost columns of the box.
     let redness = |x: usize| -> f32 {

@@ -87,16 +87,15 @@ fn rendering_samples_allocates_nothing() {
         "scenes/dof/dof.xml",
     ] {
         for integrator in integrators {
-            let (mut desc, _) = load_scene(&root.join(file)).unwrap();
-            desc.integrator = integrator;
-            let scene = Scene::new(desc).unwrap();
-            let mut block = FilmBlock::new(0, 0, 16, 16, scene.filter);
+            let (loaded, _) = load_scene(&root.join(file)).unwrap();
+            let scene = Scene::new(loaded.scene).unwrap();
+            let mut block = FilmBlock::new(0, 0, 16, 16, loaded.job.filter);
             let before = ALLOCATIONS.load(Ordering::SeqCst);
             for i in 0..20_000u32 {
                 let mut s = Sampler::for_pixel_sample(1, i % 16, i / 16 % 16, i);
                 let film = Vec2::new((i % 16) as f32, (i / 16 % 16) as f32) + s.next_2d();
                 let ray = scene.camera.generate_ray(film, s.next_2d());
-                let l = scene.integrator.li(&scene, &ray, &mut s);
+                let l = integrator.li(&scene, &ray, &mut s);
                 block.put(film, l);
             }
             let n = ALLOCATIONS.load(Ordering::SeqCst) - before;

@@ -13,10 +13,10 @@ use lente::emitter::{Emitter, EnvMap};
 use lente::geometry::Geometry;
 use lente::image::Bitmap;
 use lente::integrator::{Integrator, Strategy};
-use lente::load::{load_scene_str, SceneError, Warning};
+use lente::load::{load_scene_str, SceneError, SceneFile, Warning};
 use lente::math::{Vec2, Vec3, PI};
-use lente::render::{render, RenderOptions};
-use lente::scene::{Scene, SceneDesc};
+use lente::render::{render, RenderJob, RenderOptions};
+use lente::scene::Scene;
 use lente::stats::{sidak, t_test};
 use lente::verify::scene_mean;
 
@@ -26,12 +26,12 @@ fn scene_path() -> PathBuf {
 }
 
 #[track_caller]
-fn load(text: &str) -> (SceneDesc, Vec<Warning>) {
+fn load(text: &str) -> (SceneFile, Vec<Warning>) {
     load_at(text, &scene_path())
 }
 
 #[track_caller]
-fn load_at(text: &str, path: &Path) -> (SceneDesc, Vec<Warning>) {
+fn load_at(text: &str, path: &Path) -> (SceneFile, Vec<Warning>) {
     match load_scene_str(text, path) {
         Ok(r) => r,
         Err(e) => panic!("scene should load: {e}\n{text}"),
@@ -39,7 +39,7 @@ fn load_at(text: &str, path: &Path) -> (SceneDesc, Vec<Warning>) {
 }
 
 #[track_caller]
-fn load_clean(text: &str) -> SceneDesc {
+fn load_clean(text: &str) -> SceneFile {
     let (desc, warnings) = load(text);
     assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
     desc
@@ -56,7 +56,7 @@ fn load_err(text: &str) -> SceneError {
 /// The one warning of a scene, which must mention every word of `words`
 /// and stand at `line`:`col`.
 #[track_caller]
-fn one_warning(text: &str, line: u32, col: u32, words: &[&str]) -> SceneDesc {
+fn one_warning(text: &str, line: u32, col: u32, words: &[&str]) -> SceneFile {
     let (desc, warnings) = load(text);
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     let w = &warnings[0];
@@ -68,8 +68,8 @@ fn one_warning(text: &str, line: u32, col: u32, words: &[&str]) -> SceneDesc {
     desc
 }
 
-fn point_intensity(desc: &SceneDesc) -> (Vec3, Rgb) {
-    match desc.emitters.as_slice() {
+fn point_intensity(desc: &SceneFile) -> (Vec3, Rgb) {
+    match desc.scene.emitters.as_slice() {
         [Emitter::Point {
             position,
             intensity,
@@ -112,12 +112,13 @@ fn floor_scene(integrator: &str, emitter: &str) -> String {
 
 /// The same small scene (a floor under one point light, seen obliquely)
 /// rendered to an image.
-fn render_image(desc: SceneDesc) -> Bitmap {
-    let scene = Scene::new(desc).unwrap();
+fn render_image(desc: SceneFile) -> Bitmap {
+    let scene = Scene::new(desc.scene).unwrap();
+    let job = RenderJob { spp: 4, ..desc.job };
     render(
         &scene,
+        &job,
         &RenderOptions {
-            spp: 4,
             seed: 7,
             progress: false,
         },
@@ -179,7 +180,7 @@ fn pointlight_radiance_r_equals_point_power_4pi_r() {
     </emitter>"#,
         r.x, r.y, r.z
     ));
-    let descs: Vec<SceneDesc> = [&zaragoza, &eth, &intensity]
+    let descs: Vec<SceneFile> = [&zaragoza, &eth, &intensity]
         .into_iter()
         .map(|s| load_clean(s))
         .collect();
@@ -223,10 +224,10 @@ fn pointlight_radiance_is_a_radiant_intensity() {
             let ems = Integrator::Direct {
                 strategy: Strategy::Ems,
             };
-            assert_eq!(desc.integrator, ems);
+            assert_eq!(desc.job.integrator, ems);
         }
-        let scene = Scene::new(desc).unwrap();
-        let mv = scene_mean(&scene, 20_000, 11 + k as u64);
+        let scene = Scene::new(desc.scene).unwrap();
+        let mv = scene_mean(&scene, &desc.job.integrator, 20_000, 11 + k as u64);
         let t = t_test(&mv, expect);
         assert!(
             t.passes(alpha),
@@ -344,7 +345,7 @@ fn environment_without_a_file_is_uniform() {
 </scene>
 "#,
     );
-    match desc.emitters.as_slice() {
+    match desc.scene.emitters.as_slice() {
         [Emitter::Constant { radiance }] => close(*radiance, Rgb::new(1.0, 0.5, 2.0), 0.0),
         other => panic!("{other:?}"),
     }
@@ -355,7 +356,7 @@ fn environment_without_a_file_is_uniform() {
 </scene>
 "#;
     let desc = one_warning(text, 4, 5, &["Zaragoza", "'filename'", "radiance 1"]);
-    match desc.emitters.as_slice() {
+    match desc.scene.emitters.as_slice() {
         [Emitter::Constant { radiance }] => close(*radiance, Rgb::ONE, 0.0),
         other => panic!("{other:?}"),
     }
@@ -394,8 +395,8 @@ fn uniform_environment_lights_a_diffuse_sphere() {
 </scene>
 "#,
     );
-    let scene = Scene::new(desc).unwrap();
-    let mv = scene_mean(&scene, 20_000, 3);
+    let scene = Scene::new(desc.scene).unwrap();
+    let mv = scene_mean(&scene, &desc.job.integrator, 20_000, 3);
     let expect = 0.6 * 0.8;
     assert!(
         t_test(&mv, expect).passes(0.01),
@@ -427,8 +428,8 @@ fn write_columns_map(dir: &Path) -> Vec<Rgb> {
     cols
 }
 
-fn env_of(desc: &SceneDesc) -> &EnvMap {
-    match desc.emitters.as_slice() {
+fn env_of(desc: &SceneFile) -> &EnvMap {
+    match desc.scene.emitters.as_slice() {
         [Emitter::Environment(env)] => env,
         other => panic!("expected one environment map, found {other:?}"),
     }
@@ -526,7 +527,7 @@ fn mesh_to_world_on_obj_and_sphere() {
 </scene>
 "#,
     );
-    match &desc.shapes[0].geometry {
+    match &desc.scene.shapes[0].geometry {
         Geometry::Mesh(m) => {
             // The 20 x 20 floor at y = 0, shrunk to 2 x 2, stood up in the
             // xy-plane (90 degrees about +x takes (x, y, z) to (x, -z, y))
@@ -537,7 +538,7 @@ fn mesh_to_world_on_obj_and_sphere() {
         }
         other => panic!("{other:?}"),
     }
-    match &desc.shapes[1].geometry {
+    match &desc.scene.shapes[1].geometry {
         Geometry::Sphere(s) => {
             close(s.center, Vec3::new(2.0, 3.0, 0.0), 1e-6);
             assert!((s.radius - 1.0).abs() < 1e-6, "{}", s.radius);
@@ -564,7 +565,7 @@ fn area_scale_warns_naming_the_zaragoza_fork() {
 </scene>
 "#;
     let desc = one_warning(text, 7, 40, &["Zaragoza", "'scale'", "ignores"]);
-    close(desc.shapes[0].area_radiance.unwrap(), Rgb::ONE, 0.0);
+    close(desc.scene.shapes[0].area_radiance.unwrap(), Rgb::ONE, 0.0);
 }
 
 /// `R0` (the Zaragoza fork's roughconductor) on a microfacet warns.
@@ -690,12 +691,12 @@ fn fork_lights_test_file_references_are_the_closed_forms() {
     for (r, w) in references.iter().zip(want) {
         assert!((r - w).abs() <= 1e-8 * w, "{r} vs {w}");
     }
-    let i = |k: usize| point_intensity(&scenes[k].desc).1;
+    let i = |k: usize| point_intensity(&scenes[k].file).1;
     close(i(0), Rgb::ONE, 0.0);
     for k in 2..5 {
         close(i(k), Rgb::new(2.0, 1.0, 0.5), 1e-6);
     }
-    match scenes[5].desc.emitters.as_slice() {
+    match scenes[5].file.scene.emitters.as_slice() {
         [Emitter::Constant { radiance }] => close(*radiance, Rgb::splat(0.8), 0.0),
         other => panic!("{other:?}"),
     }

@@ -9,7 +9,6 @@ use lente::color::Rgb;
 use lente::geometry::{Geometry, TriangleMesh};
 use lente::integrator::{Integrator, PathParams, Strategy};
 use lente::math::Vec3;
-use lente::scene::Scene;
 use lente::stats::{sidak, t_test, welch_t_test};
 
 fn quad(c: Vec3, half: f32, y_normal_up: bool) -> TriangleMesh {
@@ -29,7 +28,7 @@ fn quad(c: Vec3, half: f32, y_normal_up: bool) -> TriangleMesh {
 
 /// A diffuse sphere lit by a quad light from above; a scene where direct
 /// lighting is all there is (a convex object cannot light itself).
-fn lit_sphere(integrator: Integrator, albedo: f32) -> Scene {
+fn lit_sphere(integrator: Integrator, albedo: f32) -> TestScene {
     let mut d = desc(
         look_at(Vec3::new(0.0, 0.5, 4.0), Vec3::ZERO, 30.0, 32, 32),
         integrator,
@@ -41,7 +40,7 @@ fn lit_sphere(integrator: Integrator, albedo: f32) -> Scene {
         diffuse(0.0),
         Some(Rgb::splat(10.0)),
     ));
-    Scene::new(d).unwrap()
+    d.build()
 }
 
 #[test]
@@ -94,7 +93,7 @@ fn simple_matches_direct_lighting_of_a_white_point_lit_sphere() {
         d.shapes
             .push(shape(sphere(Vec3::ZERO, 1.0), diffuse(1.0), None));
         d.emitters.push(point_light(pos, power));
-        Scene::new(d).unwrap()
+        d.build()
     };
     let simple = estimate(
         &build(Integrator::Simple {
@@ -147,7 +146,7 @@ fn average_visibility_between_parallel_planes() {
         diffuse(0.5),
         None,
     ));
-    let scene = Scene::new(d).unwrap();
+    let scene = d.build();
     let mv = estimate(&scene, 200_000, 6);
     let expect = (h / length) as f64;
     let r = t_test(&mv, expect);
@@ -180,7 +179,7 @@ fn whitted_agrees_with_path_tracing_in_a_furnace() {
             ));
             d.emitters
                 .push(lente::emitter::Emitter::Constant { radiance: Rgb::ONE });
-            Scene::new(d).unwrap()
+            d.build()
         };
         let whitted = estimate(&build(Integrator::Whitted), 50_000, 20 + i as u64);
         let path = estimate(
@@ -234,7 +233,7 @@ fn directional_light_on_a_diffuse_plane() {
         direction: dir,
         irradiance: Rgb::splat(e),
     });
-    let scene = Scene::new(d).unwrap();
+    let scene = d.build();
     let mv = estimate(&scene, 1000, 9);
     let expect = (e * -dir.y / std::f32::consts::PI) as f64;
     assert!(
@@ -278,7 +277,7 @@ fn spherical_light_over_a_floor() {
             diffuse(0.0),
             Some(Rgb::splat(l)),
         ));
-        let scene = Scene::new(d).unwrap();
+        let scene = d.build();
         let n = if s == Strategy::Mats { 400_000 } else { 50_000 };
         let mv = estimate(&scene, n, 70 + i as u64);
         let t = t_test(&mv, expect);

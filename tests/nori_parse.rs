@@ -9,12 +9,12 @@ use lente::emitter::Emitter;
 use lente::geometry::Geometry;
 use lente::image::Filter;
 use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::load::SceneFile;
 use lente::load::{load_scene, load_scene_str, Warning};
 use lente::math::{Transform, Vec3, PI};
-use lente::scene::SceneDesc;
 
 #[track_caller]
-fn load(text: &str) -> (SceneDesc, Vec<Warning>) {
+fn load(text: &str) -> (SceneFile, Vec<Warning>) {
     match load_scene_str(text, Path::new("test.xml")) {
         Ok(r) => r,
         Err(e) => panic!("scene should load: {e}"),
@@ -23,7 +23,7 @@ fn load(text: &str) -> (SceneDesc, Vec<Warning>) {
 
 /// Loads a scene that must produce no warnings.
 #[track_caller]
-fn load_clean(text: &str) -> SceneDesc {
+fn load_clean(text: &str) -> SceneFile {
     let (desc, warnings) = load(text);
     assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
     desc
@@ -49,25 +49,25 @@ fn minimal_scene_gets_noris_defaults() {
             <mesh type="sphere"/>
         </scene>"#,
     );
-    assert_eq!(desc.camera, CameraParams::default());
-    assert_eq!(desc.camera.width, 1280);
-    assert_eq!(desc.camera.height, 720);
-    assert_eq!(desc.camera.fov_x_deg, 30.0);
-    assert_eq!(desc.camera.near_clip, 1e-4);
-    assert_eq!(desc.camera.far_clip, 1e4);
-    assert_eq!(desc.camera.lens_radius, 0.0);
-    assert_eq!(desc.camera.aperture, Aperture::Circular);
-    assert!(!desc.camera.autofocus);
+    assert_eq!(desc.scene.camera, CameraParams::default());
+    assert_eq!(desc.scene.camera.width, 1280);
+    assert_eq!(desc.scene.camera.height, 720);
+    assert_eq!(desc.scene.camera.fov_x_deg, 30.0);
+    assert_eq!(desc.scene.camera.near_clip, 1e-4);
+    assert_eq!(desc.scene.camera.far_clip, 1e4);
+    assert_eq!(desc.scene.camera.lens_radius, 0.0);
+    assert_eq!(desc.scene.camera.aperture, Aperture::Circular);
+    assert!(!desc.scene.camera.autofocus);
     assert_eq!(
-        desc.filter,
+        desc.job.filter,
         Filter::Gaussian {
             radius: 2.0,
             stddev: 0.5
         }
     );
-    assert_eq!(desc.spp, 1);
+    assert_eq!(desc.job.spp, 1);
     assert_eq!(
-        desc.integrator,
+        desc.job.integrator,
         Integrator::Path {
             strategy: Strategy::Mis,
             params: PathParams {
@@ -77,8 +77,8 @@ fn minimal_scene_gets_noris_defaults() {
             }
         }
     );
-    assert_eq!(desc.shapes.len(), 1);
-    let s = &desc.shapes[0];
+    assert_eq!(desc.scene.shapes.len(), 1);
+    let s = &desc.scene.shapes[0];
     assert_eq!(
         s.bsdf,
         Bsdf::Diffuse {
@@ -93,8 +93,7 @@ fn minimal_scene_gets_noris_defaults() {
         }
         g => panic!("expected a sphere, got {g:?}"),
     }
-    assert!(desc.emitters.is_empty());
-    assert_eq!(desc.source, Path::new("test.xml"));
+    assert!(desc.scene.emitters.is_empty());
 }
 
 #[test]
@@ -121,7 +120,7 @@ fn full_camera_and_integrator_settings() {
             </camera>
         </scene>"#,
     );
-    let c = &desc.camera;
+    let c = &desc.scene.camera;
     assert_eq!((c.width, c.height), (320, 200));
     assert_eq!(c.fov_x_deg, 45.0, "an <integer> stands in for a float");
     assert_eq!((c.near_clip, c.far_clip), (0.5, 50.0));
@@ -133,9 +132,9 @@ fn full_camera_and_integrator_settings() {
         }
         a => panic!("expected a polygon, got {a:?}"),
     }
-    assert_eq!(desc.spp, 64);
+    assert_eq!(desc.job.spp, 64);
     assert_eq!(
-        desc.integrator,
+        desc.job.integrator,
         Integrator::Path {
             strategy: Strategy::Ems,
             params: PathParams {
@@ -153,8 +152,8 @@ fn autofocus_needs_no_focal_distance() {
         r#"<float name="lensRadius" value="0.1"/>
            <boolean name="autofocus" value="true"/>"#,
     ));
-    assert!(desc.camera.autofocus);
-    assert_eq!(desc.camera.lens_radius, 0.1);
+    assert!(desc.scene.camera.autofocus);
+    assert_eq!(desc.scene.camera.lens_radius, 0.1);
 }
 
 #[test]
@@ -163,6 +162,7 @@ fn integrator_variants() {
         load_clean(&format!(
             "<scene><camera type=\"perspective\"/>{body}</scene>"
         ))
+        .job
         .integrator
     };
     assert_eq!(get(r#"<integrator type="normals"/>"#), Integrator::Normals);
@@ -206,12 +206,12 @@ fn transform_ops_apply_in_document_order() {
     let p = Vec3::new(1.0, 1.0, 1.0);
     // (p + (1,0,0)) * 2
     close(
-        translate_then_scale.camera.to_world.point(p),
+        translate_then_scale.scene.camera.to_world.point(p),
         Vec3::new(4.0, 2.0, 2.0),
     );
     // p * 2 + (1,0,0)
     close(
-        scale_then_translate.camera.to_world.point(p),
+        scale_then_translate.scene.camera.to_world.point(p),
         Vec3::new(3.0, 2.0, 2.0),
     );
 }
@@ -228,7 +228,7 @@ fn rotate_matrix_and_nonuniform_scale() {
                               0 0 0 1"/>
            </transform>"#,
     ));
-    let t = desc.camera.to_world;
+    let t = desc.scene.camera.to_world;
     // x -> rotate: y -> scale: (0,2,0) -> translate: (5,8,7)
     close(t.point(Vec3::X), Vec3::new(5.0, 8.0, 7.0));
     close(t.point(Vec3::ZERO), Vec3::new(5.0, 6.0, 7.0));
@@ -243,7 +243,7 @@ fn lookat_gives_noris_camera_axes() {
                <lookat origin="1, 2, 3" target="1 2 -7" up="0 5 0"/>
            </transform>"#,
     ));
-    let t: Transform = desc.camera.to_world;
+    let t: Transform = desc.scene.camera.to_world;
     close(t.point(Vec3::ZERO), Vec3::new(1.0, 2.0, 3.0));
     // dir = normalize(target - origin)
     close(t.vector(Vec3::Z), Vec3::new(0.0, 0.0, -1.0));
@@ -259,7 +259,7 @@ fn lookat_gives_noris_camera_axes() {
                <lookat origin="0 0 0" target="1 0 0" up="0 1 0"/>
            </transform>"#,
     ));
-    let t = desc.camera.to_world;
+    let t = desc.scene.camera.to_world;
     close(t.vector(Vec3::Z), Vec3::X);
     // left = y x x = -z; the mirror flips it to +z.
     close(t.vector(Vec3::X), Vec3::Z);
@@ -268,7 +268,7 @@ fn lookat_gives_noris_camera_axes() {
 
 #[test]
 fn reconstruction_filters() {
-    let filter = |body: &str| load_clean(&camera_scene(body)).filter;
+    let filter = |body: &str| load_clean(&camera_scene(body)).job.filter;
     assert_eq!(
         filter(r#"<rfilter type="gaussian"/>"#),
         Filter::Gaussian {
@@ -340,7 +340,7 @@ fn obj_paths_are_relative_to_the_scene_file() {
     // Loaded from another working folder: only the scene's folder counts.
     let (desc, warnings) = load_scene(&path).unwrap();
     assert!(warnings.is_empty(), "{warnings:?}");
-    let shape = &desc.shapes[0];
+    let shape = &desc.scene.shapes[0];
     match &shape.geometry {
         Geometry::Mesh(m) => {
             assert_eq!(m.indices.len(), 1);
@@ -350,7 +350,6 @@ fn obj_paths_are_relative_to_the_scene_file() {
     }
     assert_eq!(shape.bsdf, Bsdf::Mirror);
     assert_eq!(shape.area_radiance, Some(Rgb::new(1.0, 2.0, 3.0)));
-    assert_eq!(desc.source, path);
 }
 
 #[test]
@@ -377,10 +376,10 @@ fn values_with_newlines_and_mixed_separators() {
 </scene>";
     let desc = load_clean(scene);
     close(
-        desc.camera.to_world.point(Vec3::ZERO),
+        desc.scene.camera.to_world.point(Vec3::ZERO),
         Vec3::new(1.0, 2.0, 3.0),
     );
-    match &desc.shapes[0].geometry {
+    match &desc.scene.shapes[0].geometry {
         Geometry::Sphere(s) => {
             close(s.center, Vec3::new(1.0, 2.0, 3.0));
             assert_eq!(s.radius, 0.25);
@@ -388,13 +387,13 @@ fn values_with_newlines_and_mixed_separators() {
         g => panic!("{g:?}"),
     }
     assert_eq!(
-        desc.shapes[0].bsdf,
+        desc.scene.shapes[0].bsdf,
         Bsdf::Diffuse {
             albedo: Rgb::new(0.1, 0.2, 0.3)
         }
     );
     assert_eq!(
-        desc.shapes[1].bsdf,
+        desc.scene.shapes[1].bsdf,
         Bsdf::Diffuse {
             albedo: Rgb::splat(0.25)
         },
@@ -419,7 +418,7 @@ fn sphere_to_world_moves_and_scales_it() {
             </mesh>
         </scene>"#,
     );
-    match &desc.shapes[0].geometry {
+    match &desc.scene.shapes[0].geometry {
         Geometry::Sphere(s) => {
             close(s.center, Vec3::new(0.0, 2.0, 1.0));
             assert!((s.radius - 1.0).abs() < 1e-6);
@@ -435,6 +434,7 @@ fn bsdfs() {
             "<scene><integrator type=\"normals\"/><camera type=\"perspective\"/>\
              <mesh type=\"sphere\">{body}</mesh></scene>"
         ))
+        .scene
         .shapes[0]
             .bsdf
             .clone()
@@ -467,8 +467,8 @@ fn scene_level_emitters() {
             </emitter>
         </scene>"#,
     );
-    assert_eq!(desc.emitters.len(), 2);
-    match &desc.emitters[0] {
+    assert_eq!(desc.scene.emitters.len(), 2);
+    match &desc.scene.emitters[0] {
         Emitter::Point {
             position,
             intensity,
@@ -478,7 +478,7 @@ fn scene_level_emitters() {
         }
         e => panic!("{e:?}"),
     }
-    match &desc.emitters[1] {
+    match &desc.scene.emitters[1] {
         Emitter::Constant { radiance } => close(*radiance, Rgb::splat(0.5)),
         e => panic!("{e:?}"),
     }
@@ -499,7 +499,7 @@ fn sky_becomes_an_environment_map() {
             </emitter>
         </scene>"#,
     );
-    match &desc.emitters[0] {
+    match &desc.scene.emitters[0] {
         Emitter::Environment(env) => {
             assert!(!env.visible);
             assert_eq!(env.image.width, 64);
@@ -512,7 +512,7 @@ fn sky_becomes_an_environment_map() {
         r#"<scene><integrator type="path_mis"/><camera type="perspective"/>
            <emitter type="sky"><integer name="resolution" value="32"/></emitter></scene>"#,
     );
-    match &desc.emitters[0] {
+    match &desc.scene.emitters[0] {
         Emitter::Environment(env) => assert!(env.visible, "visible by default"),
         e => panic!("{e:?}"),
     }
@@ -544,7 +544,7 @@ fn environment_map_loads_relative_to_the_scene() {
             let tried = dir.path().join("probes/sky.exr");
             assert!(e.to_string().contains(&tried.display().to_string()), "{e}");
         }
-        Ok((desc, _)) => match &desc.emitters[0] {
+        Ok((desc, _)) => match &desc.scene.emitters[0] {
             Emitter::Environment(env) => {
                 assert!(!env.visible);
                 assert_eq!(env.scale, 2.0);
@@ -560,5 +560,5 @@ fn comments_declarations_and_whitespace_are_ignored() {
     let desc = load_clean(
         "\u{feff}<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<!-- Nori scene -->\n<scene>\n  <!-- camera -->\n  <camera type=\"perspective\">\n    <integer name=\"width\" value=\" 64 \"/>\n  </camera>\n  <integrator type=\"normals\"/>\n</scene>\n",
     );
-    assert_eq!(desc.camera.width, 64);
+    assert_eq!(desc.scene.camera.width, 64);
 }

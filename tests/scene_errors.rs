@@ -195,7 +195,7 @@ fn duplicate_property_is_a_warning_and_the_last_wins() {
         &["'fov'", "more than once", "4:9"],
     );
     let (desc, _) = load_scene_str(scene, Path::new("dup.xml")).unwrap();
-    assert_eq!(desc.camera.fov_x_deg, 50.0);
+    assert_eq!(desc.scene.camera.fov_x_deg, 50.0);
 }
 
 #[test]

@@ -95,7 +95,7 @@ fn shading_frames_match_mitsuba() {
         let xml = format!(r#"<scene version="3.0.0">{}</scene>"#, shape_xml(name));
         let (desc, _) =
             load_scene_str(&xml, &dir.join("frames.xml")).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let scene = Scene::new(desc).unwrap();
+        let scene = Scene::new(desc.scene).unwrap();
         let its = scene
             .intersect(&Ray::new(Vec3::from(o), Vec3::from(d)))
             .unwrap_or_else(|| panic!("{name}: the ray from {o:?} misses"));

@@ -126,7 +126,7 @@ fn pixels_per_unit() -> f32 {
 }
 
 /// A scene of one small emitting sphere on the optical axis at `depth`.
-fn point_scene(depth: f32, lens_radius: f32, focal: f32, aperture: Aperture) -> Scene {
+fn point_scene(depth: f32, lens_radius: f32, focal: f32, aperture: Aperture) -> TestScene {
     let mut cam = look_at(Vec3::ZERO, Vec3::Z, FOV, SIZE, SIZE);
     cam.lens_radius = lens_radius;
     cam.focal_distance = focal;
@@ -140,16 +140,16 @@ fn point_scene(depth: f32, lens_radius: f32, focal: f32, aperture: Aperture) -> 
         diffuse(0.0),
         Some(Rgb::splat(1000.0)),
     ));
-    Scene::new(d).unwrap()
+    d.build()
 }
 
 fn render_image(scene: &Scene, spp: u32) -> Bitmap {
     let opts = RenderOptions {
-        spp,
         seed: 1,
         progress: false,
     };
-    render(scene, &opts, &AtomicBool::new(false)).image
+    let job = job(path(Strategy::Mats), spp);
+    render(scene, &job, &opts, &AtomicBool::new(false)).image
 }
 
 /// Moments of the image about its centre: (rms radius, |n-th angular

@@ -1,9 +1,9 @@
 //! Indexed triangle meshes.
 
-use crate::math::{Aabb, Transform, Vec2, Vec3};
+use crate::math::{Aabb, Frame, Transform, Vec2, Vec3};
 use crate::sampling::{warp, Distribution1D};
 
-use super::SurfaceSample;
+use super::{BvhHit, Intersection, SurfaceSample};
 
 /// A triangle mesh in world space. `normals` and `uvs` are per vertex and
 /// either empty or as long as `positions`.
@@ -143,6 +143,25 @@ impl TriangleMesh {
             return Vec3::ZERO;
         }
         (dp0 * duv1.y - dp1 * duv0.y) / det
+    }
+
+    /// The surface point at barycentrics (b1, b2) of triangle `hit.index`
+    /// (shape index left 0 for the caller).
+    pub fn intersection(&self, hit: &BvhHit) -> Intersection {
+        let tri = hit.index as usize;
+        let (ns, uv) = self.shading(tri, hit.b1, hit.b2);
+        // Recompute the point from barycentrics: more precise than o + t d.
+        let [a, b, c] = self.vertices(tri);
+        let b0 = 1.0 - hit.b1 - hit.b2;
+        Intersection {
+            t: hit.t,
+            p: a * b0 + b * hit.b1 + c * hit.b2,
+            err: crate::math::barycentric_error(b0, hit.b1, hit.b2, a, b, c),
+            ng: self.geometric_normal(tri),
+            shading: Frame::from_normal_tangent(ns, self.dpdu(tri)),
+            uv,
+            shape: 0,
+        }
     }
 
     /// Samples a point uniformly by area.

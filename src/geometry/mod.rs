@@ -8,7 +8,7 @@ mod shapes;
 mod sphere;
 mod triangle;
 
-pub use bvh::Bvh;
+pub use bvh::{Bvh, BvhHit};
 pub use mesh::TriangleMesh;
 pub use obj::load_obj;
 pub use ply::{load_ply, parse_ply};
@@ -19,7 +19,7 @@ pub use shapes::{
 pub use sphere::Sphere;
 pub use triangle::{intersect_triangle, RayShear};
 
-use crate::math::{Aabb, Frame, Transform, Vec2, Vec3};
+use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};
 
 /// The geometry of one shape.
 #[derive(Clone, Debug)]
@@ -50,6 +50,21 @@ impl Geometry {
             Geometry::Mesh(m) => m.area(),
             Geometry::Sphere(s) => s.area(),
         }
+    }
+
+    /// The surface point of a BVH hit on this shape.
+    pub fn intersection(&self, ray: &Ray, hit: &BvhHit) -> Intersection {
+        let mut its = match self {
+            Geometry::Mesh(m) => m.intersection(hit),
+            Geometry::Sphere(s) => s.intersection(ray, hit.t),
+        };
+        its.shape = hit.shape;
+        // The geometric normal defines the front side; orient it to agree
+        // with the shading normal so emission and shading see one surface.
+        if its.ng.dot(its.shading.n) < 0.0 {
+            its.ng = -its.ng;
+        }
+        its
     }
 
     /// Applies a transform in place (meshes bake it; spheres need a similarity).

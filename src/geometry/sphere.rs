@@ -1,9 +1,9 @@
 //! Analytic spheres.
 
-use crate::math::{Aabb, Transform, Vec2, Vec3, PI};
+use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3, PI};
 use crate::sampling::warp;
 
-use super::SurfaceSample;
+use super::{Intersection, SurfaceSample};
 
 /// A cone of directions around a unit axis.
 #[derive(Clone, Copy, Debug)]
@@ -109,6 +109,22 @@ impl Sphere {
         let phi = n.x.atan2(-n.z).rem_euclid(2.0 * PI);
         let theta = n.y.clamp(-1.0, 1.0).acos();
         (n, Vec2::new(phi / (2.0 * PI), theta / PI))
+    }
+
+    /// The surface point at parameter `t` of `ray` (shape index left 0 for
+    /// the caller).
+    pub fn intersection(&self, ray: &Ray, t: f32) -> Intersection {
+        let (n, uv) = self.normal_uv(ray.at(t));
+        Intersection {
+            t,
+            // Reprojected onto the surface to remove the error of o + t d.
+            p: self.center + n * self.radius,
+            err: self.point_error(n),
+            ng: n,
+            shading: Frame::from_normal_tangent(n, self.dpdu(n)),
+            uv,
+            shape: 0,
+        }
     }
 
     /// Error bound of the point `center + radius * n`.

@@ -14,7 +14,15 @@ pub mod xml;
 
 use std::path::{Path, PathBuf};
 
+use crate::render::RenderJob;
 use crate::scene::SceneDesc;
+
+/// What a scene file describes: the world, and what to render of it.
+#[derive(Clone, Debug)]
+pub struct SceneFile {
+    pub scene: SceneDesc,
+    pub job: RenderJob,
+}
 
 /// A scene file that cannot be loaded: where, and why.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -87,7 +95,7 @@ impl std::fmt::Display for Warning {
 
 /// Reads a scene file: Nori's XML dialect, or Mitsuba 3's
 /// (`<scene version="...">`).
-pub fn load_scene(path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+pub fn load_scene(path: &Path) -> Result<(SceneFile, Vec<Warning>), SceneError> {
     load_scene_with(path, &[])
 }
 
@@ -96,7 +104,7 @@ pub fn load_scene(path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> 
 pub fn load_scene_with(
     path: &Path,
     defines: &[(String, String)],
-) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+) -> Result<(SceneFile, Vec<Warning>), SceneError> {
     let text = read_text(path, "scene file")?;
     load_scene_str_with(&text, path, defines)
 }
@@ -148,7 +156,7 @@ pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>, what: &str) -> Result<Str
 
 /// Reads a scene from text; `path` names it in messages and is the base of
 /// relative file names inside it.
-pub fn load_scene_str(text: &str, path: &Path) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+pub fn load_scene_str(text: &str, path: &Path) -> Result<(SceneFile, Vec<Warning>), SceneError> {
     load_scene_str_with(text, path, &[])
 }
 
@@ -157,7 +165,7 @@ pub fn load_scene_str_with(
     text: &str,
     path: &Path,
     defines: &[(String, String)],
-) -> Result<(SceneDesc, Vec<Warning>), SceneError> {
+) -> Result<(SceneFile, Vec<Warning>), SceneError> {
     let root = parse_xml(text, path)?;
     match root.tag.as_str() {
         "scene" if root.attr("version").is_some() => mitsuba::load(&root, path, defines),

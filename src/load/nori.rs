@@ -22,7 +22,7 @@ use super::props::{int_in, non_negative, positive};
 use super::props::{Kind, Props};
 use super::reader::{self, Dialect};
 use super::xml::{Pos, SceneNode};
-use super::{SceneError, Warning};
+use super::{SceneError, SceneFile, Warning};
 use crate::bsdf::Bsdf;
 use crate::camera::{Aperture, CameraParams};
 use crate::color::Rgb;
@@ -32,6 +32,7 @@ use crate::geometry::{load_obj, Geometry, Sphere};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Mat4, Transform, Vec3, PI};
+use crate::render::RenderJob;
 use crate::scene::{SceneDesc, ShapeDesc};
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -157,7 +158,7 @@ fn fork_type_hint(tag: &str, ty: &str) -> Option<&'static str> {
 const RFILTER_TYPES: &[&str] = &["gaussian", "box", "tent", "mitchell"];
 
 /// Builds a scene from a Nori `<scene>` element.
-pub fn load(root: &SceneNode, file: &Path) -> Result<(SceneDesc, Vec<Warning>)> {
+pub fn load(root: &SceneNode, file: &Path) -> Result<(SceneFile, Vec<Warning>)> {
     let mut ctx = Ctx::new(file);
     let desc = ctx.scene(root)?;
     Ok((desc, ctx.warnings))
@@ -242,7 +243,7 @@ impl<'a> Ctx<'a> {
         })
     }
 
-    fn scene(&mut self, root: &SceneNode) -> Result<SceneDesc> {
+    fn scene(&mut self, root: &SceneNode) -> Result<SceneFile> {
         reader::check_attributes(self.file, root, &[], &[])?;
         let (props, objects) = self.read_object(root, "<scene>")?;
         props.finish(&mut self.warnings);
@@ -314,14 +315,17 @@ impl<'a> Ctx<'a> {
         let Some((integrator, _)) = integrator else {
             return Err(self.err(root.pos, "the scene has no <integrator>"));
         };
-        Ok(SceneDesc {
-            camera,
-            filter,
-            spp: sampler.map_or(1, |s| s.0),
-            integrator,
-            shapes,
-            emitters,
-            source: self.file.to_path_buf(),
+        Ok(SceneFile {
+            scene: SceneDesc {
+                camera,
+                shapes,
+                emitters,
+            },
+            job: RenderJob {
+                integrator,
+                spp: sampler.map_or(1, |s| s.0),
+                filter,
+            },
         })
     }
 

@@ -23,9 +23,8 @@ use std::path::{Path, PathBuf};
 
 use super::props::{self, Props};
 use super::xml::{Pos, SceneNode};
-use super::{nori, SceneError, Warning};
+use super::{nori, SceneError, SceneFile, Warning};
 use crate::bsdf::Bsdf;
-use crate::scene::SceneDesc;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -46,7 +45,7 @@ pub struct BsdfCase {
 /// A scene of a test file, with where it was written.
 #[derive(Clone, Debug)]
 pub struct SceneCase {
-    pub desc: SceneDesc,
+    pub file: SceneFile,
     pub pos: Pos,
 }
 
@@ -159,10 +158,10 @@ fn read_test(root: &SceneNode, file: &Path) -> Result<(TestFile, Vec<Warning>)> 
     for node in &objects {
         match node.tag.as_str() {
             "scene" if ty == "ttest" => {
-                let (desc, w) = nori::load(node, file)?;
+                let (scene, w) = nori::load(node, file)?;
                 warnings.extend(w);
                 scenes.push(SceneCase {
-                    desc,
+                    file: scene,
                     pos: node.pos,
                 });
             }

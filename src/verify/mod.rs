@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use crate::bsdf::Bsdf;
 use crate::color::luminance;
+use crate::integrator::Integrator;
 use crate::load::nori_testfile::{NoriTest, TestFile};
 use crate::math::{Vec2, Vec3, PI};
 use crate::sampling::Sampler;
@@ -101,12 +102,12 @@ fn parallel_mean(n: u64, seed: u64, f: impl Fn(&mut Sampler) -> f64 + Sync) -> M
 /// Nori's ttest estimator for a scene: `n` camera rays through uniformly
 /// random image positions with random aperture samples; the luminance of
 /// the radiance each brings back.
-pub fn scene_mean(scene: &Scene, n: u64, seed: u64) -> MeanVar {
+pub fn scene_mean(scene: &Scene, integrator: &Integrator, n: u64, seed: u64) -> MeanVar {
     let size = Vec2::new(scene.camera.width() as f32, scene.camera.height() as f32);
     parallel_mean(n, seed, |s| {
         let film = s.next_2d() * size;
         let ray = scene.camera.generate_ray(film, s.next_2d());
-        luminance(scene.integrator.li(scene, &ray, s)) as f64
+        luminance(integrator.li(scene, &ray, s)) as f64
     })
 }
 
@@ -220,9 +221,15 @@ pub fn run_test_file(
             sample_count,
         } => {
             for (i, (case, &reference)) in scenes.iter().zip(references).enumerate() {
-                let scene = Scene::new(case.desc.clone())
+                let scene = Scene::new(case.file.scene.clone())
                     .map_err(|e| format!("{name}:{}: {e}", case.pos))?;
-                let mv = scene_mean(&scene, *sample_count as u64, derive_seed(seed, 1, i as u64));
+                let integrator = &case.file.job.integrator;
+                let mv = scene_mean(
+                    &scene,
+                    integrator,
+                    *sample_count as u64,
+                    derive_seed(seed, 1, i as u64),
+                );
                 let r = students_t_test(&mv, reference);
                 push(Outcome::new(
                     format!(
@@ -230,7 +237,7 @@ pub fn run_test_file(
                         case.pos,
                         i + 1,
                         scenes.len(),
-                        scene.integrator.name()
+                        integrator.name()
                     ),
                     t_detail(&mv, reference, &r),
                     r,

@@ -1,8 +1,6 @@
 //! Scene builders and estimators shared by the integration tests.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
-
 use lente::bsdf::Bsdf;
 use lente::camera::CameraParams;
 use lente::color::{luminance, Rgb};
@@ -11,6 +9,7 @@ use lente::geometry::{Geometry, Sphere, TriangleMesh};
 use lente::image::Filter;
 use lente::integrator::{Integrator, PathParams, Strategy};
 use lente::math::{Transform, Vec2, Vec3};
+use lente::render::RenderJob;
 use lente::sampling::Sampler;
 use lente::scene::{Scene, SceneDesc, ShapeDesc};
 use lente::stats::MeanVar;
@@ -176,15 +175,80 @@ pub fn look_at(origin: Vec3, target: Vec3, fov: f32, w: u32, h: u32) -> CameraPa
     }
 }
 
-pub fn desc(camera: CameraParams, integrator: Integrator) -> SceneDesc {
-    SceneDesc {
-        camera,
-        filter: Filter::Box { radius: 0.5 },
-        spp: 1,
+/// A world description with the integrator a test estimates it with
+/// (dereferences to the world, so shapes and emitters are pushed directly).
+pub struct TestDesc {
+    pub desc: SceneDesc,
+    pub integrator: Integrator,
+}
+
+impl std::ops::Deref for TestDesc {
+    type Target = SceneDesc;
+    fn deref(&self) -> &SceneDesc {
+        &self.desc
+    }
+}
+
+impl std::ops::DerefMut for TestDesc {
+    fn deref_mut(&mut self) -> &mut SceneDesc {
+        &mut self.desc
+    }
+}
+
+impl TestDesc {
+    /// Builds the world.
+    pub fn build(self) -> TestScene {
+        TestScene {
+            scene: Scene::new(self.desc).unwrap(),
+            integrator: self.integrator,
+        }
+    }
+}
+
+/// A built world with the integrator a test estimates it with
+/// (dereferences to the world).
+pub struct TestScene {
+    pub scene: Scene,
+    pub integrator: Integrator,
+}
+
+impl std::ops::Deref for TestScene {
+    type Target = Scene;
+    fn deref(&self) -> &Scene {
+        &self.scene
+    }
+}
+
+impl TestScene {
+    /// Renders `spp` samples per pixel with seed `seed` (box filter).
+    pub fn render(&self, spp: u32, seed: u64) -> lente::image::Bitmap {
+        let opts = lente::render::RenderOptions {
+            seed,
+            progress: false,
+        };
+        let never = std::sync::atomic::AtomicBool::new(false);
+        lente::render::render(self, &job(self.integrator, spp), &opts, &never).image
+    }
+}
+
+/// An empty world seen by `camera`, estimated with `integrator`.
+pub fn desc(camera: CameraParams, integrator: Integrator) -> TestDesc {
+    TestDesc {
+        desc: SceneDesc {
+            camera,
+            shapes: Vec::new(),
+            emitters: Vec::new(),
+        },
         integrator,
-        shapes: Vec::new(),
-        emitters: Vec::new(),
-        source: PathBuf::from("test.xml"),
+    }
+}
+
+/// A render job: `spp` samples of `integrator` through a box filter.
+pub fn job(integrator: Integrator, spp: u32) -> RenderJob {
+    RenderJob {
+        integrator,
+        spp,
+        filter: Filter::Box { radius: 0.5 },
     }
 }
 
@@ -214,7 +278,7 @@ pub fn stream(seed: u64, i: usize) -> Sampler {
 
 /// Nori's `ttest` estimator: `n` camera rays through uniformly random image
 /// positions (and aperture samples), mean and variance of the luminance.
-pub fn estimate(scene: &Scene, n: usize, seed: u64) -> MeanVar {
+pub fn estimate(scene: &TestScene, n: usize, seed: u64) -> MeanVar {
     let (w, h) = (scene.camera.width() as f32, scene.camera.height() as f32);
     let mut mv = MeanVar::default();
     for i in 0..n {
@@ -229,7 +293,7 @@ pub fn estimate(scene: &Scene, n: usize, seed: u64) -> MeanVar {
 
 /// Like [`estimate`] but restricted to a sub-rectangle of the image
 /// (fractions of width and height).
-pub fn estimate_region(scene: &Scene, n: usize, seed: u64, lo: Vec2, hi: Vec2) -> MeanVar {
+pub fn estimate_region(scene: &TestScene, n: usize, seed: u64, lo: Vec2, hi: Vec2) -> MeanVar {
     let (w, h) = (scene.camera.width() as f32, scene.camera.height() as f32);
     let mut mv = MeanVar::default();
     for i in 0..n {

@@ -41,10 +41,11 @@ use super::props::shorten;
 use super::props::{self, Props, Value};
 use super::reader::{self, Dialect};
 use super::xml::{describe, Pos, SceneNode};
-use super::{SceneError, Warning};
+use super::{SceneError, SceneFile, Warning};
 use crate::bsdf::Bsdf;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Frame, Mat4, Vec3};
+use crate::render::RenderJob;
 use crate::scene::SceneDesc;
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -113,7 +114,7 @@ pub fn load(
     root: &SceneNode,
     file: &Path,
     defines: &[(String, String)],
-) -> Result<(SceneDesc, Vec<Warning>)> {
+) -> Result<(SceneFile, Vec<Warning>)> {
     let mut pre = Pre {
         files: vec![file.to_path_buf()],
         params: Vec::new(),
@@ -487,7 +488,7 @@ impl<'d> Ctx<'d> {
         }
     }
 
-    fn scene(&mut self, root_pos: Pos, items: &'d [Item]) -> Result<SceneDesc> {
+    fn scene(&mut self, root_pos: Pos, items: &'d [Item]) -> Result<SceneFile> {
         let mut sensors: Vec<(SensorDesc, Pos)> = Vec::new();
         let mut integrator: Option<(Integrator, Pos)> = None;
         let mut shapes = Vec::new();
@@ -646,14 +647,17 @@ impl<'d> Ctx<'d> {
                 }
             }
         };
-        Ok(SceneDesc {
-            camera: sensor.camera,
-            filter: sensor.filter,
-            spp: sensor.spp,
-            integrator,
-            shapes,
-            emitters,
-            source: self.files[0].clone(),
+        Ok(SceneFile {
+            scene: SceneDesc {
+                camera: sensor.camera,
+                shapes,
+                emitters,
+            },
+            job: RenderJob {
+                integrator,
+                spp: sensor.spp,
+                filter: sensor.filter,
+            },
         })
     }
 }
