@@ -230,7 +230,7 @@ fn main() -> ExitCode {
 fn load(path: &Path, defines: &[(String, String)]) -> Result<SceneFile> {
     let (file, warnings) = load_scene_with(path, defines)?;
     for w in warnings {
-        eprintln!("{w}");
+        eprintln!("{}", w.report());
     }
     Ok(file)
 }
@@ -554,12 +554,12 @@ fn cmd_test(files: &[PathBuf], seed: u64) -> Result<()> {
         let file = match load_test(path) {
             Ok((file, warnings)) => {
                 for w in warnings {
-                    eprintln!("{w}");
+                    eprintln!("{}", w.report());
                 }
                 file
             }
             Err(e) => {
-                eprintln!("error: {e}");
+                eprintln!("error: {}", e.report());
                 broken += 1;
                 continue;
             }

@@ -783,7 +783,11 @@ fn nori_test_files_share_the_scene_reader_errors() {
         "{e}"
     );
     let e = load_test(&dir.path().join("missing.xml")).unwrap_err();
-    assert!(e.message.starts_with("cannot read the test file: "), "{e}");
+    assert_eq!(e.message, "cannot read the test file", "{e}");
+    assert!(
+        e.cause.as_ref().is_some_and(|c| c.is::<std::io::Error>()),
+        "the I/O error is kept as the cause: {e:?}"
+    );
 }
 
 /// A valid scene that touches every part of the dialect.

@@ -5,6 +5,7 @@
 //! `mitsuba` map Nori's and Mitsuba 3's dialects onto the scene objects;
 //! `nori_testfile` reads Nori's `<test>` files.
 
+mod error;
 pub mod mitsuba;
 pub mod nori;
 pub mod nori_testfile;
@@ -12,7 +13,9 @@ pub mod props;
 mod reader;
 pub mod xml;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+pub use error::{Diagnostic, SceneError, Warning};
 
 use crate::render::RenderJob;
 use crate::scene::SceneDesc;
@@ -22,75 +25,6 @@ use crate::scene::SceneDesc;
 pub struct SceneFile {
     pub scene: SceneDesc,
     pub job: RenderJob,
-}
-
-/// A scene file that cannot be loaded: where, and why.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct SceneError {
-    pub file: PathBuf,
-    /// 1-based; 0 only if the problem has no place in the file.
-    pub line: u32,
-    pub col: u32,
-    pub message: String,
-}
-
-impl SceneError {
-    pub fn new(file: &Path, pos: xml::Pos, message: impl Into<String>) -> SceneError {
-        SceneError {
-            file: file.to_path_buf(),
-            line: pos.line,
-            col: pos.col,
-            message: message.into(),
-        }
-    }
-}
-
-impl std::fmt::Display for SceneError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{}:{}:{}: {}",
-            self.file.display(),
-            self.line,
-            self.col,
-            self.message
-        )
-    }
-}
-
-impl std::error::Error for SceneError {}
-
-/// Something suspicious in a scene file that does not stop it loading.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Warning {
-    pub file: PathBuf,
-    pub line: u32,
-    pub col: u32,
-    pub message: String,
-}
-
-impl Warning {
-    pub fn new(file: &Path, pos: xml::Pos, message: impl Into<String>) -> Warning {
-        Warning {
-            file: file.to_path_buf(),
-            line: pos.line,
-            col: pos.col,
-            message: message.into(),
-        }
-    }
-}
-
-impl std::fmt::Display for Warning {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{}:{}:{}: warning: {}",
-            self.file.display(),
-            self.line,
-            self.col,
-            self.message
-        )
-    }
 }
 
 /// Reads a scene file: Nori's XML dialect, or Mitsuba 3's
@@ -113,11 +47,8 @@ pub fn load_scene_with(
 /// an unreadable file or invalid UTF-8 is an error, the latter at its
 /// position.
 pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError {
-        file: path.to_path_buf(),
-        line: 0,
-        col: 0,
-        message: format!("cannot read the {what}: {e}"),
+    let bytes = std::fs::read(path).map_err(|e| {
+        SceneError::new(path, xml::Pos::default(), format!("cannot read the {what}")).caused_by(e)
     })?;
     decode_utf8(path, bytes, what)
 }
@@ -125,12 +56,7 @@ pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, SceneError> {
 /// The element tree of an XML file's text; a syntax error names `path` and
 /// its position.
 pub(crate) fn parse_xml(text: &str, path: &Path) -> Result<xml::SceneNode, SceneError> {
-    xml::parse(text).map_err(|e| SceneError {
-        file: path.to_path_buf(),
-        line: e.pos.map_or(0, |p| p.line),
-        col: e.pos.map_or(0, |p| p.col),
-        message: e.message,
-    })
+    xml::parse(text).map_err(|e| SceneError::new(path, e.pos.unwrap_or_default(), e.message))
 }
 
 /// The text of a file's bytes; invalid UTF-8 is an error at its position.
