@@ -51,6 +51,131 @@ impl Default for CameraParams {
     }
 }
 
+/// Largest image width or height.
+pub const MAX_RESOLUTION: u32 = 65536;
+
+/// Most blades a polygonal aperture may have.
+pub const MAX_APERTURE_BLADES: u32 = 1024;
+
+/// The parameter of [`CameraParams`] a [`CameraError`] is about (scene
+/// readers name it as their dialect spells it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraParam {
+    Width,
+    Height,
+    FieldOfView,
+    NearClip,
+    FarClip,
+    LensRadius,
+    FocalDistance,
+    ApertureBlades,
+    ApertureRotation,
+}
+
+/// Camera parameters that describe no camera. Each message completes a
+/// sentence that starts with the parameter's name.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CameraError {
+    #[error("must be between 1 and {MAX_RESOLUTION} pixels, found {0}")]
+    Width(u32),
+    #[error("must be between 1 and {MAX_RESOLUTION} pixels, found {0}")]
+    Height(u32),
+    #[error("must be between 0 and 180 degrees (exclusive), found {0}")]
+    FieldOfView(f32),
+    #[error("must not be negative, found {0}")]
+    NearClip(f32),
+    #[error("({far}) must be greater than the near clip distance ({near})")]
+    FarClip { near: f32, far: f32 },
+    #[error("must not be negative, found {0}")]
+    LensRadius(f32),
+    #[error("must be positive, found {0}")]
+    FocalDistance(f32),
+    #[error("must be 0 (a circular aperture) or between 3 and {MAX_APERTURE_BLADES}, found {0}")]
+    ApertureBlades(u32),
+    #[error("must be a finite number, found {0}")]
+    ApertureRotation(f32),
+}
+
+impl CameraParam {
+    /// The parameter in words, for messages that name no scene dialect.
+    pub fn describe(self) -> &'static str {
+        match self {
+            CameraParam::Width => "image width",
+            CameraParam::Height => "image height",
+            CameraParam::FieldOfView => "field of view",
+            CameraParam::NearClip => "near clip distance",
+            CameraParam::FarClip => "far clip distance",
+            CameraParam::LensRadius => "lens radius",
+            CameraParam::FocalDistance => "focal distance",
+            CameraParam::ApertureBlades => "number of aperture blades",
+            CameraParam::ApertureRotation => "aperture rotation",
+        }
+    }
+}
+
+impl CameraError {
+    /// The parameter that is wrong.
+    pub fn param(&self) -> CameraParam {
+        match self {
+            CameraError::Width(_) => CameraParam::Width,
+            CameraError::Height(_) => CameraParam::Height,
+            CameraError::FieldOfView(_) => CameraParam::FieldOfView,
+            CameraError::NearClip(_) => CameraParam::NearClip,
+            CameraError::FarClip { .. } => CameraParam::FarClip,
+            CameraError::LensRadius(_) => CameraParam::LensRadius,
+            CameraError::FocalDistance(_) => CameraParam::FocalDistance,
+            CameraError::ApertureBlades(_) => CameraParam::ApertureBlades,
+            CameraError::ApertureRotation(_) => CameraParam::ApertureRotation,
+        }
+    }
+}
+
+impl CameraParams {
+    /// Checks that the parameters describe a camera: an image of 1 to
+    /// [`MAX_RESOLUTION`] pixels each way, a field of view strictly
+    /// between 0 and 180 degrees, clip distances with 0 <= near < far, a
+    /// finite non-negative lens radius, a positive finite focal distance
+    /// (unless autofocus is to set it), an aperture polygon
+    /// of 3 to [`MAX_APERTURE_BLADES`] blades.
+    pub fn validate(&self) -> Result<(), CameraError> {
+        let pixels = 1..=MAX_RESOLUTION;
+        if !pixels.contains(&self.width) {
+            return Err(CameraError::Width(self.width));
+        }
+        if !pixels.contains(&self.height) {
+            return Err(CameraError::Height(self.height));
+        }
+        if !(self.fov_x_deg > 0.0 && self.fov_x_deg < 180.0) {
+            return Err(CameraError::FieldOfView(self.fov_x_deg));
+        }
+        if !(self.near_clip >= 0.0) {
+            return Err(CameraError::NearClip(self.near_clip));
+        }
+        if !(self.far_clip > self.near_clip) {
+            return Err(CameraError::FarClip {
+                near: self.near_clip,
+                far: self.far_clip,
+            });
+        }
+        if !(self.lens_radius >= 0.0 && self.lens_radius.is_finite()) {
+            return Err(CameraError::LensRadius(self.lens_radius));
+        }
+        // Autofocus sets the focal distance when the scene is built.
+        if !self.autofocus && !(self.focal_distance > 0.0 && self.focal_distance.is_finite()) {
+            return Err(CameraError::FocalDistance(self.focal_distance));
+        }
+        if let Aperture::Polygon { blades, rotation } = self.aperture {
+            if !(3..=MAX_APERTURE_BLADES).contains(&blades) {
+                return Err(CameraError::ApertureBlades(blades));
+            }
+            if !rotation.is_finite() {
+                return Err(CameraError::ApertureRotation(rotation));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A camera ready to generate rays.
 #[derive(Clone, Debug)]
 pub struct Camera {
@@ -60,7 +185,14 @@ pub struct Camera {
 }
 
 impl Camera {
-    pub fn new(params: CameraParams) -> Camera {
+    /// A camera for valid parameters (see [`CameraParams::validate`]).
+    pub fn new(params: CameraParams) -> Result<Camera, CameraError> {
+        params.validate()?;
+        Ok(Camera::new_unchecked(params))
+    }
+
+    /// A camera for parameters already validated.
+    fn new_unchecked(params: CameraParams) -> Camera {
         let tan_half_x = (params.fov_x_deg.to_radians() * 0.5).tan();
         let inv_aspect = params.height as f32 / params.width as f32;
         Camera {
@@ -164,6 +296,57 @@ mod tests {
             focal_distance: 5.0,
             ..Default::default()
         })
+        .unwrap()
+    }
+
+    #[test]
+    fn invalid_parameters_name_the_parameter() {
+        let ok = CameraParams::default();
+        assert_eq!(ok.validate(), Ok(()));
+        let bad = |p: CameraParams| p.validate().unwrap_err().param();
+        assert_eq!(
+            bad(CameraParams {
+                width: 0,
+                ..ok.clone()
+            }),
+            CameraParam::Width
+        );
+        let fov = CameraParams {
+            fov_x_deg: 180.0,
+            ..ok.clone()
+        };
+        assert_eq!(bad(fov), CameraParam::FieldOfView);
+        let clip = CameraParams {
+            near_clip: 2.0,
+            far_clip: 1.0,
+            ..ok.clone()
+        };
+        assert_eq!(bad(clip), CameraParam::FarClip);
+        let lens = CameraParams {
+            lens_radius: f32::NAN,
+            ..ok.clone()
+        };
+        assert_eq!(bad(lens), CameraParam::LensRadius);
+        let focus = CameraParams {
+            lens_radius: 0.1,
+            focal_distance: 0.0,
+            ..ok.clone()
+        };
+        assert_eq!(bad(focus.clone()), CameraParam::FocalDistance);
+        // Autofocus sets the focal distance later.
+        let auto = CameraParams {
+            autofocus: true,
+            ..focus
+        };
+        assert_eq!(auto.validate(), Ok(()));
+        let blades = CameraParams {
+            aperture: Aperture::Polygon {
+                blades: 2,
+                rotation: 0.0,
+            },
+            ..ok
+        };
+        assert_eq!(bad(blades), CameraParam::ApertureBlades);
     }
 
     #[test]

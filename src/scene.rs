@@ -46,8 +46,9 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Builds the acceleration structure and light tables. Fails only if
-    /// the camera asks for autofocus and its optical axis hits nothing.
+    /// Builds the acceleration structure and light tables. Fails if the
+    /// camera parameters are invalid, or if the camera asks for autofocus
+    /// and its optical axis hits nothing.
     pub fn new(desc: SceneDesc) -> Result<Scene, BuildError> {
         let mut geometry = Vec::new();
         let mut bsdfs = Vec::new();
@@ -94,9 +95,9 @@ impl Scene {
             None
         };
         let camera = if desc.camera.autofocus {
-            Camera::new(autofocus(desc.camera, &bvh, &geometry)?)
+            Camera::new(autofocus(desc.camera, &bvh, &geometry)?)?
         } else {
-            Camera::new(desc.camera)
+            Camera::new(desc.camera)?
         };
         Ok(Scene {
             camera,
@@ -174,8 +175,16 @@ impl Scene {
 /// Why a scene description cannot become a scene.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum BuildError {
+    #[error("the camera's {} {}", .0.param().describe(), .0)]
+    Camera(crate::camera::CameraError),
     #[error("autofocus: the ray through the image centre hits nothing")]
     NothingToFocusOn,
+}
+
+impl From<crate::camera::CameraError> for BuildError {
+    fn from(e: crate::camera::CameraError) -> Self {
+        BuildError::Camera(e)
+    }
 }
 
 /// The camera with its focal distance set to the camera-space depth of
@@ -188,7 +197,7 @@ fn autofocus(
     let pinhole = Camera::new(crate::camera::CameraParams {
         lens_radius: 0.0,
         ..params.clone()
-    });
+    })?;
     let centre = crate::math::Vec2::new(0.5 * params.width as f32, 0.5 * params.height as f32);
     let ray = pinhole.generate_ray(centre, crate::math::Vec2::ZERO);
     let hit = bvh.intersect(&ray).ok_or(BuildError::NothingToFocusOn)?;

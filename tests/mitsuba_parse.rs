@@ -329,7 +329,7 @@ fn mitsuba_camera_is_not_mirrored() {
             <film type="hdrfilm"><integer name="width" value="100"/><integer name="height" value="100"/></film>
         </sensor>"#,
     ));
-    let cam = Camera::new(desc.scene.camera.clone());
+    let cam = Camera::new(desc.scene.camera.clone()).unwrap();
     let to_cam = desc.scene.camera.to_world.inverse();
     let left_wall = cam.camera_to_film(to_cam.point(Vec3::new(-0.9, 0.0, 0.0)));
     let ceiling = cam.camera_to_film(to_cam.point(Vec3::new(0.0, 0.9, 0.0)));

@@ -25,6 +25,7 @@ fn camera(lens_radius: f32, focal_distance: f32, aperture: Aperture) -> Camera {
         aperture,
         ..Default::default()
     })
+    .unwrap()
 }
 
 /// Normalised image-plane position (camera space, z = 1) of a film position.
@@ -185,7 +186,8 @@ fn aperture_moments(aperture: Aperture, n: u32) -> (f32, f32) {
         focal_distance: 1.0,
         aperture,
         ..Default::default()
-    });
+    })
+    .unwrap();
     let mut s = Sampler::new(77, 0);
     let (mut wr2, mut re, mut im) = (0.0f64, 0.0f64, 0.0f64);
     let m = 400_000;

@@ -24,7 +24,7 @@ use super::reader::{self, Dialect};
 use super::xml::{Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
 use crate::bsdf::Bsdf;
-use crate::camera::{Aperture, CameraParams};
+use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
 use crate::emitter::{Emitter, EnvFilter, EnvMap};
@@ -352,56 +352,16 @@ impl<'a> Ctx<'a> {
         let owner = format!("<camera type=\"{ty}\">");
         let (mut p, objects) = self.read_object(node, &owner)?;
         let d = CameraParams::default();
-        let width = int_in(&mut p, "width", 1280, 1, 65536)? as u32;
-        let height = int_in(&mut p, "height", 720, 1, 65536)? as u32;
+        let width = int_in(&mut p, "width", 1280, 1, MAX_RESOLUTION as i64)? as u32;
+        let height = int_in(&mut p, "height", 720, 1, MAX_RESOLUTION as i64)? as u32;
         let fov = p.get_float("fov", 30.0)?;
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(p.error(
-                "fov",
-                format!("'fov' must be between 0 and 180 degrees (exclusive), found {fov}"),
-            ));
-        }
         let near_clip = p.get_float("nearClip", 1e-4)?;
         let far_clip = p.get_float("farClip", 1e4)?;
-        if near_clip < 0.0 {
-            return Err(p.error(
-                "nearClip",
-                format!("'nearClip' must not be negative, found {near_clip}"),
-            ));
-        }
-        if far_clip <= near_clip {
-            return Err(p.error(
-                "farClip",
-                format!("'farClip' ({far_clip}) must be greater than 'nearClip' ({near_clip})"),
-            ));
-        }
         let to_world = p.get_transform("toWorld", Transform::IDENTITY)?;
         let lens_radius = p.get_float("lensRadius", 0.0)?;
-        if lens_radius < 0.0 {
-            return Err(p.error(
-                "lensRadius",
-                format!("'lensRadius' must not be negative, found {lens_radius}"),
-            ));
-        }
         let focal_distance = p.opt_float("focalDistance")?;
-        if let Some(f) = focal_distance {
-            if f <= 0.0 {
-                return Err(p.error(
-                    "focalDistance",
-                    format!("'focalDistance' must be positive, found {f}"),
-                ));
-            }
-        }
         let autofocus = p.get_bool("autofocus", false)?;
         let blades = p.get_int("apertureBlades", 0)?;
-        if blades != 0 && !(3..=1024).contains(&blades) {
-            return Err(p.error(
-                "apertureBlades",
-                format!(
-                    "'apertureBlades' must be 0 (a circular aperture) or between 3 and 1024, found {blades}"
-                ),
-            ));
-        }
         let rotation = p.get_float("apertureRotation", 0.0)?;
         if lens_radius > 0.0 && focal_distance.is_none() && !autofocus {
             return Err(p.object_error(format!(
@@ -415,6 +375,28 @@ impl<'a> Ctx<'a> {
                 "'focalDistance' is ignored because 'autofocus' is true",
             );
         }
+        let params = CameraParams {
+            width,
+            height,
+            fov_x_deg: fov,
+            near_clip,
+            far_clip,
+            to_world,
+            lens_radius,
+            focal_distance: focal_distance.unwrap_or(d.focal_distance),
+            aperture: if blades == 0 {
+                Aperture::Circular
+            } else {
+                Aperture::Polygon {
+                    blades: u32::try_from(blades).unwrap_or(u32::MAX),
+                    rotation: rotation.to_radians(),
+                }
+            },
+            autofocus,
+        };
+        params
+            .validate()
+            .map_err(|e| p.param_error(nori_camera_name(e.param()), e))?;
         p.finish(&mut self.warnings);
 
         let mut filter: Option<(Filter, Pos)> = None;
@@ -439,25 +421,6 @@ impl<'a> Ctx<'a> {
                 _ => return Err(self.misplaced(ch, &owner)),
             }
         }
-        let params = CameraParams {
-            width,
-            height,
-            fov_x_deg: fov,
-            near_clip,
-            far_clip,
-            to_world,
-            lens_radius,
-            focal_distance: focal_distance.unwrap_or(d.focal_distance),
-            aperture: if blades == 0 {
-                Aperture::Circular
-            } else {
-                Aperture::Polygon {
-                    blades: blades as u32,
-                    rotation: rotation.to_radians(),
-                }
-            },
-            autofocus,
-        };
         Ok((
             params,
             filter.map_or_else(Filter::default, |f| f.0),
@@ -969,6 +932,21 @@ impl<'a> Ctx<'a> {
         };
         p.finish(&mut self.warnings);
         Ok(desc)
+    }
+}
+
+/// Nori's name of a camera parameter.
+fn nori_camera_name(param: CameraParam) -> &'static str {
+    match param {
+        CameraParam::Width => "width",
+        CameraParam::Height => "height",
+        CameraParam::FieldOfView => "fov",
+        CameraParam::NearClip => "nearClip",
+        CameraParam::FarClip => "farClip",
+        CameraParam::LensRadius => "lensRadius",
+        CameraParam::FocalDistance => "focalDistance",
+        CameraParam::ApertureBlades => "apertureBlades",
+        CameraParam::ApertureRotation => "apertureRotation",
     }
 }
 

@@ -210,6 +210,12 @@ impl<'a> Props<'a> {
         SceneError::new(self.file, self.value_pos(name), message)
     }
 
+    /// An error about property `name` from a domain type's validation,
+    /// whose message completes a sentence that starts with the name.
+    pub fn param_error(&self, name: &str, e: impl std::fmt::Display) -> SceneError {
+        self.error(name, format!("'{name}' {e}"))
+    }
+
     /// An error about the object as a whole.
     pub fn object_error(&self, message: impl Into<String>) -> SceneError {
         SceneError::new(self.file, self.pos, message)

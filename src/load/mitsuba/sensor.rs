@@ -2,7 +2,7 @@
 //! `hdrfilm`, reconstruction filters and samplers.
 
 use super::{Child, Ctx};
-use crate::camera::{Aperture, CameraParams};
+use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::image::Filter;
 use crate::load::props::{int_in, positive, Kind, Props};
 use crate::load::reader;
@@ -72,16 +72,11 @@ impl<'d> Ctx<'d> {
         let fov_x = horizontal_fov(&mut p, aspect)?;
         let near_clip = p.get_float("near_clip", 1e-2)?;
         let far_clip = p.get_float("far_clip", 1e4)?;
+        // Mitsuba asks more of near_clip than lente's camera does.
         if near_clip <= 0.0 {
             return Err(p.error(
                 "near_clip",
                 format!("'near_clip' must be positive, found {near_clip}"),
-            ));
-        }
-        if far_clip <= near_clip {
-            return Err(p.error(
-                "far_clip",
-                format!("'far_clip' ({far_clip}) must be greater than 'near_clip' ({near_clip})"),
             ));
         }
         // Read by both types (Mitsuba's ProjectiveCamera); default far_clip.
@@ -94,29 +89,18 @@ impl<'d> Ctx<'d> {
                  use only rotations, translations and lookat",
             ));
         }
-        let lens_radius = if ty == "thinlens" {
+        let (lens_radius, focal_distance) = if ty == "thinlens" {
             let r = p.require_float("aperture_radius")?;
-            if r < 0.0 {
-                return Err(p.error(
-                    "aperture_radius",
-                    format!("'aperture_radius' must not be negative, found {r}"),
-                ));
-            }
             if r == 0.0 {
                 p.warn(
                     "aperture_radius",
                     "'aperture_radius' is 0: this thin lens is a pinhole",
                 );
             }
-            if r > 0.0 && focus_distance <= 0.0 {
-                return Err(p.error(
-                    "focus_distance",
-                    format!("'focus_distance' must be positive, found {focus_distance}"),
-                ));
-            }
-            r
+            (r, focus_distance)
         } else {
-            0.0
+            // A pinhole has no focus: the distance is never used.
+            (0.0, far_clip)
         };
         for name in ["principal_point_offset_x", "principal_point_offset_y"] {
             let v = p.get_float(name, 0.0)?;
@@ -132,20 +116,24 @@ impl<'d> Ctx<'d> {
                 "'shutter_close' must not come before 'shutter_open'",
             ));
         }
+        let camera = CameraParams {
+            width,
+            height,
+            fov_x_deg: fov_x,
+            near_clip,
+            far_clip,
+            to_world,
+            lens_radius,
+            focal_distance,
+            aperture: Aperture::Circular,
+            autofocus: false,
+        };
+        camera
+            .validate()
+            .map_err(|e| p.param_error(mitsuba_camera_name(e.param()), e))?;
         p.finish(&mut self.warnings);
         Ok(SensorDesc {
-            camera: CameraParams {
-                width,
-                height,
-                fov_x_deg: fov_x,
-                near_clip,
-                far_clip,
-                to_world,
-                lens_radius,
-                focal_distance: focus_distance,
-                aperture: Aperture::Circular,
-                autofocus: false,
-            },
+            camera,
             filter,
             spp,
         })
@@ -158,8 +146,8 @@ impl<'d> Ctx<'d> {
         let ty = self.object_type(node, &["hdrfilm"], &["specfilm", "tape"])?;
         let owner = format!("<film type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
-        let width = int_in(&mut p, "width", 768, 1, 65536)? as u32;
-        let height = int_in(&mut p, "height", 576, 1, 65536)? as u32;
+        let width = int_in(&mut p, "width", 768, 1, MAX_RESOLUTION as i64)? as u32;
+        let height = int_in(&mut p, "height", 576, 1, MAX_RESOLUTION as i64)? as u32;
         let cx = p.get_int("crop_offset_x", 0)?;
         let cy = p.get_int("crop_offset_y", 0)?;
         let cw = p.get_int("crop_width", width as i64)?;
@@ -378,6 +366,22 @@ fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<f32> {
         ));
     }
     Ok(x as f32)
+}
+
+/// Mitsuba's name of a camera parameter (the film's size and the
+/// aperture's shape are no sensor properties: errors about them point at
+/// the sensor).
+fn mitsuba_camera_name(param: CameraParam) -> &'static str {
+    match param {
+        CameraParam::Width => "width",
+        CameraParam::Height => "height",
+        CameraParam::FieldOfView => "fov",
+        CameraParam::NearClip => "near_clip",
+        CameraParam::FarClip => "far_clip",
+        CameraParam::LensRadius => "aperture_radius",
+        CameraParam::FocalDistance => "focus_distance",
+        CameraParam::ApertureBlades | CameraParam::ApertureRotation => "aperture",
+    }
 }
 
 /// Mitsuba's gaussian filter: cut off at 4 standard deviations.
