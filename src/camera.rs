@@ -148,10 +148,10 @@ impl CameraParams {
         if !(self.fov_x_deg > 0.0 && self.fov_x_deg < 180.0) {
             return Err(CameraError::FieldOfView(self.fov_x_deg));
         }
-        if !(self.near_clip >= 0.0) {
+        if self.near_clip.is_nan() || self.near_clip < 0.0 {
             return Err(CameraError::NearClip(self.near_clip));
         }
-        if !(self.far_clip > self.near_clip) {
+        if self.far_clip.is_nan() || self.far_clip <= self.near_clip {
             return Err(CameraError::FarClip {
                 near: self.near_clip,
                 far: self.far_clip,
@@ -161,7 +161,8 @@ impl CameraParams {
             return Err(CameraError::LensRadius(self.lens_radius));
         }
         // Autofocus sets the focal distance when the scene is built.
-        if !self.autofocus && !(self.focal_distance > 0.0 && self.focal_distance.is_finite()) {
+        let focus_ok = self.focal_distance > 0.0 && self.focal_distance.is_finite();
+        if !self.autofocus && !focus_ok {
             return Err(CameraError::FocalDistance(self.focal_distance));
         }
         if let Aperture::Polygon { blades, rotation } = self.aperture {

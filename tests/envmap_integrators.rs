@@ -91,12 +91,9 @@ fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> TestScene {
         Bsdf::dielectric(1.5, 1.0),
         None,
     ));
-    d.emitters.push(Emitter::Environment(Box::new(EnvMap::new(
-        sun_map(sun),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    ))));
+    d.emitters.push(Emitter::Environment(Box::new(
+        EnvMap::new(sun_map(sun), 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap(),
+    )));
     d.build()
 }
 

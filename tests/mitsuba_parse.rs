@@ -1149,8 +1149,8 @@ fn emitters() {
     assert!(w.is_empty(), "{w:?}");
     match &desc.scene.emitters[0] {
         Emitter::Environment(env) => {
-            assert_eq!(env.scale, 2.0);
-            close(env.to_world.vector(Vec3::Z), Vec3::X);
+            assert_eq!(env.scale(), 2.0);
+            close(env.to_world().vector(Vec3::Z), Vec3::X);
         }
         e => panic!("{e:?}"),
     }
@@ -1209,7 +1209,7 @@ fn emitters() {
         .contains("not supported"));
     assert!(
         e("<emitter type=\"envmap\"><string name=\"filename\" value=\"none.exr\"/></emitter>")
-            .message
+            .report()
             .contains("none.exr")
     );
     assert!(e("<shape type=\"rectangle\"><emitter type=\"area\"><transform name=\"to_world\"/></emitter></shape>")

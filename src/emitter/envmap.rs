@@ -25,8 +25,10 @@
 //! Radiance is `texel * scale`. [`EnvFilter::Bilinear`] places texel centres
 //! at `((i + 0.5) / W, (j + 0.5) / H)`, wraps horizontally and clamps
 //! vertically; [`EnvFilter::Nearest`] returns the texel containing `(u, v)`.
-//! Texels that are negative or not finite are replaced by zero when the map is
-//! built (a light cannot emit negative or infinite radiance).
+//! A map with texels that are negative or not finite is refused when it is
+//! built (a light cannot emit negative or infinite radiance); scene files'
+//! maps come through the image loader, which clamps negative texels to zero
+//! with a warning.
 //!
 //! # Importance sampling
 //!
@@ -45,8 +47,7 @@
 //! poles, a set of measure zero where the pdf is reported as 0).
 //!
 //! The distribution is built by [`EnvMap::new`] for the `image` and `filter`
-//! it is given; changing those public fields afterwards requires building a
-//! new map. `scale` and `to_world` may change freely.
+//! it is given; the fields are read-only, so they cannot drift apart.
 
 use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
@@ -110,57 +111,123 @@ impl CellDistribution {
 }
 
 /// A lat-long environment map, importance-sampled by luminance x sin(theta).
+/// Built only through [`EnvMap::new`], which checks it.
 #[derive(Clone, Debug)]
 pub struct EnvMap {
-    pub image: Bitmap,
-    pub scale: f32,
-    pub to_world: Transform,
-    pub filter: EnvFilter,
+    image: Bitmap,
+    scale: f32,
+    to_world: Transform,
+    filter: EnvFilter,
     /// Seen by camera rays (it lights the scene either way).
     pub visible: bool,
     /// Sampling table over texel cells (see the module docs).
     dist: CellDistribution,
-    /// Filter the table was built for.
-    dist_filter: EnvFilter,
     /// Mean luminance over the sphere of the unscaled map.
     mean_lum: f32,
-    /// The image has a usable shape (W, H > 0 and W x H pixels).
-    valid: bool,
+}
+
+/// How far from orthonormal `to_world` may be (on M M^T; Mitsuba's
+/// `has_scale` tolerance).
+pub const ROTATION_TOLERANCE: f32 = 1e-3;
+
+/// The parameter of an environment map an [`EnvMapError`] is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvMapParam {
+    Image,
+    Scale,
+    ToWorld,
+}
+
+/// An environment map that cannot be built. Each message completes a
+/// sentence that starts with the parameter's name.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvMapError {
+    #[error("is empty ({width} x {height} texels)")]
+    Empty { width: usize, height: usize },
+    #[error("has texel ({x}, {y}) = {value}: radiance must be finite and not negative")]
+    Texel { x: usize, y: usize, value: Rgb },
+    #[error("must be finite and not negative, found {0}")]
+    Scale(f32),
+    #[error("must be a rotation (an orthogonal matrix)")]
+    ToWorld,
+}
+
+impl EnvMapError {
+    /// The parameter that is wrong.
+    pub fn param(&self) -> EnvMapParam {
+        match self {
+            EnvMapError::Empty { .. } | EnvMapError::Texel { .. } => EnvMapParam::Image,
+            EnvMapError::Scale(_) => EnvMapParam::Scale,
+            EnvMapError::ToWorld => EnvMapParam::ToWorld,
+        }
+    }
 }
 
 impl EnvMap {
-    pub fn new(image: Bitmap, scale: f32, to_world: Transform, filter: EnvFilter) -> EnvMap {
-        let mut image = image;
+    /// A map of `image` (W x H > 0 texels of finite, non-negative
+    /// radiance) times `scale` (finite, >= 0), turned by `to_world` (a
+    /// rotation, possibly with a mirror), looked up with `filter`.
+    pub fn new(
+        image: Bitmap,
+        scale: f32,
+        to_world: Transform,
+        filter: EnvFilter,
+    ) -> Result<EnvMap, EnvMapError> {
         let (w, h) = (image.width, image.height);
-        let valid = w > 0 && h > 0 && image.pixels.len() == w * h;
-        for p in image.pixels.iter_mut() {
-            // NaN.max(0) is 0; infinities are not usable radiance either.
-            *p = p.max(Rgb::ZERO);
-            if !p.is_finite() {
-                *p = Rgb::ZERO;
-            }
+        if w == 0 || h == 0 || image.pixels.len() != w * h {
+            return Err(EnvMapError::Empty {
+                width: w,
+                height: h,
+            });
         }
-        let (dist, mean_lum) = if valid {
-            let weights = sampling_weights(&image, filter);
-            let dist = CellDistribution::new(&weights, w, h);
-            // mean over the sphere = (1 / 4 pi) sum lum * 2 pi^2 sin / (W H)
-            //                      = (pi / 2) * mean(weights).
-            let mean_lum = 0.5 * PI * dist.integral();
-            (dist, mean_lum)
-        } else {
-            (CellDistribution::new(&[0.0], 1, 1), 0.0)
-        };
-        EnvMap {
+        if let Some(i) = image
+            .pixels
+            .iter()
+            .position(|p| !p.is_finite() || p.min_element() < 0.0)
+        {
+            return Err(EnvMapError::Texel {
+                x: i % w,
+                y: i / w,
+                value: image.pixels[i],
+            });
+        }
+        if !(scale >= 0.0 && scale.is_finite()) {
+            return Err(EnvMapError::Scale(scale));
+        }
+        if !to_world.is_rotation(ROTATION_TOLERANCE) {
+            return Err(EnvMapError::ToWorld);
+        }
+        let weights = sampling_weights(&image, filter);
+        let dist = CellDistribution::new(&weights, w, h);
+        // mean over the sphere = (1 / 4 pi) sum lum * 2 pi^2 sin / (W H)
+        //                      = (pi / 2) * mean(weights).
+        let mean_lum = 0.5 * PI * dist.integral();
+        Ok(EnvMap {
             image,
             scale,
             to_world,
             filter,
             visible: true,
             dist,
-            dist_filter: filter,
             mean_lum,
-            valid,
-        }
+        })
+    }
+
+    /// The texels (unscaled).
+    pub fn image(&self) -> &Bitmap {
+        &self.image
+    }
+
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    pub fn to_world(&self) -> &Transform {
+        &self.to_world
+    }
+
+    pub fn filter(&self) -> EnvFilter {
+        self.filter
     }
 
     /// Local direction (need not be normalised) to (u, v) in `[0, 1) x [0, 1]`.
@@ -266,14 +333,10 @@ impl EnvMap {
     }
 
     fn emits(&self) -> bool {
-        self.valid && self.scale > 0.0 && self.scale.is_finite()
+        self.scale > 0.0
     }
 
     fn pdf_uv_sin(&self, uv: Vec2, sin_theta: f32) -> f32 {
-        debug_assert!(
-            self.filter == self.dist_filter || self.dist_filter == EnvFilter::Bilinear,
-            "EnvMap::filter changed after the sampling table was built"
-        );
         if sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }
@@ -626,8 +689,8 @@ mod tests {
                 b.set(i, j, Rgb::new(i as f32, j as f32, 1.0));
             }
         }
-        let bil = EnvMap::new(b.clone(), 2.0, Transform::IDENTITY, EnvFilter::Bilinear);
-        let near = EnvMap::new(b, 2.0, Transform::IDENTITY, EnvFilter::Nearest);
+        let bil = EnvMap::new(b.clone(), 2.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap();
+        let near = EnvMap::new(b, 2.0, Transform::IDENTITY, EnvFilter::Nearest).unwrap();
         let at = |u: f32, v: f32| EnvMap::uv_to_dir(Vec2::new(u, v));
         for j in 0..h {
             for i in 0..w {
@@ -657,8 +720,8 @@ mod tests {
     fn to_world_rotates_the_map() {
         let b = gradient(32, 16);
         let r = Transform::new(Mat4::from_rotation_y(0.5 * PI)).unwrap();
-        let plain = EnvMap::new(b.clone(), 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
-        let rot = EnvMap::new(b, 1.0, r, EnvFilter::Bilinear);
+        let plain = EnvMap::new(b.clone(), 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap();
+        let rot = EnvMap::new(b, 1.0, r, EnvFilter::Bilinear).unwrap();
         let mut s = Sampler::new(5, 5);
         for _ in 0..1000 {
             let d = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
@@ -678,7 +741,8 @@ mod tests {
             1.0,
             Transform::IDENTITY,
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         assert_passes(chi2_local(&env, 11), "one-hot bilinear");
     }
 
@@ -689,14 +753,15 @@ mod tests {
             1.0,
             Transform::IDENTITY,
             EnvFilter::Nearest,
-        );
+        )
+        .unwrap();
         assert_passes(chi2_local(&env, 12), "one-hot nearest");
     }
 
     #[test]
     fn chi2_one_hot_at_seam_and_poles() {
         let img = one_hot(24, 12, &[(0, 0), (23, 11), (23, 4)]);
-        let env = EnvMap::new(img, 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
+        let env = EnvMap::new(img, 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap();
         assert_passes(chi2_local(&env, 13), "one-hot at seam and poles");
     }
 
@@ -707,7 +772,8 @@ mod tests {
             1.0,
             rot_a(),
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         assert_passes(chi2_local(&env, 14), "one-hot rotated");
     }
 
@@ -718,13 +784,14 @@ mod tests {
             1.0,
             Transform::IDENTITY,
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         assert_passes(chi2_local(&env, 15), "gradient");
     }
 
     #[test]
     fn chi2_gradient_rotated_world_bins() {
-        let env = EnvMap::new(gradient(96, 48), 1.0, rot_a(), EnvFilter::Bilinear);
+        let env = EnvMap::new(gradient(96, 48), 1.0, rot_a(), EnvFilter::Bilinear).unwrap();
         let n = 300_000;
         let obs = histogram(&env, &Transform::IDENTITY, n, 16);
         let exp = expected_world_numeric(&env, n, 24);
@@ -740,13 +807,14 @@ mod tests {
             1.0,
             Transform::IDENTITY,
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         assert_passes(chi2_local(&env, 17), "sun");
     }
 
     #[test]
     fn chi2_sun_rotated_mirrored() {
-        let env = EnvMap::new(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear);
+        let env = EnvMap::new(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear).unwrap();
         assert_passes(chi2_local(&env, 18), "sun rotated");
     }
 
@@ -763,7 +831,8 @@ mod tests {
             1.0,
             rot_a(),
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         assert_passes(chi2_local(&env, 19), "baked sky");
     }
 
@@ -775,7 +844,8 @@ mod tests {
             1.0,
             Transform::IDENTITY,
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         let n = 100_000;
         let obs = histogram(&env, &env.to_world, n, 21);
         // Uniform sphere: each bin has the same solid angle.
@@ -788,7 +858,8 @@ mod tests {
             1.0,
             Transform::IDENTITY,
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         let obs_g = histogram(&grad, &grad.to_world, n, 22);
         let r = chi2_test(&obs_g, &expected_local(&grad, n, false), 5.0);
         assert!(!r.passes(alpha()), "pdf without Jacobian accepted: {r:?}");
@@ -796,14 +867,15 @@ mod tests {
         let mut shifted = sun_map(128, 64);
         shifted.set(128 / 3, 64 / 3, shifted.get(0, 0));
         shifted.set(128 / 3 + 2, 64 / 3, sun_map(128, 64).get(128 / 3, 64 / 3));
-        let shifted = EnvMap::new(shifted, 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
+        let shifted = EnvMap::new(shifted, 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap();
         let r = chi2_test(&obs, &expected_local(&shifted, n, true), 5.0);
         assert!(
             !r.passes(alpha()),
             "sun shifted by one texel accepted: {r:?}"
         );
         // Samples with the mirror the pdf does not know about.
-        let mirrored = EnvMap::new(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear);
+        let mirrored =
+            EnvMap::new(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear).unwrap();
         let unmirrored = EnvMap {
             to_world: Transform::new(Mat4::from_axis_angle(
                 Vec3::new(-2.0, 0.5, 1.0).normalize(),
@@ -825,7 +897,7 @@ mod tests {
             (one_hot(16, 8, &[(3, 0)]), Transform::IDENTITY),
         ] {
             for filter in [EnvFilter::Bilinear, EnvFilter::Nearest] {
-                let env = EnvMap::new(img.clone(), 1.5, t, filter);
+                let env = EnvMap::new(img.clone(), 1.5, t, filter).unwrap();
                 let mut s = Sampler::new(3, 3);
                 for _ in 0..50_000 {
                     let Some((d, w, pdf)) = env.sample(s.next_2d()) else {
@@ -877,7 +949,7 @@ mod tests {
         ];
         let alpha = sidak(0.01, cases.len());
         for (k, (img, t, filter)) in cases.into_iter().enumerate() {
-            let env = EnvMap::new(img, 2.0, t, filter);
+            let env = EnvMap::new(img, 2.0, t, filter).unwrap();
             let n = Vec3::new(0.3, 1.0, -0.2).normalize();
             let reference = irradiance_reference(&env, n, 16);
             let mut s = Sampler::new(31, k as u64);
@@ -929,7 +1001,7 @@ mod tests {
             (one_hot(16, 8, &[(5, 3)]), rot_a(), EnvFilter::Nearest, 5e-3),
         ];
         for (img, t, f, tol) in cases {
-            let env = EnvMap::new(img, 1.0, t, f);
+            let env = EnvMap::new(img, 1.0, t, f).unwrap();
             let i = integrate_pdf(&env, 1500, 3000);
             assert!((i - 1.0).abs() < tol, "integral {i}");
         }
@@ -939,7 +1011,7 @@ mod tests {
     fn samples_stay_on_the_support_and_the_support_has_pdf() {
         let (w, h, hot) = (64usize, 32usize, (20usize, 9usize));
         for filter in [EnvFilter::Bilinear, EnvFilter::Nearest] {
-            let env = EnvMap::new(one_hot(w, h, &[hot]), 1.0, rot_a(), filter);
+            let env = EnvMap::new(one_hot(w, h, &[hot]), 1.0, rot_a(), filter).unwrap();
             let reach = if filter == EnvFilter::Bilinear { 1 } else { 0 };
             let mut s = Sampler::new(9, 9);
             for _ in 0..100_000 {
@@ -973,14 +1045,16 @@ mod tests {
                 1.0,
                 Transform::IDENTITY,
                 EnvFilter::Bilinear,
-            ),
-            EnvMap::new(sun_map(32, 16), 1.0, rot_a(), EnvFilter::Nearest),
+            )
+            .unwrap(),
+            EnvMap::new(sun_map(32, 16), 1.0, rot_a(), EnvFilter::Nearest).unwrap(),
             EnvMap::new(
                 constant(1, 1, Rgb::ONE),
                 1.0,
                 Transform::IDENTITY,
                 EnvFilter::Bilinear,
-            ),
+            )
+            .unwrap(),
         ];
         let dirs = [
             Vec3::Y,
@@ -1020,13 +1094,14 @@ mod tests {
     }
 
     #[test]
-    fn black_empty_and_bad_maps() {
+    fn black_maps_emit_nothing_and_bad_maps_are_refused() {
         let black = EnvMap::new(
             Bitmap::new(16, 8),
             1.0,
             Transform::IDENTITY,
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         assert!(black.sample(Vec2::splat(0.3)).is_none());
         assert_eq!(black.pdf(Vec3::X), 0.0);
         assert_eq!(black.mean_luminance(), 0.0);
@@ -1037,33 +1112,36 @@ mod tests {
             Transform::IDENTITY,
             EnvFilter::Nearest,
         );
-        assert_eq!(empty.eval(Vec3::X), Rgb::ZERO);
-        assert!(empty.sample(Vec2::splat(0.3)).is_none());
+        assert!(matches!(empty, Err(EnvMapError::Empty { .. })));
         let off = EnvMap::new(
             sun_map(16, 8),
             0.0,
             Transform::IDENTITY,
             EnvFilter::Bilinear,
-        );
+        )
+        .unwrap();
         assert!(off.sample(Vec2::splat(0.3)).is_none() && off.pdf(Vec3::X) == 0.0);
         let mut bad = constant(4, 2, Rgb::ONE);
-        bad.set(0, 0, Rgb::new(f32::NAN, -1.0, f32::INFINITY));
-        bad.set(1, 1, Rgb::splat(-5.0));
-        let env = EnvMap::new(bad, 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
-        let mut s = Sampler::new(4, 4);
-        for _ in 0..10_000 {
-            let d = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
-            let e = env.eval(d);
-            assert!(e.is_finite() && e.min_element() >= 0.0);
-            let (_, w, p) = env.sample(s.next_2d()).unwrap();
-            assert!(w.is_finite() && p > 0.0);
-        }
+        bad.set(1, 1, Rgb::new(1.0, -1.0, 1.0));
+        let texel = EnvMap::new(bad.clone(), 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
+        assert!(
+            matches!(texel, Err(EnvMapError::Texel { x: 1, y: 1, .. })),
+            "{texel:?}"
+        );
+        bad.set(1, 1, Rgb::new(f32::NAN, 0.0, 0.0));
+        let nan = EnvMap::new(bad, 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
+        assert!(matches!(nan, Err(EnvMapError::Texel { .. })));
+        let scale = EnvMap::new(sun_map(16, 8), f32::INFINITY, rot_a(), EnvFilter::Bilinear);
+        assert!(matches!(scale, Err(EnvMapError::Scale(_))));
+        let sheared = Transform::new(crate::math::Mat4::from_scale(Vec3::new(1.0, 2.0, 1.0)));
+        let shear = EnvMap::new(sun_map(16, 8), 1.0, sheared.unwrap(), EnvFilter::Bilinear);
+        assert!(matches!(shear, Err(EnvMapError::ToWorld)));
     }
 
     #[test]
     fn mean_luminance_of_a_constant_map() {
         let c = Rgb::new(0.5, 2.0, 1.0);
-        let env = EnvMap::new(constant(64, 32, c), 3.0, rot_a(), EnvFilter::Bilinear);
+        let env = EnvMap::new(constant(64, 32, c), 3.0, rot_a(), EnvFilter::Bilinear).unwrap();
         let want = 3.0 * luminance(c);
         assert!((env.mean_luminance() - want).abs() < 1e-3 * want);
         // A constant map is sampled almost uniformly: weights ~ eval / (1/4pi).

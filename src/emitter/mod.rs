@@ -4,7 +4,7 @@
 mod envmap;
 pub mod sky;
 
-pub use envmap::{EnvFilter, EnvMap};
+pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam};
 
 use crate::color::{luminance, Rgb};
 use crate::geometry::Geometry;

@@ -5,6 +5,7 @@
 //! `mitsuba` map Nori's and Mitsuba 3's dialects onto the scene objects;
 //! `nori_testfile` reads Nori's `<test>` files.
 
+mod envmap;
 mod error;
 pub mod mitsuba;
 pub mod nori;

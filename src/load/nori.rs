@@ -18,6 +18,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::envmap::{self, EnvMapNames, EnvMapSpec, Texels};
 use super::props::{int_in, non_negative, positive};
 use super::props::{Kind, Props};
 use super::reader::{self, Dialect};
@@ -27,7 +28,7 @@ use crate::bsdf::Bsdf;
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
-use crate::emitter::{Emitter, EnvFilter, EnvMap};
+use crate::emitter::{Emitter, EnvFilter};
 use crate::geometry::{load_obj, Geometry, Sphere};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
@@ -843,12 +844,6 @@ impl<'a> Ctx<'a> {
                     );
                 }
                 let to_world = p.get_transform("toWorld", Transform::IDENTITY)?;
-                if !reader::is_rotation(&to_world, 1e-4) {
-                    return Err(p.error(
-                        "toWorld",
-                        "an environment map's toWorld must be a rotation (an orthogonal matrix)",
-                    ));
-                }
                 let filter = match p.get_string("filter", "bilinear".into())?.as_str() {
                     "bilinear" => EnvFilter::Bilinear,
                     "nearest" => EnvFilter::Nearest,
@@ -860,33 +855,26 @@ impl<'a> Ctx<'a> {
                     }
                 };
                 let visible = p.get_bool("visible", true)?;
-                p.finish(&mut self.warnings);
-                let image = if name.trim() == BUILTIN_SKY {
+                let texels = if name.trim() == BUILTIN_SKY {
                     // The built-in sky, so a scene can switch between it and
                     // a probe by changing one word.
-                    bake_sky(&SkyParams {
+                    Texels::Image(bake_sky(&SkyParams {
                         scale: BUILTIN_SKY_EXPOSURE,
                         ..SkyParams::default()
-                    })
+                    }))
                 } else {
-                    let path = self.dir.join(name);
-                    let (image, image_warnings) =
-                        crate::image::io::load_image(&path).map_err(|e| {
-                            self.err(node.pos, format!("cannot load the environment map: {e}"))
-                        })?;
-                    for w in image_warnings {
-                        self.warn(node.pos, format!("{}: {w}", path.display()));
-                    }
-                    image
+                    Texels::File(self.dir.join(name))
                 };
-                let mut image = image;
-                if let Some(r) = radiance.filter(|r| *r != Rgb::ONE) {
-                    for px in &mut image.pixels {
-                        *px *= r;
-                    }
-                }
-                let mut env = EnvMap::new(image, scale, to_world, filter);
+                let spec = EnvMapSpec {
+                    texels,
+                    tint: radiance.unwrap_or(Rgb::ONE),
+                    scale,
+                    to_world,
+                    filter,
+                };
+                let mut env = envmap::build(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 env.visible = visible;
+                p.finish(&mut self.warnings);
                 return Ok(EmitterDesc::Free {
                     emitter: Emitter::Environment(Box::new(env)),
                     environment: true,
@@ -913,7 +901,6 @@ impl<'a> Ctx<'a> {
                 let scale = non_negative(&mut p, "scale", 1.0)?;
                 let resolution = int_in(&mut p, "resolution", 1024, 4, 16384)? as usize;
                 let visible = p.get_bool("visible", true)?;
-                p.finish(&mut self.warnings);
                 let image = bake_sky(&SkyParams {
                     turbidity,
                     sun_elevation_deg: elevation,
@@ -921,8 +908,16 @@ impl<'a> Ctx<'a> {
                     scale,
                     resolution,
                 });
-                let mut env = EnvMap::new(image, 1.0, Transform::IDENTITY, EnvFilter::Bilinear);
+                let spec = EnvMapSpec {
+                    texels: Texels::Image(image),
+                    tint: Rgb::ONE,
+                    scale: 1.0,
+                    to_world: Transform::IDENTITY,
+                    filter: EnvFilter::Bilinear,
+                };
+                let mut env = envmap::build(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 env.visible = visible;
+                p.finish(&mut self.warnings);
                 return Ok(EmitterDesc::Free {
                     emitter: Emitter::Environment(Box::new(env)),
                     environment: true,
@@ -934,6 +929,13 @@ impl<'a> Ctx<'a> {
         Ok(desc)
     }
 }
+
+/// Nori's names of an environment map's properties.
+const NORI_ENVMAP_NAMES: EnvMapNames = EnvMapNames {
+    filename: "filename",
+    scale: "scale",
+    to_world: "toWorld",
+};
 
 /// Nori's name of a camera parameter.
 fn nori_camera_name(param: CameraParam) -> &'static str {
@@ -1048,11 +1050,11 @@ mod tests {
             0.7,
         ))
         .unwrap();
-        assert!(reader::is_rotation(&rot, 1e-4));
+        assert!(rot.is_rotation(1e-4));
         assert!(rot.is_similarity());
         let sim = Transform::new(Mat4::from_scale(Vec3::splat(2.0)) * rot.m).unwrap();
         assert!(sim.is_similarity());
-        assert!(!reader::is_rotation(&sim, 1e-4));
+        assert!(!sim.is_rotation(1e-4));
         let shear = Transform::new(Mat4::from_cols(
             Vec4::new(1.0, 0.0, 0.0, 0.0),
             Vec4::new(0.6, 0.8, 0.0, 0.0),

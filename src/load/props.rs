@@ -216,6 +216,11 @@ impl<'a> Props<'a> {
         self.error(name, format!("'{name}' {e}"))
     }
 
+    /// A warning about the object as a whole.
+    pub fn object_warning(&self, message: impl Into<String>) -> Warning {
+        Warning::new(self.file, self.pos, message)
+    }
+
     /// An error about the object as a whole.
     pub fn object_error(&self, message: impl Into<String>) -> SceneError {
         SceneError::new(self.file, self.pos, message)

@@ -558,14 +558,3 @@ pub(crate) fn quoted_list(names: &[&str]) -> String {
         .collect::<Vec<_>>()
         .join(", ")
 }
-
-/// The linear part of `t` is orthonormal to within `tol` (rotations,
-/// possibly with a mirror).
-pub(crate) fn is_rotation(t: &Transform, tol: f32) -> bool {
-    let m = t.linear();
-    let g = m * m.transpose();
-    (g - Mat3::IDENTITY)
-        .to_cols_array()
-        .iter()
-        .all(|x| x.abs() <= tol)
-}

@@ -84,6 +84,17 @@ impl Transform {
             .all(|x| x.abs() <= tol)
     }
 
+    /// True if the linear part is orthonormal to within `tol` on each entry
+    /// of M M^T: rotations, possibly with a mirror.
+    pub fn is_rotation(&self, tol: f32) -> bool {
+        let m = self.linear();
+        let g = m * m.transpose();
+        (g - Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .all(|x| x.abs() <= tol)
+    }
+
     /// True if the transform flips handedness.
     pub fn flips_handedness(&self) -> bool {
         self.m.determinant() < 0.0

@@ -1,15 +1,22 @@
 //! Emitters: area, point, directional, constant and envmap.
 
-use super::{Ctx, ROTATION_TOLERANCE};
+use super::Ctx;
 use crate::color::Rgb;
-use crate::emitter::{Emitter, EnvFilter, EnvMap};
+use crate::emitter::{Emitter, EnvFilter};
+use crate::load::envmap::{self, EnvMapNames, EnvMapSpec, Texels};
 use crate::load::props::Props;
-use crate::load::reader;
 use crate::load::xml::SceneNode;
 use crate::load::SceneError;
 use crate::math::{Transform, Vec3};
 
 type Result<T> = std::result::Result<T, SceneError>;
+
+/// Mitsuba's names of an environment map's properties.
+const MITSUBA_ENVMAP_NAMES: EnvMapNames = EnvMapNames {
+    filename: "filename",
+    scale: "scale",
+    to_world: "to_world",
+};
 
 /// An emitter read from the file, before it is placed.
 pub(super) enum EmitterDesc {
@@ -119,29 +126,15 @@ impl<'d> Ctx<'d> {
                 if name.trim().is_empty() {
                     return Err(p.error("filename", "'filename' is empty"));
                 }
-                let scale = p.get_float("scale", 1.0)?;
-                if scale < 0.0 {
-                    return Err(p.error(
-                        "scale",
-                        format!("'scale' must not be negative, found {scale}"),
-                    ));
-                }
-                let to_world = p.get_transform("to_world", Transform::IDENTITY)?;
-                if !reader::is_rotation(&to_world, ROTATION_TOLERANCE) {
-                    return Err(p.error(
-                        "to_world",
-                        "an environment map's to_world must be a rotation (an orthogonal matrix)",
-                    ));
-                }
+                let spec = EnvMapSpec {
+                    texels: Texels::File(self.resolve(&name)),
+                    tint: Rgb::ONE,
+                    scale: p.get_float("scale", 1.0)?,
+                    to_world: p.get_transform("to_world", Transform::IDENTITY)?,
+                    filter: EnvFilter::Bilinear,
+                };
+                let env = envmap::build(&p, &MITSUBA_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 p.finish(&mut self.warnings);
-                let path = self.resolve(&name);
-                let (image, image_warnings) = crate::image::io::load_image(&path).map_err(|e| {
-                    self.err(node.pos, format!("cannot load the environment map: {e}"))
-                })?;
-                for w in image_warnings {
-                    self.warn(node.pos, format!("{}: {w}", path.display()));
-                }
-                let env = EnvMap::new(image, scale, to_world, EnvFilter::Bilinear);
                 return Ok(EmitterDesc::Free {
                     emitter: Emitter::Environment(Box::new(env)),
                     environment: true,

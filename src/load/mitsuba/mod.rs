@@ -97,7 +97,7 @@ static MITSUBA: Dialect = Dialect {
 /// Deepest nesting of `<include>` files (Mitsuba's limit is 15).
 const MAX_INCLUDE_DEPTH: usize = 15;
 
-/// How far from orthonormal a rotation may be (Mitsuba's `has_scale`
+/// How far from orthonormal a sensor rotation may be (Mitsuba's `has_scale`
 /// tolerance on M M^T).
 const ROTATION_TOLERANCE: f32 = 1e-3;
 
@@ -756,6 +756,6 @@ mod tests {
         // Without up: an orthonormal frame around the direction.
         let m = look_at(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0), None).unwrap();
         let t = crate::math::Transform::new(m).unwrap();
-        assert!(reader::is_rotation(&t, ROTATION_TOLERANCE));
+        assert!(t.is_rotation(ROTATION_TOLERANCE));
     }
 }

@@ -5,7 +5,6 @@ use super::{Child, Ctx};
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::image::Filter;
 use crate::load::props::{int_in, positive, Kind, Props};
-use crate::load::reader;
 use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
 use crate::math::{Aabb, Mat4, Transform, Vec3};
@@ -438,5 +437,5 @@ pub(super) fn default_sensor(shapes: &[ShapeDesc]) -> SensorDesc {
 /// Mitsuba's `Transform::has_scale`: M M^T differs from the identity by
 /// more than 1e-3 somewhere (mirrors do not count as scale).
 fn has_scale(t: &Transform) -> bool {
-    !reader::is_rotation(t, super::ROTATION_TOLERANCE)
+    !t.is_rotation(super::ROTATION_TOLERANCE)
 }

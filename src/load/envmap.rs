@@ -1,0 +1,70 @@
+//! Environment maps named in scene files, for both dialects: the image
+//! is read once, here, and [`EnvMap::new`] checks the map; errors point
+//! at the property that names the wrong value.
+
+use std::path::PathBuf;
+
+use super::props::Props;
+use super::{SceneError, Warning};
+use crate::color::Rgb;
+use crate::emitter::{EnvFilter, EnvMap, EnvMapParam};
+use crate::image::Bitmap;
+use crate::math::Transform;
+
+/// Where a map's texels come from.
+pub(crate) enum Texels {
+    /// An image file.
+    File(PathBuf),
+    /// An image made in memory (the built-in sky).
+    Image(Bitmap),
+}
+
+/// A dialect's names of an environment map's properties.
+pub(crate) struct EnvMapNames {
+    pub filename: &'static str,
+    pub scale: &'static str,
+    pub to_world: &'static str,
+}
+
+/// What a scene file says about an environment map.
+pub(crate) struct EnvMapSpec {
+    pub texels: Texels,
+    /// Per-channel multiplier of the texels (the Zaragoza fork's
+    /// `radiance`; one for everyone else).
+    pub tint: Rgb,
+    pub scale: f32,
+    pub to_world: Transform,
+    pub filter: EnvFilter,
+}
+
+/// Builds the map; the image's warnings go to `warnings` at the object.
+pub(crate) fn build(
+    p: &Props,
+    names: &EnvMapNames,
+    spec: EnvMapSpec,
+    warnings: &mut Vec<Warning>,
+) -> Result<EnvMap, SceneError> {
+    let mut image = match spec.texels {
+        Texels::Image(image) => image,
+        Texels::File(path) => {
+            let (image, image_warnings) = crate::image::io::load_image(&path).map_err(|e| {
+                p.error(names.filename, "cannot load the environment map")
+                    .caused_by(e)
+            })?;
+            for w in image_warnings {
+                warnings.push(p.object_warning(format!("{}: {w}", path.display())));
+            }
+            image
+        }
+    };
+    if spec.tint != Rgb::ONE {
+        for px in &mut image.pixels {
+            *px *= spec.tint;
+        }
+    }
+    EnvMap::new(image, spec.scale, spec.to_world, spec.filter).map_err(|e| match e.param() {
+        EnvMapParam::Image => p.error(names.filename, format!("the environment map {e}")),
+        EnvMapParam::Scale => p.param_error(names.scale, &e),
+        EnvMapParam::ToWorld => p.param_error(names.to_world, &e),
+    })
+}
