@@ -687,9 +687,9 @@ fn environment_errors() {
 "#;
     let (_dir, path) = write_scene(missing);
     let e = load_scene(&path).unwrap_err();
-    assert_eq!((e.line, e.col), (4, 5), "{e}");
+    assert_eq!((e.line, e.col), (5, 40), "at the file name: {e}");
     let tried = path.parent().unwrap().join("probe.exr");
-    assert!(e.to_string().contains(&tried.display().to_string()), "{e}");
+    assert!(e.report().contains(&tried.display().to_string()), "{e}");
 
     let two = r#"<scene>
     <integrator type="path_mis"/>
