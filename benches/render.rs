@@ -38,7 +38,7 @@ fn uv_sphere(n: usize) -> TriangleMesh {
             idx.push([a, c, d]);
         }
     }
-    TriangleMesh::new(p, Vec::new(), Vec::new(), idx)
+    TriangleMesh::new(p, Vec::new(), Vec::new(), idx).unwrap()
 }
 
 fn bvh(c: &mut Criterion) {

@@ -165,7 +165,7 @@ impl Scene {
         self.geometry
             .iter()
             .map(|g| match g {
-                Geometry::Mesh(m) => m.indices.len(),
+                Geometry::Mesh(m) => m.triangle_count(),
                 Geometry::Sphere(_) => 0,
             })
             .sum()

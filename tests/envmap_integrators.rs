@@ -48,6 +48,7 @@ fn ground(size: f32, y: f32) -> TriangleMesh {
         Vec::new(),
         vec![[0, 2, 1], [0, 3, 2]],
     )
+    .unwrap()
 }
 
 fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> TestScene {
@@ -83,7 +84,8 @@ fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> TestScene {
         Vec::new(),
         Vec::new(),
         vec![[0, 1, 2], [0, 2, 3]],
-    );
+    )
+    .unwrap();
     d.shapes
         .push(shape(Geometry::Mesh(mirror), Bsdf::Mirror, None));
     d.shapes.push(shape(

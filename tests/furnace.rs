@@ -73,8 +73,9 @@ fn emitting_box_nee_strategies() {
 /// Drops shading normals: interpolated normals on a faceted convex body
 /// make it slightly non-convex to light, and the furnace identity then
 /// holds only approximately.
-fn faceted(m: lente::geometry::TriangleMesh) -> lente::geometry::TriangleMesh {
-    lente::geometry::TriangleMesh::new(m.positions, Vec::new(), m.uvs, m.indices)
+fn faceted(mut m: lente::geometry::TriangleMesh) -> lente::geometry::TriangleMesh {
+    m.clear_normals();
+    m
 }
 
 /// White furnace: a convex diffuse object of albedo rho under a constant

@@ -28,7 +28,7 @@ fn a_million_rays_from_inside_closed_meshes_never_escape() {
     ];
     for (k, g) in meshes.into_iter().enumerate() {
         let vertices = match &g {
-            Geometry::Mesh(m) => m.positions.clone(),
+            Geometry::Mesh(m) => m.positions().to_vec(),
             _ => unreachable!(),
         };
         let bvh = Bvh::build(std::slice::from_ref(&g));
@@ -56,10 +56,10 @@ fn rays_along_shared_edges_from_the_centre_hit() {
     let g = Geometry::Mesh(icosphere(1.0, 3));
     let edges: Vec<Vec3> = match &g {
         Geometry::Mesh(m) => m
-            .indices
+            .indices()
             .iter()
             .flat_map(|t| {
-                let p = t.map(|i| m.positions[i as usize]);
+                let p = t.map(|i| m.positions()[i as usize]);
                 [
                     (p[0] + p[1]) * 0.5,
                     (p[1] + p[2]) * 0.5,
@@ -145,7 +145,8 @@ fn huge_triangles_do_not_shadow_themselves() {
         Vec::new(),
         Vec::new(),
         vec![[0, 2, 1], [0, 3, 2]],
-    );
+    )
+    .unwrap();
     let mut d = common::desc(
         common::look_at(Vec3::new(0.0, 2.0, 5.0), Vec3::ZERO, 40.0, 8, 8),
         common::path(lente::integrator::Strategy::Mis),

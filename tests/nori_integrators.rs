@@ -23,7 +23,7 @@ fn quad(c: Vec3, half: f32, y_normal_up: bool) -> TriangleMesh {
     } else {
         vec![[0, 1, 2], [0, 2, 3]]
     };
-    TriangleMesh::new(p, Vec::new(), Vec::new(), idx)
+    TriangleMesh::new(p, Vec::new(), Vec::new(), idx).unwrap()
 }
 
 /// A diffuse sphere lit by a quad light from above; a scene where direct

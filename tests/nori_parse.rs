@@ -343,8 +343,8 @@ fn obj_paths_are_relative_to_the_scene_file() {
     let shape = &desc.scene.shapes[0];
     match &shape.geometry {
         Geometry::Mesh(m) => {
-            assert_eq!(m.indices.len(), 1);
-            close(m.positions[1], Vec3::new(1.0, 0.0, 2.0));
+            assert_eq!(m.indices().len(), 1);
+            close(m.positions()[1], Vec3::new(1.0, 0.0, 2.0));
         }
         g => panic!("expected a mesh, got {g:?}"),
     }

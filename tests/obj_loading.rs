@@ -22,7 +22,7 @@ fn polygons_and_negative_indices() {
          v 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 6 7 8 9\n",
     );
     let m = load_obj(&p).unwrap();
-    assert_eq!(m.indices.len(), 3 + 2);
+    assert_eq!(m.triangle_count(), 3 + 2);
     // The pentagon's fan covers its whole area.
     let pent: f32 = (0..3).map(|t| m.triangle_area(t)).sum();
     let expect = 0.5
@@ -39,7 +39,7 @@ fn polygons_and_negative_indices() {
         .sum::<f32>();
     assert!((pent - expect).abs() < 1e-5, "{pent} vs {expect}");
     // No normals in the file: geometric normals (+z for CCW in the xy plane).
-    assert!(m.normals.is_empty());
+    assert!(m.normals().is_empty());
     let (n, _) = m.shading(0, 0.2, 0.2);
     assert!((n - Vec3::Z).length() < 1e-6);
 }
@@ -63,6 +63,7 @@ fn broken_files_are_errors() {
     let missing = std::env::temp_dir().join("lente-no-such-file.obj");
     assert!(load_obj(&missing)
         .unwrap_err()
+        .to_string()
         .contains("lente-no-such-file.obj"));
     let (_dir, p) = write("bad.obj", "v 0 0 0\nv 1 0 0\nf 1 2 9\n");
     assert!(load_obj(&p).is_err());

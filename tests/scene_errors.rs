@@ -25,7 +25,8 @@ fn assert_error(name: &str, text: &str, line: u32, col: u32, words: &[&str]) -> 
         Ok(_) => panic!("scene '{name}' should not load"),
         Err(e) => e,
     };
-    let msg = e.to_string();
+    // With its causes: a missing file's name is in the I/O error.
+    let msg = e.report();
     let prefix = format!("{}:{line}:{col}: ", path.display());
     assert!(
         msg.starts_with(&prefix),
@@ -316,9 +317,9 @@ fn missing_mesh_file_names_the_path() {
     let (_dir, path) = write_scene(scene);
     let tried = path.parent().unwrap().join("meshes/missing.obj");
     let e = load_scene(&path).unwrap_err();
-    assert_eq!((e.line, e.col), (4, 5), "{e}");
+    assert_eq!((e.line, e.col), (5, 40), "at the file name: {e}");
     assert!(
-        e.to_string().contains(&tried.display().to_string()),
+        e.report().contains(&tried.display().to_string()),
         "{e} should name {}",
         tried.display()
     );

@@ -65,7 +65,7 @@ impl Bvh {
         for (si, g) in shapes.iter().enumerate() {
             match g {
                 Geometry::Mesh(m) => {
-                    for (ti, _) in m.indices.iter().enumerate() {
+                    for ti in 0..m.triangle_count() {
                         let v = m.vertices(ti);
                         prims.push(Prim::Triangle { v });
                         refs.push(PrimRef {

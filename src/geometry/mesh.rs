@@ -5,49 +5,135 @@ use crate::sampling::{warp, Distribution1D};
 
 use super::{BvhHit, Intersection, SurfaceSample};
 
-/// A triangle mesh in world space. `normals` and `uvs` are per vertex and
-/// either empty or as long as `positions`.
-#[derive(Clone, Debug, Default)]
+/// A triangle mesh in world space. Built only by [`TriangleMesh::new`]
+/// and changed only by its methods, which keep its invariants: at least
+/// one face, every index in range, `normals` and `uvs` per vertex (or
+/// empty), finite positions whose bounds fit the float range, a positive
+/// finite area.
+#[derive(Clone, Debug)]
 pub struct TriangleMesh {
-    pub positions: Vec<Vec3>,
-    pub normals: Vec<Vec3>,
-    pub uvs: Vec<Vec2>,
-    pub indices: Vec<[u32; 3]>,
-    /// Area-weighted triangle choice, built by [`TriangleMesh::prepare`].
-    area_distribution: Option<Distribution1D>,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    indices: Vec<[u32; 3]>,
+    /// Area-weighted triangle choice.
+    area_distribution: Distribution1D,
     area: f32,
 }
 
+/// A mesh that breaks an invariant of [`TriangleMesh`]. Each message
+/// completes a sentence that starts with "the mesh".
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    #[error("has no faces")]
+    NoFaces,
+    #[error("has {found} normals for {vertices} vertices")]
+    NormalCount { found: usize, vertices: usize },
+    #[error("has {found} texture coordinates for {vertices} vertices")]
+    UvCount { found: usize, vertices: usize },
+    #[error("has face {face} with vertex index {index}, but only {vertices} vertices")]
+    IndexOutOfRange {
+        face: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("has vertex {0} at a position that is not finite")]
+    NotFinite(usize),
+    #[error("is too large: its bounds overflow the float range")]
+    TooLarge,
+    #[error("has no area")]
+    NoArea,
+}
+
 impl TriangleMesh {
+    /// A mesh of `positions` and triangles `indices`, with per-vertex
+    /// `normals` and `uvs` (each empty or one per position).
     pub fn new(
         positions: Vec<Vec3>,
         normals: Vec<Vec3>,
         uvs: Vec<Vec2>,
         indices: Vec<[u32; 3]>,
-    ) -> TriangleMesh {
+    ) -> Result<TriangleMesh, MeshError> {
+        let vertices = positions.len();
+        if !normals.is_empty() && normals.len() != vertices {
+            return Err(MeshError::NormalCount {
+                found: normals.len(),
+                vertices,
+            });
+        }
+        if !uvs.is_empty() && uvs.len() != vertices {
+            return Err(MeshError::UvCount {
+                found: uvs.len(),
+                vertices,
+            });
+        }
+        for (face, tri) in indices.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertices) {
+                return Err(MeshError::IndexOutOfRange {
+                    face,
+                    index,
+                    vertices,
+                });
+            }
+        }
         let mut m = TriangleMesh {
             positions,
             normals,
             uvs,
             indices,
-            area_distribution: None,
+            area_distribution: Distribution1D::new(&[1.0]),
             area: 0.0,
         };
-        m.prepare();
-        m
+        m.finish()?;
+        Ok(m)
     }
 
-    /// Recomputes the area table (after construction or a transform).
-    pub fn prepare(&mut self) {
+    /// Checks the geometry and rebuilds the area table (after
+    /// construction or a change of the positions).
+    fn finish(&mut self) -> Result<(), MeshError> {
+        if self.indices.is_empty() {
+            return Err(MeshError::NoFaces);
+        }
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(MeshError::NotFinite(i));
+        }
+        // Coordinates near f32::MAX are finite, but their differences (edge
+        // vectors, box extents) are not: the BVH and the triangle test
+        // need them finite.
+        if !self.bounds().diagonal().is_finite() {
+            return Err(MeshError::TooLarge);
+        }
         let areas: Vec<f32> = (0..self.indices.len())
             .map(|i| self.triangle_area(i))
             .collect();
         self.area = areas.iter().map(|&a| a as f64).sum::<f64>() as f32;
-        self.area_distribution = if areas.is_empty() {
-            None
-        } else {
-            Some(Distribution1D::new(&areas))
-        };
+        if !(self.area > 0.0 && self.area.is_finite()) {
+            return Err(MeshError::NoArea);
+        }
+        self.area_distribution = Distribution1D::new(&areas);
+        Ok(())
+    }
+
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// Per-vertex shading normals (empty: the geometric normal is used).
+    pub fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+
+    /// Per-vertex texture coordinates (empty: barycentrics are used).
+    pub fn uvs(&self) -> &[Vec2] {
+        &self.uvs
+    }
+
+    pub fn indices(&self) -> &[[u32; 3]] {
+        &self.indices
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
     }
 
     pub fn vertices(&self, tri: usize) -> [Vec3; 3] {
@@ -77,22 +163,82 @@ impl TriangleMesh {
         Aabb::EMPTY.extend(a).extend(b).extend(c)
     }
 
-    /// Bakes a transform into the vertices (normals by the inverse transpose).
-    pub fn transform(&mut self, t: &Transform) {
+    /// Bakes a transform into the vertices (normals by the inverse
+    /// transpose). A mirroring transform also reverses the winding, so the
+    /// geometric normal keeps agreeing with the shading normals (Nori).
+    pub fn transform(&mut self, t: &Transform) -> Result<(), MeshError> {
+        self.transform_keep_winding(t)?;
+        if t.flips_handedness() {
+            for tri in &mut self.indices {
+                tri.swap(1, 2);
+            }
+        }
+        Ok(())
+    }
+
+    /// Bakes a transform into the vertices keeping the winding, Mitsuba's
+    /// way: the geometric normal is the cross product of the transformed
+    /// edges (so a mirror turns it around), vertex normals go through the
+    /// inverse transpose.
+    pub fn transform_keep_winding(&mut self, t: &Transform) -> Result<(), MeshError> {
         for p in &mut self.positions {
             *p = t.point(*p);
         }
         for n in &mut self.normals {
             *n = t.normal(*n).normalize_or_zero();
         }
-        if t.flips_handedness() {
-            // Keep the geometric normal (from winding) pointing the same way
-            // as the transformed shading normals.
-            for tri in &mut self.indices {
-                tri.swap(1, 2);
+        self.finish()
+    }
+
+    /// Replaces the vertex normals by smooth ones: each vertex gets the sum
+    /// of the unit normals of its triangles weighted by the triangle's
+    /// angle at the vertex (Thürmer and Wüthrich 1998, as Mitsuba does for
+    /// meshes without normals). Vertices of degenerate triangles only get
+    /// (1, 0, 0).
+    pub fn compute_vertex_normals(&mut self) {
+        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        for tri in &self.indices {
+            let v = tri.map(|i| self.positions[i as usize]);
+            let n = (v[1] - v[0]).cross(v[2] - v[0]);
+            let len = n.length();
+            if !(len > 0.0 && len.is_finite()) {
+                continue;
+            }
+            let n = n / len;
+            for k in 0..3 {
+                let e1 = (v[(k + 1) % 3] - v[k]).normalize_or_zero();
+                let e2 = (v[(k + 2) % 3] - v[k]).normalize_or_zero();
+                let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
+                normals[tri[k] as usize] += n * angle;
             }
         }
-        self.prepare();
+        for n in &mut normals {
+            *n = n.try_normalize().unwrap_or(Vec3::X);
+        }
+        self.normals = normals;
+    }
+
+    /// Drops the vertex normals: faces are shaded flat.
+    pub fn clear_normals(&mut self) {
+        self.normals.clear();
+    }
+
+    /// Turns the mesh inside out: reverses the winding and negates the
+    /// normals.
+    pub fn flip_normals(&mut self) {
+        for tri in &mut self.indices {
+            tri.swap(1, 2);
+        }
+        for n in &mut self.normals {
+            *n = -*n;
+        }
+    }
+
+    /// Mirrors the texture coordinates vertically (v becomes 1 - v).
+    pub fn flip_v(&mut self) {
+        for uv in &mut self.uvs {
+            uv.y = 1.0 - uv.y;
+        }
     }
 
     /// Unit geometric normal of a triangle from its winding.
@@ -166,11 +312,7 @@ impl TriangleMesh {
 
     /// Samples a point uniformly by area.
     pub fn sample_area(&self, u_tri: f32, u: Vec2) -> SurfaceSample {
-        let dist = self
-            .area_distribution
-            .as_ref()
-            .expect("sampling an empty mesh");
-        let (tri, _, _) = dist.sample_discrete(u_tri);
+        let (tri, _, _) = self.area_distribution.sample_discrete(u_tri);
         let b = warp::square_to_uniform_triangle(u);
         let [a, bb, c] = self.vertices(tri);
         let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;

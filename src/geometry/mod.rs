@@ -9,14 +9,13 @@ mod sphere;
 mod triangle;
 
 pub use bvh::{Bvh, BvhHit};
-pub use mesh::TriangleMesh;
+pub use mesh::{MeshError, TriangleMesh};
 pub use obj::load_obj;
 pub use ply::{load_ply, parse_ply};
 pub use shapes::{
-    compute_vertex_normals, cube_mesh, cylinder_mesh, disk_mesh, flip_mesh_normals, rectangle_mesh,
-    sphere_mesh, transform_mesh_keep_winding, ROUND_SEGMENTS,
+    cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
 };
-pub use sphere::Sphere;
+pub use sphere::{Sphere, SphereError};
 pub use triangle::{intersect_triangle, RayShear};
 
 use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};
@@ -32,7 +31,7 @@ impl Geometry {
     /// Number of BVH primitives this shape contributes.
     pub fn primitive_count(&self) -> usize {
         match self {
-            Geometry::Mesh(m) => m.indices.len(),
+            Geometry::Mesh(m) => m.triangle_count(),
             Geometry::Sphere(_) => 1,
         }
     }
@@ -68,15 +67,61 @@ impl Geometry {
     }
 
     /// Applies a transform in place (meshes bake it; spheres need a similarity).
-    pub fn transform(&mut self, t: &Transform) -> Result<(), String> {
+    pub fn transform(&mut self, t: &Transform) -> Result<(), ShapeError> {
         match self {
-            Geometry::Mesh(m) => {
-                m.transform(t);
-                Ok(())
-            }
-            Geometry::Sphere(s) => s.transform(t),
+            Geometry::Mesh(m) => Ok(m.transform(t)?),
+            Geometry::Sphere(s) => Ok(s.transform(t)?),
         }
     }
+}
+
+/// A shape that breaks its invariants (the message embeds the shape's
+/// own error, so it is no `source()`).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShapeError {
+    #[error("the mesh {0}")]
+    Mesh(MeshError),
+    #[error("the sphere's {} {}", .0.describe_param(), .0)]
+    Sphere(SphereError),
+}
+
+impl From<MeshError> for ShapeError {
+    fn from(e: MeshError) -> Self {
+        ShapeError::Mesh(e)
+    }
+}
+
+impl From<SphereError> for ShapeError {
+    fn from(e: SphereError) -> Self {
+        ShapeError::Sphere(e)
+    }
+}
+
+/// A mesh file that cannot be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshFileError {
+    #[error("cannot read '{}'", path.display())]
+    Read {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot read the OBJ file '{}'", path.display())]
+    Obj {
+        path: std::path::PathBuf,
+        #[source]
+        source: tobj::LoadError,
+    },
+    #[error("the PLY file '{}' is malformed: {message}", path.display())]
+    Ply {
+        path: std::path::PathBuf,
+        message: String,
+    },
+    #[error("the mesh in '{}' {error}", path.display())]
+    Invalid {
+        path: std::path::PathBuf,
+        error: MeshError,
+    },
 }
 
 /// A point on a surface found by a ray.

@@ -2,22 +2,24 @@
 
 use std::path::Path;
 
-use super::TriangleMesh;
+use super::{MeshFileError, TriangleMesh};
 use crate::math::{Vec2, Vec3};
 
 /// Loads an OBJ file as one triangle mesh (all its objects merged).
 /// Polygons are triangulated; positions, normals and uvs are unified into
 /// one index per vertex. Missing normals leave `normals` empty, so the
 /// geometric normal is used.
-pub fn load_obj(path: &Path) -> Result<TriangleMesh, String> {
+pub fn load_obj(path: &Path) -> Result<TriangleMesh, MeshFileError> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _) = tobj::load_obj(path, &opts)
-        .map_err(|e| format!("cannot read OBJ file '{}': {e}", path.display()))?;
+    let (models, _) = tobj::load_obj(path, &opts).map_err(|source| MeshFileError::Obj {
+        path: path.to_path_buf(),
+        source,
+    })?;
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
@@ -55,24 +57,13 @@ pub fn load_obj(path: &Path) -> Result<TriangleMesh, String> {
             }
         }
         for t in mesh.indices.chunks_exact(3) {
-            let tri = [base + t[0], base + t[1], base + t[2]];
-            if tri.iter().any(|&i| i as usize >= positions.len()) {
-                return Err(format!(
-                    "OBJ file '{}' has a face index out of range",
-                    path.display()
-                ));
-            }
-            indices.push(tri);
+            // Out-of-range indices (saturating, never wrapping) are caught
+            // by the mesh's own checks.
+            indices.push([t[0], t[1], t[2]].map(|i| base.saturating_add(i)));
         }
     }
-    if indices.is_empty() {
-        return Err(format!("OBJ file '{}' contains no faces", path.display()));
-    }
-    if positions.iter().any(|p| !p.is_finite()) {
-        return Err(format!(
-            "OBJ file '{}' has a vertex that is not a finite number",
-            path.display()
-        ));
-    }
-    Ok(TriangleMesh::new(positions, normals, uvs, indices))
+    TriangleMesh::new(positions, normals, uvs, indices).map_err(|error| MeshFileError::Invalid {
+        path: path.to_path_buf(),
+        error,
+    })
 }

@@ -11,14 +11,43 @@
 
 use std::path::Path;
 
-use super::TriangleMesh;
+use super::{MeshError, MeshFileError, TriangleMesh};
 use crate::math::{Vec2, Vec3};
 
 /// Loads a PLY file as a triangle mesh.
-pub fn load_ply(path: &Path) -> Result<TriangleMesh, String> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| format!("cannot read PLY file '{}': {e}", path.display()))?;
-    parse_ply(&bytes).map_err(|e| format!("PLY file '{}': {e}", path.display()))
+pub fn load_ply(path: &Path) -> Result<TriangleMesh, MeshFileError> {
+    let bytes = std::fs::read(path).map_err(|source| MeshFileError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    match parse_ply(&bytes) {
+        Ok(mesh) => Ok(mesh),
+        Err(PlyError::Malformed(message)) => Err(MeshFileError::Ply {
+            path: path.to_path_buf(),
+            message,
+        }),
+        Err(PlyError::Invalid(error)) => Err(MeshFileError::Invalid {
+            path: path.to_path_buf(),
+            error,
+        }),
+    }
+}
+
+/// Why PLY bytes are no mesh.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PlyError {
+    /// The file breaks the format (message: what and where).
+    #[error("{0}")]
+    Malformed(String),
+    /// The file is well-formed but its mesh is not valid.
+    #[error("the mesh {0}")]
+    Invalid(MeshError),
+}
+
+impl From<String> for PlyError {
+    fn from(message: String) -> Self {
+        PlyError::Malformed(message)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -330,7 +359,7 @@ impl<'b> Reader<'b> {
 }
 
 /// Parses a whole PLY file held in memory.
-pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, String> {
+pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, PlyError> {
     let header = parse_header(bytes)?;
     let mut r = Reader::new(bytes, &header)?;
     let mut positions: Vec<Vec3> = Vec::new();
@@ -345,10 +374,10 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, String> {
         // than what is left is a truncated (or lying) file.
         let min_record = if el.props.is_empty() { 0 } else { 1 };
         if el.count.saturating_mul(min_record) > r.remaining() {
-            return Err(format!(
+            return Err(PlyError::Malformed(format!(
                 "the header announces {} '{}' elements, more than the file holds",
                 el.count, el.name
-            ));
+            )));
         }
         match el.name.as_str() {
             "vertex" if !seen_vertex => {
@@ -358,23 +387,27 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, String> {
             "face" if !seen_face => {
                 seen_face = true;
                 if !seen_vertex {
-                    return Err("the 'face' element comes before the 'vertex' element".into());
+                    return Err(PlyError::Malformed(
+                        "the 'face' element comes before the 'vertex' element".into(),
+                    ));
                 }
                 read_faces(&mut r, el, positions.len(), &mut indices)?;
             }
             "vertex" | "face" => {
-                return Err(format!("the file has more than one '{}' element", el.name))
+                return Err(PlyError::Malformed(format!(
+                    "the file has more than one '{}' element",
+                    el.name
+                )))
             }
             _ => skip_element(&mut r, el)?,
         }
     }
     if !seen_vertex {
-        return Err("the file has no 'vertex' element".into());
+        return Err(PlyError::Malformed(
+            "the file has no 'vertex' element".into(),
+        ));
     }
-    if indices.is_empty() {
-        return Err("the file contains no faces".into());
-    }
-    Ok(TriangleMesh::new(positions, normals, uvs, indices))
+    TriangleMesh::new(positions, normals, uvs, indices).map_err(PlyError::Invalid)
 }
 
 fn skip_element(r: &mut Reader, el: &Element) -> Result<(), String> {
@@ -530,7 +563,7 @@ mod tests {
     fn ascii_quad_is_fan_triangulated() {
         let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
         let m = parse_ply(ply.as_bytes()).unwrap();
-        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.indices(), [[0, 1, 2], [0, 2, 3]]);
         assert!((m.area() - 1.0).abs() < 1e-6);
     }
 
@@ -538,6 +571,6 @@ mod tests {
     fn huge_counts_do_not_allocate() {
         let ply = "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
         let e = parse_ply(ply.as_bytes()).unwrap_err();
-        assert!(e.contains("more than the file holds"), "{e}");
+        assert!(e.to_string().contains("more than the file holds"), "{e}");
     }
 }

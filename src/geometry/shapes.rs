@@ -1,4 +1,4 @@
-//! Mesh versions of simple shapes, and mesh operations scene readers need.
+//! Mesh versions of simple shapes.
 //!
 //! The shapes follow Mitsuba 3's object-space definitions: the rectangle
 //! is the square [-1, 1]^2 at z = 0 facing +z, the cube is [-1, 1]^3 with
@@ -9,8 +9,8 @@
 //! is exact. Flat shapes carry explicit vertex normals, so their front side
 //! is the one the normals give, whatever a transform does to the winding.
 
-use super::TriangleMesh;
-use crate::math::{Transform, Vec2, Vec3, PI};
+use super::{MeshError, TriangleMesh};
+use crate::math::{Vec2, Vec3, PI};
 
 /// Segments around the disk and the cylinder.
 pub const ROUND_SEGMENTS: usize = 512;
@@ -28,6 +28,7 @@ pub fn rectangle_mesh() -> TriangleMesh {
         .map(|p| Vec2::new(p.x + 1.0, p.y + 1.0) * 0.5)
         .collect();
     TriangleMesh::new(positions, vec![Vec3::Z; 4], uvs, vec![[0, 1, 2], [0, 2, 3]])
+        .expect("the rectangle is a valid mesh")
 }
 
 /// The cube [-1, 1]^3: 6 faces of 2 triangles, 4 vertices each with the
@@ -59,7 +60,7 @@ pub fn cube_mesh() -> TriangleMesh {
             indices.push([base, base + 2, base + 3]);
         }
     }
-    TriangleMesh::new(positions, normals, uvs, indices)
+    TriangleMesh::new(positions, normals, uvs, indices).expect("the cube is a valid mesh")
 }
 
 /// The direction of u on the cube face with outward normal `sign` along
@@ -99,17 +100,23 @@ pub fn disk_mesh(segments: usize) -> TriangleMesh {
     let rim = n as u32 + 1;
     let indices = (0..n as u32).map(|i| [rim + i, i, i + 1]).collect();
     let normals = vec![Vec3::Z; positions.len()];
-    TriangleMesh::new(positions, normals, uvs, indices)
+    TriangleMesh::new(positions, normals, uvs, indices).expect("the disk is a valid mesh")
 }
 
 /// An open cylinder of radius `radius` around the segment p0 -> p1, with
 /// `segments` flat sides (at least 3), smooth outward normals and the exact
-/// lateral area. `None` if the segment or the radius is degenerate.
-pub fn cylinder_mesh(p0: Vec3, p1: Vec3, radius: f32, segments: usize) -> Option<TriangleMesh> {
+/// lateral area. [`MeshError::NoArea`] if the segment or the radius is
+/// degenerate.
+pub fn cylinder_mesh(
+    p0: Vec3,
+    p1: Vec3,
+    radius: f32,
+    segments: usize,
+) -> Result<TriangleMesh, MeshError> {
     let axis = p1 - p0;
     let length = axis.length();
     if !(length > 0.0 && length.is_finite() && radius > 0.0 && radius.is_finite()) {
-        return None;
+        return Err(MeshError::NoArea);
     }
     let n = segments.max(3);
     let dir = axis / length;
@@ -138,12 +145,17 @@ pub fn cylinder_mesh(p0: Vec3, p1: Vec3, radius: f32, segments: usize) -> Option
         indices.push([a, c, d]);
         indices.push([a, d, b]);
     }
-    Some(TriangleMesh::new(positions, normals, uvs, indices))
+    TriangleMesh::new(positions, normals, uvs, indices)
 }
 
 /// A latitude-longitude sphere mesh with smooth normals (`rings` >= 2
 /// bands of latitude, `sectors` >= 3 of longitude).
-pub fn sphere_mesh(center: Vec3, radius: f32, sectors: usize, rings: usize) -> TriangleMesh {
+pub fn sphere_mesh(
+    center: Vec3,
+    radius: f32,
+    sectors: usize,
+    rings: usize,
+) -> Result<TriangleMesh, MeshError> {
     let (ns, nr) = (sectors.max(3), rings.max(2));
     let mut positions = Vec::new();
     let mut normals = Vec::new();
@@ -180,58 +192,6 @@ pub fn sphere_mesh(center: Vec3, radius: f32, sectors: usize, rings: usize) -> T
     TriangleMesh::new(positions, normals, uvs, indices)
 }
 
-/// Replaces the vertex normals by smooth ones: each vertex gets the sum of
-/// the unit normals of its triangles weighted by the triangle's angle at
-/// the vertex (Thürmer and Wüthrich 1998, as Mitsuba does for meshes
-/// without normals). Vertices of degenerate triangles only get (1, 0, 0).
-pub fn compute_vertex_normals(mesh: &mut TriangleMesh) {
-    let mut normals = vec![Vec3::ZERO; mesh.positions.len()];
-    for tri in &mesh.indices {
-        let v = tri.map(|i| mesh.positions[i as usize]);
-        let n = (v[1] - v[0]).cross(v[2] - v[0]);
-        let len = n.length();
-        if !(len > 0.0 && len.is_finite()) {
-            continue;
-        }
-        let n = n / len;
-        for k in 0..3 {
-            let e1 = (v[(k + 1) % 3] - v[k]).normalize_or_zero();
-            let e2 = (v[(k + 2) % 3] - v[k]).normalize_or_zero();
-            let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
-            normals[tri[k] as usize] += n * angle;
-        }
-    }
-    for n in &mut normals {
-        *n = n.try_normalize().unwrap_or(Vec3::X);
-    }
-    mesh.normals = normals;
-}
-
-/// Turns the mesh inside out: reverses the winding and negates the normals.
-pub fn flip_mesh_normals(mesh: &mut TriangleMesh) {
-    for tri in &mut mesh.indices {
-        tri.swap(1, 2);
-    }
-    for n in &mut mesh.normals {
-        *n = -*n;
-    }
-}
-
-/// Bakes a transform into a mesh keeping the winding, Mitsuba's way: the
-/// geometric normal is the cross product of the transformed edges (so a
-/// mirroring transform turns it around), vertex normals go through the
-/// inverse transpose. [`TriangleMesh::transform`] instead swaps the
-/// winding of mirrored meshes.
-pub fn transform_mesh_keep_winding(mesh: &mut TriangleMesh, t: &Transform) {
-    for p in &mut mesh.positions {
-        *p = t.point(*p);
-    }
-    for n in &mut mesh.normals {
-        *n = t.normal(*n).normalize_or_zero();
-    }
-    mesh.prepare();
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,11 +217,11 @@ mod tests {
             cube_mesh(),
             disk_mesh(16),
             c,
-            sphere_mesh(Vec3::ZERO, 1.0, 16, 8),
+            sphere_mesh(Vec3::ZERO, 1.0, 16, 8).unwrap(),
         ] {
-            for (tri, &[a, _, _]) in m.indices.iter().enumerate() {
+            for (tri, &[a, _, _]) in m.indices().iter().enumerate() {
                 let ng = m.geometric_normal(tri);
-                assert!(ng.dot(m.normals[a as usize]) > 0.5, "triangle {tri}");
+                assert!(ng.dot(m.normals()[a as usize]) > 0.5, "triangle {tri}");
             }
         }
     }

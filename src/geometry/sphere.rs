@@ -30,14 +30,53 @@ pub struct Sphere {
     pub axis: Vec3,
 }
 
+/// A sphere that cannot be. Each message completes a sentence that starts
+/// with the parameter's name ([`SphereError::describe_param`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SphereError {
+    #[error("must be positive and finite (with the centre's coordinates), found {0}")]
+    Radius(f32),
+    #[error("must be finite, found {0}")]
+    Center(Vec3),
+    #[error("must be a similarity (rotations, translations and uniform scales only)")]
+    NotSimilarity,
+}
+
+impl SphereError {
+    /// The parameter in words: "radius", "centre" or "transform".
+    pub fn describe_param(&self) -> &'static str {
+        match self {
+            SphereError::Radius(_) => "radius",
+            SphereError::Center(_) => "centre",
+            SphereError::NotSimilarity => "transform",
+        }
+    }
+}
+
 impl Sphere {
     /// A sphere with its polar axis along +z.
-    pub fn new(center: Vec3, radius: f32) -> Sphere {
-        Sphere {
+    pub fn new(center: Vec3, radius: f32) -> Result<Sphere, SphereError> {
+        let s = Sphere {
             center,
             radius,
             axis: Vec3::Z,
+        };
+        s.check()?;
+        Ok(s)
+    }
+
+    fn check(&self) -> Result<(), SphereError> {
+        if !(self.radius > 0.0 && self.radius.is_finite()) {
+            return Err(SphereError::Radius(self.radius));
         }
+        if !self.center.is_finite() {
+            return Err(SphereError::Center(self.center));
+        }
+        // Bounds (centre +- radius) must stay finite for the BVH.
+        if !(self.center.abs() + Vec3::splat(self.radius)).is_finite() {
+            return Err(SphereError::Radius(self.radius));
+        }
+        Ok(())
     }
 
     /// dp/du at the point with outward normal `n`: around the polar axis
@@ -59,18 +98,17 @@ impl Sphere {
 
     /// Applies a similarity transform; anything that shears or scales
     /// unevenly would no longer be a sphere.
-    pub fn transform(&mut self, t: &Transform) -> Result<(), String> {
+    pub fn transform(&mut self, t: &Transform) -> Result<(), SphereError> {
         if !t.is_similarity() {
-            return Err(
-                "a sphere's transform must be a similarity (rotations, translations and \
-                 uniform scales only)"
-                    .into(),
-            );
+            return Err(SphereError::NotSimilarity);
         }
-        let sx = t.vector(Vec3::X).length();
-        self.center = t.point(self.center);
-        self.radius *= sx;
-        self.axis = t.vector(self.axis).normalize();
+        let moved = Sphere {
+            center: t.point(self.center),
+            radius: self.radius * t.vector(Vec3::X).length(),
+            axis: t.vector(self.axis).normalize(),
+        };
+        moved.check()?;
+        *self = moved;
         Ok(())
     }
 
@@ -192,7 +230,7 @@ mod tests {
 
     #[test]
     fn hits_from_outside_and_inside() {
-        let s = Sphere::new(Vec3::new(0.0, 0.0, 5.0), 1.0);
+        let s = Sphere::new(Vec3::new(0.0, 0.0, 5.0), 1.0).unwrap();
         let t = s
             .intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY)
             .unwrap();
@@ -208,7 +246,7 @@ mod tests {
 
     #[test]
     fn far_small_sphere_is_precise() {
-        let s = Sphere::new(Vec3::new(0.0, 0.0, 1e4), 0.01);
+        let s = Sphere::new(Vec3::new(0.0, 0.0, 1e4), 0.01).unwrap();
         let t = s
             .intersect(Vec3::ZERO, Vec3::Z, 0.0, f32::INFINITY)
             .unwrap();

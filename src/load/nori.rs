@@ -29,7 +29,7 @@ use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
 use crate::emitter::{Emitter, EnvFilter};
-use crate::geometry::{load_obj, Geometry, Sphere};
+use crate::geometry::{load_obj, Geometry, Sphere, SphereError};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Mat4, Transform, Vec3, PI};
@@ -565,11 +565,16 @@ impl<'a> Ctx<'a> {
             }
             "sphere" => {
                 let center = p.get_point("center", Vec3::ZERO)?;
-                let radius = positive(&mut p, "radius", 1.0)?;
-                Source::Sphere(Sphere::new(center, radius))
+                let radius = p.get_float("radius", 1.0)?;
+                let sphere = Sphere::new(center, radius).map_err(|e| match e {
+                    SphereError::Radius(_) => p.param_error("radius", &e),
+                    _ => p.param_error("center", &e),
+                })?;
+                Source::Sphere(sphere)
             }
             _ => unreachable!(),
         };
+        let filename_pos = p.value_pos("filename");
         let to_world = p.opt_transform("toWorld")?;
         let to_world_pos = p.value_pos("toWorld");
         p.finish(&mut self.warnings);
@@ -601,22 +606,18 @@ impl<'a> Ctx<'a> {
             }
         }
 
-        let geometry = match source {
-            Source::Obj(path) => {
-                let mut g = Geometry::Mesh(load_obj(&path).map_err(|e| self.err(node.pos, e))?);
-                if let Some(t) = &to_world {
-                    g.transform(t).map_err(|e| self.err(to_world_pos, e))?;
-                }
-                g
-            }
-            Source::Sphere(s) => {
-                let mut g = Geometry::Sphere(s);
-                if let Some(t) = &to_world {
-                    g.transform(t).map_err(|e| self.err(to_world_pos, e))?;
-                }
-                g
-            }
+        let mut geometry = match source {
+            Source::Obj(path) => Geometry::Mesh(
+                load_obj(&path)
+                    .map_err(|e| self.err(filename_pos, "cannot load the mesh").caused_by(e))?,
+            ),
+            Source::Sphere(s) => Geometry::Sphere(s),
         };
+        if let Some(t) = &to_world {
+            geometry
+                .transform(t)
+                .map_err(|e| self.err(to_world_pos, format!("after its toWorld, {e}")))?;
+        }
         Ok(ShapeDesc {
             geometry,
             bsdf: bsdf.map_or_else(Bsdf::default, |b| b.0),

@@ -69,18 +69,13 @@ fn weld(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> TriangleMesh {
         .into_iter()
         .map(|t| t.map(|i| remap[i as usize]))
         .collect();
-    TriangleMesh::new(out, Vec::new(), Vec::new(), indices)
+    TriangleMesh::new(out, Vec::new(), Vec::new(), indices).unwrap()
 }
 
 /// Reverses the winding (and normals) of a mesh.
 pub fn flipped(mut m: TriangleMesh) -> TriangleMesh {
-    for t in &mut m.indices {
-        t.swap(1, 2);
-    }
-    for n in &mut m.normals {
-        *n = -*n;
-    }
-    TriangleMesh::new(m.positions, m.normals, m.uvs, m.indices)
+    m.flip_normals();
+    m
 }
 
 /// Icosphere of radius `r` with `levels` subdivisions, vertices shared.
@@ -144,7 +139,7 @@ pub fn icosphere(r: f32, levels: usize) -> TriangleMesh {
     }
     let normals = v.clone();
     let positions = v.iter().map(|p| *p * r).collect();
-    TriangleMesh::new(positions, normals, Vec::new(), f)
+    TriangleMesh::new(positions, normals, Vec::new(), f).unwrap()
 }
 
 pub fn path(strategy: Strategy) -> Integrator {
@@ -267,7 +262,7 @@ pub fn diffuse(a: f32) -> Bsdf {
 }
 
 pub fn sphere(center: Vec3, radius: f32) -> Geometry {
-    Geometry::Sphere(Sphere::new(center, radius))
+    Geometry::Sphere(Sphere::new(center, radius).unwrap())
 }
 
 /// An independent random stream per (seed, sample index): hashed seeds,

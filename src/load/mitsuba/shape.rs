@@ -5,7 +5,7 @@ use super::emitter::EmitterDesc;
 use super::{BsdfSpec, Ctx};
 use crate::bsdf::Bsdf;
 use crate::color::Rgb;
-use crate::geometry::{self, Geometry, Sphere, TriangleMesh};
+use crate::geometry::{self, Geometry, ShapeError, Sphere, SphereError, TriangleMesh};
 use crate::load::props::positive;
 use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
@@ -70,16 +70,14 @@ impl<'d> Ctx<'d> {
                 } else {
                     geometry::load_ply(&path)
                 }
-                .map_err(|e| self.err(node.pos, e))?;
+                .map_err(|e| p.error("filename", "cannot load the mesh").caused_by(e))?;
                 if flip_tex {
-                    for uv in &mut mesh.uvs {
-                        uv.y = 1.0 - uv.y;
-                    }
+                    mesh.flip_v();
                 }
                 if face_normals {
-                    mesh.normals.clear();
+                    mesh.clear_normals();
                 }
-                let smooth = !face_normals && mesh.normals.is_empty();
+                let smooth = !face_normals && mesh.normals().is_empty();
                 Source::Mesh { mesh, smooth }
             }
             "rectangle" => Source::Mesh {
@@ -98,10 +96,11 @@ impl<'d> Ctx<'d> {
                 let p0 = p.get_point("p0", Vec3::ZERO)?;
                 let p1 = p.get_point("p1", Vec3::Z)?;
                 let radius = positive(&mut p, "radius", 1.0)?;
-                let Some(mesh) = geometry::cylinder_mesh(p0, p1, radius, geometry::ROUND_SEGMENTS)
-                else {
+                if p0 == p1 {
                     return Err(p.error("p1", "the cylinder's 'p0' and 'p1' must differ"));
-                };
+                }
+                let mesh = geometry::cylinder_mesh(p0, p1, radius, geometry::ROUND_SEGMENTS)
+                    .map_err(|e| p.object_error(format!("{owner}: the mesh {e}")))?;
                 Source::Mesh {
                     mesh,
                     smooth: false,
@@ -109,8 +108,12 @@ impl<'d> Ctx<'d> {
             }
             _ => {
                 let center = p.get_point("center", Vec3::ZERO)?;
-                let radius = positive(&mut p, "radius", 1.0)?;
-                Source::Sphere(Sphere::new(center, radius))
+                let radius = p.get_float("radius", 1.0)?;
+                let sphere = Sphere::new(center, radius).map_err(|e| match e {
+                    SphereError::Radius(_) => p.param_error("radius", &e),
+                    _ => p.param_error("center", &e),
+                })?;
+                Source::Sphere(sphere)
             }
         };
         p.finish(&mut self.warnings);
@@ -152,52 +155,48 @@ impl<'d> Ctx<'d> {
             }
         }
 
+        // A transform that overflows the float range breaks the shape.
+        let file = self.file();
+        let overflow = |e: &dyn std::fmt::Display| {
+            SceneError::new(
+                file,
+                to_world_pos,
+                format!("{owner} is not valid after its to_world: {e}"),
+            )
+        };
         let geometry = match source {
             Source::Mesh { mut mesh, smooth } => {
-                geometry::transform_mesh_keep_winding(&mut mesh, &to_world);
+                mesh.transform_keep_winding(&to_world)
+                    .map_err(|e| overflow(&ShapeError::Mesh(e)))?;
                 if smooth {
-                    geometry::compute_vertex_normals(&mut mesh);
+                    mesh.compute_vertex_normals();
                 }
                 if flip_normals {
-                    geometry::flip_mesh_normals(&mut mesh);
+                    mesh.flip_normals();
                 }
                 Geometry::Mesh(mesh)
             }
-            Source::Sphere(s) => {
-                let mut g = Geometry::Sphere(s);
-                g.transform(&to_world)
-                    .map_err(|e| self.err(to_world_pos, e))?;
+            Source::Sphere(mut s) => {
+                s.transform(&to_world).map_err(|e| match e {
+                    SphereError::NotSimilarity => {
+                        SceneError::new(file, to_world_pos, format!("a sphere's 'to_world' {e}"))
+                    }
+                    _ => overflow(&ShapeError::Sphere(e)),
+                })?;
                 if flip_normals {
-                    let Geometry::Sphere(s) = g else {
-                        unreachable!()
-                    };
                     self.warn(
                         node.pos,
                         "a sphere with flip_normals is rendered as a fine mesh (normals inward)",
                     );
-                    let mut m = geometry::sphere_mesh(s.center, s.radius, 256, 128);
-                    geometry::flip_mesh_normals(&mut m);
+                    let mut m = geometry::sphere_mesh(s.center, s.radius, 256, 128)
+                        .map_err(|e| overflow(&ShapeError::Mesh(e)))?;
+                    m.flip_normals();
                     Geometry::Mesh(m)
                 } else {
-                    g
+                    Geometry::Sphere(s)
                 }
             }
         };
-        let finite = match &geometry {
-            Geometry::Mesh(m) => m.positions.iter().all(|p| p.is_finite()) && m.area().is_finite(),
-            Geometry::Sphere(s) => s.center.is_finite() && s.radius.is_finite(),
-        };
-        if !finite {
-            return Err(self.err(
-                to_world_pos,
-                format!("{owner} is not finite after its to_world (coordinates overflow)"),
-            ));
-        }
-        if let Geometry::Mesh(m) = &geometry {
-            if m.indices.is_empty() || m.area().is_nan() || m.area() <= 0.0 {
-                return Err(self.err(node.pos, format!("{owner} has no area")));
-            }
-        }
         let bsdf = match bsdf {
             Some((spec, at)) => self.build_bsdf(&spec, at)?,
             // Mitsuba's default (`render/shape.cpp`): diffuse 0.5, but
