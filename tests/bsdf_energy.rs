@@ -54,34 +54,35 @@ fn rough_bsdfs() -> Vec<(String, Bsdf, Vec<Vec3>)> {
         for vis in [true, false] {
             v.push((
                 format!("roughconductor {kind:?} vis={vis} Au 0.3"),
-                Bsdf::rough_conductor(kind, 0.3, 0.3, au_e, au_k, Rgb::ONE, vis),
+                Bsdf::rough_conductor(kind, 0.3, 0.3, au_e, au_k, Rgb::ONE, vis).unwrap(),
                 up.clone(),
             ));
             v.push((
                 format!("roughconductor {kind:?} vis={vis} none aniso"),
-                Bsdf::rough_conductor(kind, 0.05, 0.5, none_e, none_k, Rgb::ONE, vis),
+                Bsdf::rough_conductor(kind, 0.05, 0.5, none_e, none_k, Rgb::ONE, vis).unwrap(),
                 up.clone(),
             ));
             v.push((
                 format!("roughdielectric {kind:?} vis={vis} 0.3"),
-                Bsdf::rough_dielectric(kind, 0.3, 0.3, BK7, AIR, Rgb::ONE, Rgb::ONE, vis),
+                Bsdf::rough_dielectric(kind, 0.3, 0.3, BK7, AIR, Rgb::ONE, Rgb::ONE, vis).unwrap(),
                 both.clone(),
             ));
             v.push((
                 format!("roughdielectric {kind:?} vis={vis} aniso"),
-                Bsdf::rough_dielectric(kind, 0.4, 0.08, 1.33, 1.0, Rgb::ONE, Rgb::ONE, vis),
+                Bsdf::rough_dielectric(kind, 0.4, 0.08, 1.33, 1.0, Rgb::ONE, Rgb::ONE, vis)
+                    .unwrap(),
                 both.clone(),
             ));
         }
     }
     v.push((
         "plastic".into(),
-        Bsdf::plastic(1.49, AIR, Rgb::new(0.9, 0.5, 0.1), Rgb::ONE, false),
+        Bsdf::plastic(1.49, AIR, Rgb::new(0.9, 0.5, 0.1), Rgb::ONE, false).unwrap(),
         up.clone(),
     ));
     v.push((
         "plastic nonlinear".into(),
-        Bsdf::plastic(1.7, AIR, Rgb::new(0.9, 0.5, 0.1), Rgb::splat(0.8), true),
+        Bsdf::plastic(1.7, AIR, Rgb::new(0.9, 0.5, 0.1), Rgb::splat(0.8), true).unwrap(),
         up.clone(),
     ));
     v.push((
@@ -95,7 +96,8 @@ fn rough_bsdfs() -> Vec<(String, Bsdf, Vec<Vec3>)> {
             Rgb::ONE,
             false,
             true,
-        ),
+        )
+        .unwrap(),
         up.clone(),
     ));
     v.push((
@@ -109,14 +111,15 @@ fn rough_bsdfs() -> Vec<(String, Bsdf, Vec<Vec3>)> {
             Rgb::splat(0.8),
             true,
             false,
-        ),
+        )
+        .unwrap(),
         up.clone(),
     ));
     v.push((
         "twosided roughconductor".into(),
         Bsdf::two_sided(
-            Bsdf::rough_conductor(Ggx, 0.2, 0.2, au_e, au_k, Rgb::ONE, true),
-            Some(Bsdf::plastic(1.49, AIR, Rgb::splat(0.5), Rgb::ONE, false)),
+            Bsdf::rough_conductor(Ggx, 0.2, 0.2, au_e, au_k, Rgb::ONE, true).unwrap(),
+            Some(Bsdf::plastic(1.49, AIR, Rgb::splat(0.5), Rgb::ONE, false).unwrap()),
         )
         .unwrap(),
         both.clone(),
@@ -168,7 +171,7 @@ fn albedo_never_exceeds_one() {
     let (au_e, au_k) = metal("Au");
     bsdfs.push((
         "conductor Au".into(),
-        Bsdf::conductor(au_e, au_k, Rgb::ONE),
+        Bsdf::conductor(au_e, au_k, Rgb::ONE).unwrap(),
         vec![
             dir(0.0, 0.0, false),
             dir(60.0, 0.0, false),
@@ -177,7 +180,7 @@ fn albedo_never_exceeds_one() {
     ));
     bsdfs.push((
         "thindielectric".into(),
-        Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE),
+        Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE).unwrap(),
         vec![dir(0.0, 0.0, false), dir(70.0, 0.0, true)],
     ));
     for (name, b, wis) in bsdfs {
@@ -203,7 +206,7 @@ fn albedo_never_exceeds_one() {
 fn conductor_none_reflects_exactly_one() {
     let (e, k) = metal("none");
     assert_eq!((e, k), (Rgb::ZERO, Rgb::ONE));
-    let b = Bsdf::conductor(e, k, Rgb::ONE);
+    let b = Bsdf::conductor(e, k, Rgb::ONE).unwrap();
     for t in [0.0f32, 10.0, 45.0, 80.0, 89.9] {
         let wi = dir(t, 33.0, false);
         let x = b.sample(wi, Default::default(), 0.5).unwrap();
@@ -218,7 +221,7 @@ fn conductor_none_reflects_exactly_one() {
         .sample(dir(30.0, 0.0, true), Default::default(), 0.5)
         .is_none());
     // specular_reflectance scales it.
-    let tinted = Bsdf::conductor(e, k, Rgb::new(0.5, 0.25, 1.0));
+    let tinted = Bsdf::conductor(e, k, Rgb::new(0.5, 0.25, 1.0)).unwrap();
     let x = tinted
         .sample(dir(20.0, 0.0, false), Default::default(), 0.5)
         .unwrap();
@@ -235,7 +238,7 @@ fn conductor_fresnel_closed_forms() {
             / ((eta + Rgb::ONE) * (eta + Rgb::ONE) + k * k);
         assert!((r - e).abs().max_element() < 1e-5, "{name}: {r} vs {e}");
         // The smooth conductor's sample weight is that Fresnel term.
-        let b = Bsdf::conductor(eta, k, Rgb::ONE);
+        let b = Bsdf::conductor(eta, k, Rgb::ONE).unwrap();
         let w = b.sample(Vec3::Z, Default::default(), 0.5).unwrap().weight;
         assert!((w - e).abs().max_element() < 1e-5);
         // Grazing incidence reflects everything (metals dip a little before,
@@ -266,7 +269,7 @@ fn conductor_fresnel_closed_forms() {
 /// fraction passes a t-test against R', every weight is 1 (R' + T' = 1).
 #[test]
 fn thin_dielectric_reflects_r_prime_and_transmits_the_rest() {
-    let b = Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE);
+    let b = Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE).unwrap();
     let angles = [0.0f32, 30.0, 60.0, 80.0, 89.0];
     let alpha = sidak(0.01, 2 * angles.len());
     let mut s = Sampler::new(3, 3);
@@ -312,7 +315,7 @@ fn white_plastic_albedo() {
     let alpha = sidak(0.01, 2 * angles.len());
     let mut s = Sampler::new(4, 4);
     for nonlinear in [false, true] {
-        let b = Bsdf::plastic(1.49, AIR, Rgb::ONE, Rgb::ONE, nonlinear);
+        let b = Bsdf::plastic(1.49, AIR, Rgb::ONE, Rgb::ONE, nonlinear).unwrap();
         for &t in &angles {
             let wi = dir(t, 0.0, false);
             let (f_i, _, _) = fresnel_dielectric(wi.z, eta);
@@ -345,7 +348,8 @@ fn white_plastic_albedo() {
 fn smooth_rough_dielectric_conserves_energy() {
     let mut s = Sampler::new(5, 5);
     for kind in [Beckmann, Ggx] {
-        let b = Bsdf::rough_dielectric(kind, 0.02, 0.02, BK7, AIR, Rgb::ONE, Rgb::ONE, true);
+        let b =
+            Bsdf::rough_dielectric(kind, 0.02, 0.02, BK7, AIR, Rgb::ONE, Rgb::ONE, true).unwrap();
         for wi in [
             dir(0.0, 0.0, false),
             dir(40.0, 10.0, false),
@@ -418,7 +422,7 @@ fn sampling_and_uniform_estimators_agree() {
 #[test]
 fn estimator_comparison_detects_a_three_percent_error() {
     let (e, k) = metal("Cu");
-    let b = Bsdf::rough_conductor(Ggx, 0.3, 0.3, e, k, Rgb::ONE, true);
+    let b = Bsdf::rough_conductor(Ggx, 0.3, 0.3, e, k, Rgb::ONE, true).unwrap();
     let wi = dir(35.0, 40.0, false);
     let mut s = Sampler::new(7, 7);
     let (mut a, mut u) = (MeanVar::default(), MeanVar::default());
@@ -436,7 +440,7 @@ fn estimator_comparison_detects_a_three_percent_error() {
 #[test]
 fn twosided_mirrors_the_back_and_refuses_transmitters() {
     let (e, k) = metal("Cu");
-    let front = Bsdf::rough_conductor(Ggx, 0.3, 0.3, e, k, Rgb::ONE, true);
+    let front = Bsdf::rough_conductor(Ggx, 0.3, 0.3, e, k, Rgb::ONE, true).unwrap();
     let two = Bsdf::two_sided(front.clone(), None).unwrap();
     let flip = |v: Vec3| Vec3::new(v.x, v.y, -v.z);
     let wi = dir(40.0, 10.0, false);
@@ -453,37 +457,42 @@ fn twosided_mirrors_the_back_and_refuses_transmitters() {
         assert_eq!(a.map(|x| flip(x.wo)), b.map(|x| x.wo));
     }
     assert!(!two.is_specular());
-    assert!(Bsdf::two_sided(Bsdf::conductor(e, k, Rgb::ONE), None)
-        .unwrap()
-        .is_specular());
+    assert!(
+        Bsdf::two_sided(Bsdf::conductor(e, k, Rgb::ONE).unwrap(), None)
+            .unwrap()
+            .is_specular()
+    );
     // Mitsuba refuses to nest transmitting BSDFs.
-    assert!(Bsdf::two_sided(Bsdf::dielectric(BK7, AIR), None).is_none());
-    assert!(Bsdf::two_sided(Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE), None).is_none());
+    assert!(Bsdf::two_sided(Bsdf::dielectric(BK7, AIR).unwrap(), None).is_err());
+    assert!(Bsdf::two_sided(
+        Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE).unwrap(),
+        None
+    )
+    .is_err());
     assert!(Bsdf::two_sided(
         front.clone(),
-        Some(Bsdf::rough_dielectric(
-            Ggx,
-            0.1,
-            0.1,
-            BK7,
-            AIR,
-            Rgb::ONE,
-            Rgb::ONE,
-            true
-        ))
+        Some(Bsdf::rough_dielectric(Ggx, 0.1, 0.1, BK7, AIR, Rgb::ONE, Rgb::ONE, true).unwrap())
     )
-    .is_none());
+    .is_err());
 }
 
 #[test]
 fn specular_flags() {
     let (e, k) = metal("Au");
-    assert!(Bsdf::conductor(e, k, Rgb::ONE).is_specular());
-    assert!(Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE).is_specular());
+    assert!(Bsdf::conductor(e, k, Rgb::ONE).unwrap().is_specular());
+    assert!(Bsdf::thin_dielectric(BK7, AIR, Rgb::ONE, Rgb::ONE)
+        .unwrap()
+        .is_specular());
     // Plastic has a delta lobe and a smooth one: NEE must still run.
-    assert!(!Bsdf::plastic(1.49, AIR, Rgb::splat(0.5), Rgb::ONE, false).is_specular());
-    assert!(!Bsdf::rough_conductor(Ggx, 0.1, 0.1, e, k, Rgb::ONE, true).is_specular());
+    assert!(!Bsdf::plastic(1.49, AIR, Rgb::splat(0.5), Rgb::ONE, false)
+        .unwrap()
+        .is_specular());
+    assert!(!Bsdf::rough_conductor(Ggx, 0.1, 0.1, e, k, Rgb::ONE, true)
+        .unwrap()
+        .is_specular());
     assert!(
-        !Bsdf::rough_dielectric(Ggx, 0.1, 0.1, BK7, AIR, Rgb::ONE, Rgb::ONE, true).is_specular()
+        !Bsdf::rough_dielectric(Ggx, 0.1, 0.1, BK7, AIR, Rgb::ONE, Rgb::ONE, true)
+            .unwrap()
+            .is_specular()
     );
 }

@@ -95,30 +95,31 @@ fn bsdf(name: &str) -> Bsdf {
     match name {
         "conductor_au" => {
             let (e, k) = metal("Au");
-            Bsdf::conductor(e, k, one)
+            Bsdf::conductor(e, k, one).unwrap()
         }
         "conductor_none" => {
             let (e, k) = metal("none");
-            Bsdf::conductor(e, k, one)
+            Bsdf::conductor(e, k, one).unwrap()
         }
         "rc_beck_cu" => {
             let (e, k) = metal("Cu");
-            Bsdf::rough_conductor(Beckmann, 0.3, 0.3, e, k, one, true)
+            Bsdf::rough_conductor(Beckmann, 0.3, 0.3, e, k, one, true).unwrap()
         }
         "rc_ggx_aniso_au" => {
             let (e, k) = metal("Au");
-            Bsdf::rough_conductor(Ggx, 0.1, 0.4, e, k, one, true)
+            Bsdf::rough_conductor(Ggx, 0.1, 0.4, e, k, one, true).unwrap()
         }
         "rc_ggx_none_novis" => {
             let (e, k) = metal("none");
-            Bsdf::rough_conductor(Ggx, 0.2, 0.2, e, k, one, false)
+            Bsdf::rough_conductor(Ggx, 0.2, 0.2, e, k, one, false).unwrap()
         }
         "rc_beck_aniso_al_novis" => {
             let (e, k) = metal("Al");
             Bsdf::rough_conductor(Beckmann, 0.05, 0.2, e, k, Rgb::new(0.9, 0.8, 0.7), false)
+                .unwrap()
         }
-        "rd_beck" => Bsdf::rough_dielectric(Beckmann, 0.3, 0.3, bk7, air, one, one, true),
-        "rd_ggx_aniso" => Bsdf::rough_dielectric(Ggx, 0.2, 0.5, 1.33, 1.0, one, one, true),
+        "rd_beck" => Bsdf::rough_dielectric(Beckmann, 0.3, 0.3, bk7, air, one, one, true).unwrap(),
+        "rd_ggx_aniso" => Bsdf::rough_dielectric(Ggx, 0.2, 0.5, 1.33, 1.0, one, one, true).unwrap(),
         "rd_ggx_novis" => Bsdf::rough_dielectric(
             Ggx,
             0.25,
@@ -128,26 +129,35 @@ fn bsdf(name: &str) -> Bsdf {
             Rgb::new(0.9, 0.8, 0.7),
             Rgb::new(0.5, 0.6, 0.7),
             false,
-        ),
-        "rd_beck_novis" => Bsdf::rough_dielectric(Beckmann, 0.15, 0.15, bk7, air, one, one, false),
-        "thin" => Bsdf::thin_dielectric(bk7, air, one, one),
-        "plastic" => Bsdf::plastic(1.49, air, Rgb::new(0.2, 0.5, 0.8), one, false),
-        "plastic_nl" => Bsdf::plastic(1.6, air, Rgb::new(0.6, 0.3, 0.1), Rgb::splat(0.7), true),
+        )
+        .unwrap(),
+        "rd_beck_novis" => {
+            Bsdf::rough_dielectric(Beckmann, 0.15, 0.15, bk7, air, one, one, false).unwrap()
+        }
+        "thin" => Bsdf::thin_dielectric(bk7, air, one, one).unwrap(),
+        "plastic" => Bsdf::plastic(1.49, air, Rgb::new(0.2, 0.5, 0.8), one, false).unwrap(),
+        "plastic_nl" => {
+            Bsdf::plastic(1.6, air, Rgb::new(0.6, 0.3, 0.1), Rgb::splat(0.7), true).unwrap()
+        }
         "twosided_rc" => {
             let (e, k) = metal("Cu");
-            Bsdf::two_sided(Bsdf::rough_conductor(Ggx, 0.3, 0.3, e, k, one, true), None).unwrap()
+            Bsdf::two_sided(
+                Bsdf::rough_conductor(Ggx, 0.3, 0.3, e, k, one, true).unwrap(),
+                None,
+            )
+            .unwrap()
         }
         "twosided_pair" => {
             let (e, k) = metal("none");
             Bsdf::two_sided(
-                Bsdf::Diffuse {
+                Bsdf::Diffuse(lente::bsdf::Diffuse {
                     albedo: Rgb::new(0.3, 0.4, 0.5),
-                },
-                Some(Bsdf::rough_conductor(Ggx, 0.2, 0.2, e, k, one, true)),
+                }),
+                Some(Bsdf::rough_conductor(Ggx, 0.2, 0.2, e, k, one, true).unwrap()),
             )
             .unwrap()
         }
-        "dielectric" => Bsdf::dielectric(bk7, air),
+        "dielectric" => Bsdf::dielectric(bk7, air).unwrap(),
         "roughplastic" => Bsdf::rough_plastic(
             Beckmann,
             0.1,
@@ -157,7 +167,8 @@ fn bsdf(name: &str) -> Bsdf {
             one,
             false,
             true,
-        ),
+        )
+        .unwrap(),
         "roughplastic_ggx_nl" => Bsdf::rough_plastic(
             Ggx,
             0.3,
@@ -167,9 +178,10 @@ fn bsdf(name: &str) -> Bsdf {
             Rgb::splat(0.7),
             true,
             true,
-        ),
+        )
+        .unwrap(),
         "roughplastic_novis" => {
-            Bsdf::rough_plastic(Ggx, 0.2, 1.49, air, Rgb::splat(0.5), one, false, false)
+            Bsdf::rough_plastic(Ggx, 0.2, 1.49, air, Rgb::splat(0.5), one, false, false).unwrap()
         }
         _ => panic!("unknown config {name}"),
     }

@@ -41,11 +41,12 @@ fn strategies_agree_for_each_bsdf() {
     let bsdfs = [
         (
             "plastic",
-            Bsdf::plastic(1.49, 1.000277, Rgb::new(0.05, 0.1, 0.15), Rgb::ONE, false),
+            Bsdf::plastic(1.49, 1.000277, Rgb::new(0.05, 0.1, 0.15), Rgb::ONE, false).unwrap(),
         ),
         (
             "roughconductor ggx 0.3",
-            Bsdf::rough_conductor(MicrofacetType::Ggx, 0.3, 0.3, au_e, au_k, Rgb::ONE, true),
+            Bsdf::rough_conductor(MicrofacetType::Ggx, 0.3, 0.3, au_e, au_k, Rgb::ONE, true)
+                .unwrap(),
         ),
         (
             "roughdielectric beckmann 0.2",
@@ -58,7 +59,8 @@ fn strategies_agree_for_each_bsdf() {
                 Rgb::ONE,
                 Rgb::ONE,
                 true,
-            ),
+            )
+            .unwrap(),
         ),
         (
             "roughplastic ggx 0.2",
@@ -71,12 +73,13 @@ fn strategies_agree_for_each_bsdf() {
                 Rgb::ONE,
                 false,
                 true,
-            ),
+            )
+            .unwrap(),
         ),
         (
             "twosided plastic",
             Bsdf::two_sided(
-                Bsdf::plastic(1.6, 1.0, Rgb::splat(0.1), Rgb::ONE, true),
+                Bsdf::plastic(1.6, 1.0, Rgb::splat(0.1), Rgb::ONE, true).unwrap(),
                 None,
             )
             .unwrap(),

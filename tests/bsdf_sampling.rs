@@ -35,11 +35,11 @@ struct Case {
 
 fn rc(kind: MicrofacetType, au: f32, av: f32, visible: bool) -> Bsdf {
     let (eta, k) = conductor_preset("Cu").unwrap();
-    Bsdf::rough_conductor(kind, au, av, eta, k, Rgb::ONE, visible)
+    Bsdf::rough_conductor(kind, au, av, eta, k, Rgb::ONE, visible).unwrap()
 }
 
 fn rd(kind: MicrofacetType, au: f32, av: f32, visible: bool) -> Bsdf {
-    Bsdf::rough_dielectric(kind, au, av, 1.5046, 1.000277, Rgb::ONE, Rgb::ONE, visible)
+    Bsdf::rough_dielectric(kind, au, av, 1.5046, 1.000277, Rgb::ONE, Rgb::ONE, visible).unwrap()
 }
 
 fn case(name: &str, bsdf: Bsdf, wi: Vec3, rows: usize, cols: usize) -> Case {
@@ -295,7 +295,7 @@ fn rough_dielectric_sampling_matches_pdf() {
         ),
         case(
             "ggx 0.3 vis, eta < 1 (bubble)",
-            Bsdf::rough_dielectric(Ggx, 0.3, 0.3, 1.0, 1.33, Rgb::ONE, Rgb::ONE, true),
+            Bsdf::rough_dielectric(Ggx, 0.3, 0.3, 1.0, 1.33, Rgb::ONE, Rgb::ONE, true).unwrap(),
             dir(40.0, 0.0, false),
             40,
             60,
@@ -310,14 +310,14 @@ fn plastics_and_twosided_sampling_match_pdf() {
     let cases = [
         case(
             "plastic smooth lobe, normal",
-            Bsdf::plastic(1.49, 1.000277, Rgb::new(0.2, 0.5, 0.8), Rgb::ONE, false),
+            Bsdf::plastic(1.49, 1.000277, Rgb::new(0.2, 0.5, 0.8), Rgb::ONE, false).unwrap(),
             dir(10.0, 0.0, false),
             20,
             40,
         ),
         case(
             "plastic smooth lobe, grazing, nonlinear",
-            Bsdf::plastic(1.6, 1.0, Rgb::new(0.9, 0.1, 0.1), Rgb::splat(0.5), true),
+            Bsdf::plastic(1.6, 1.0, Rgb::new(0.9, 0.1, 0.1), Rgb::splat(0.5), true).unwrap(),
             dir(75.0, 40.0, false),
             20,
             40,
@@ -325,7 +325,7 @@ fn plastics_and_twosided_sampling_match_pdf() {
         case(
             "twosided roughconductor from below",
             Bsdf::two_sided(
-                Bsdf::rough_conductor(Ggx, 0.2, 0.4, eta, k, Rgb::ONE, true),
+                Bsdf::rough_conductor(Ggx, 0.2, 0.4, eta, k, Rgb::ONE, true).unwrap(),
                 None,
             )
             .unwrap(),
@@ -336,7 +336,7 @@ fn plastics_and_twosided_sampling_match_pdf() {
         case(
             "twosided plastic from below",
             Bsdf::two_sided(
-                Bsdf::plastic(1.49, 1.0, Rgb::splat(0.5), Rgb::ONE, false),
+                Bsdf::plastic(1.49, 1.0, Rgb::splat(0.5), Rgb::ONE, false).unwrap(),
                 None,
             )
             .unwrap(),
@@ -355,7 +355,8 @@ fn plastics_and_twosided_sampling_match_pdf() {
                 Rgb::ONE,
                 false,
                 true,
-            ),
+            )
+            .unwrap(),
             dir(30.0, 0.0, false),
             60,
             80,
@@ -371,7 +372,8 @@ fn plastics_and_twosided_sampling_match_pdf() {
                 Rgb::ONE,
                 true,
                 false,
-            ),
+            )
+            .unwrap(),
             dir(70.0, 120.0, false),
             30,
             60,
@@ -379,7 +381,7 @@ fn plastics_and_twosided_sampling_match_pdf() {
     ];
     run(&cases, FAMILY, 3000);
     // Sanity: the plastic's delta lobe is sampled, and flagged.
-    let p = Bsdf::plastic(1.49, 1.0, Rgb::splat(0.5), Rgb::ONE, false);
+    let p = Bsdf::plastic(1.49, 1.0, Rgb::splat(0.5), Rgb::ONE, false).unwrap();
     let mut s = lente::sampling::Sampler::new(9, 9);
     let wi = dir(70.0, 0.0, false);
     let spec = (0..10_000)

@@ -25,12 +25,12 @@ fn small_scene() -> TestScene {
     ));
     d.shapes.push(shape(
         sphere(Vec3::new(-0.4, -0.6, 0.2), 0.35),
-        Bsdf::Mirror,
+        Bsdf::mirror(),
         None,
     ));
     d.shapes.push(shape(
         sphere(Vec3::new(0.45, -0.6, -0.2), 0.35),
-        Bsdf::dielectric(1.5, 1.0),
+        Bsdf::dielectric(1.5, 1.0).unwrap(),
         None,
     ));
     d.shapes.push(shape(

@@ -87,10 +87,10 @@ fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> TestScene {
     )
     .unwrap();
     d.shapes
-        .push(shape(Geometry::Mesh(mirror), Bsdf::Mirror, None));
+        .push(shape(Geometry::Mesh(mirror), Bsdf::mirror(), None));
     d.shapes.push(shape(
         sphere(Vec3::new(-0.2, 0.2, -0.8), 0.2),
-        Bsdf::dielectric(1.5, 1.0),
+        Bsdf::dielectric(1.5, 1.0).unwrap(),
         None,
     ));
     d.emitters.push(Emitter::Environment(Box::new(

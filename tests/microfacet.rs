@@ -26,7 +26,7 @@ const CASES: [(f32, f32, f32); 5] = [
 fn microfacet_sampling_matches_pdf() {
     let alpha_sig = sidak(0.01, CASES.len());
     for (i, &(alpha, kd, angle)) in CASES.iter().enumerate() {
-        let bsdf = Bsdf::microfacet(alpha, 1.5046, 1.000277, Rgb::splat(kd));
+        let bsdf = Bsdf::microfacet(alpha, 1.5046, 1.000277, Rgb::splat(kd)).unwrap();
         let wi = incident(angle);
         let h = sphere_histogram(
             if alpha < 0.1 { 40 } else { 20 },
@@ -55,7 +55,7 @@ fn microfacet_weights_agree_with_uniform_estimator() {
             // Uniform hemisphere sampling cannot resolve a near-mirror lobe.
             continue;
         }
-        let bsdf = Bsdf::microfacet(alpha, 1.5046, 1.000277, Rgb::splat(kd));
+        let bsdf = Bsdf::microfacet(alpha, 1.5046, 1.000277, Rgb::splat(kd)).unwrap();
         let wi = incident(angle);
         let mut s = Sampler::new(100 + i as u64, 0);
         let (mut a, mut b) = (MeanVar::default(), MeanVar::default());
@@ -83,7 +83,7 @@ fn microfacet_weights_agree_with_uniform_estimator() {
 
 #[test]
 fn microfacet_sample_weight_is_eval_cos_over_pdf() {
-    let bsdf = Bsdf::microfacet(0.3, 1.5, 1.0, Rgb::new(0.2, 0.4, 0.1));
+    let bsdf = Bsdf::microfacet(0.3, 1.5, 1.0, Rgb::new(0.2, 0.4, 0.1)).unwrap();
     let wi = incident(40.0);
     let mut s = Sampler::new(5, 5);
     for _ in 0..10_000 {

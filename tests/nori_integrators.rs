@@ -165,8 +165,8 @@ fn average_visibility_between_parallel_planes() {
 fn whitted_agrees_with_path_tracing_in_a_furnace() {
     let cases: [(Bsdf, f64); 3] = [
         (diffuse(0.6), 0.6),
-        (Bsdf::Mirror, 1.0),
-        (Bsdf::dielectric(1.5, 1.0), 1.0),
+        (Bsdf::mirror(), 1.0),
+        (Bsdf::dielectric(1.5, 1.0).unwrap(), 1.0),
     ];
     let alpha = sidak(0.01, 2 * cases.len());
     for (i, (bsdf, expect)) in cases.into_iter().enumerate() {

@@ -81,9 +81,9 @@ fn minimal_scene_gets_noris_defaults() {
     let s = &desc.scene.shapes[0];
     assert_eq!(
         s.bsdf,
-        Bsdf::Diffuse {
+        Bsdf::Diffuse(lente::bsdf::Diffuse {
             albedo: Rgb::splat(0.5)
-        }
+        })
     );
     assert!(s.area_radiance.is_none());
     match &s.geometry {
@@ -348,7 +348,7 @@ fn obj_paths_are_relative_to_the_scene_file() {
         }
         g => panic!("expected a mesh, got {g:?}"),
     }
-    assert_eq!(shape.bsdf, Bsdf::Mirror);
+    assert_eq!(shape.bsdf, Bsdf::mirror());
     assert_eq!(shape.area_radiance, Some(Rgb::new(1.0, 2.0, 3.0)));
 }
 
@@ -388,15 +388,15 @@ fn values_with_newlines_and_mixed_separators() {
     }
     assert_eq!(
         desc.scene.shapes[0].bsdf,
-        Bsdf::Diffuse {
+        Bsdf::Diffuse(lente::bsdf::Diffuse {
             albedo: Rgb::new(0.1, 0.2, 0.3)
-        }
+        })
     );
     assert_eq!(
         desc.scene.shapes[1].bsdf,
-        Bsdf::Diffuse {
+        Bsdf::Diffuse(lente::bsdf::Diffuse {
             albedo: Rgb::splat(0.25)
-        },
+        }),
         "one number is a grey colour"
     );
 }
@@ -441,15 +441,15 @@ fn bsdfs() {
     };
     assert_eq!(
         bsdf(r#"<bsdf type="dielectric"/>"#),
-        Bsdf::dielectric(1.5046, 1.000277)
+        Bsdf::dielectric(1.5046, 1.000277).unwrap()
     );
     assert_eq!(
         bsdf(
             r#"<bsdf type="dielectric"><float name="intIOR" value="1.33"/><float name="extIOR" value="1"/></bsdf>"#
         ),
-        Bsdf::dielectric(1.33, 1.0)
+        Bsdf::dielectric(1.33, 1.0).unwrap()
     );
-    assert_eq!(bsdf(r#"<bsdf type="mirror"/>"#), Bsdf::Mirror);
+    assert_eq!(bsdf(r#"<bsdf type="mirror"/>"#), Bsdf::mirror());
 }
 
 #[test]

@@ -170,9 +170,9 @@ fn beckmann() {
 
 #[test]
 fn diffuse_bsdf_sampling_matches_pdf() {
-    let bsdf = Bsdf::Diffuse {
+    let bsdf = Bsdf::Diffuse(lente::bsdf::Diffuse {
         albedo: Rgb::splat(0.7),
-    };
+    });
     let wi = Vec3::new(0.3, -0.2, 0.9).normalize();
     let h = sphere_histogram(
         20,

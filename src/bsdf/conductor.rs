@@ -1,90 +1,43 @@
-//! Mitsuba 3's `conductor` (smooth) and `roughconductor` (microfacet) with
-//! the exact conductor Fresnel term per RGB channel. Both are one-sided:
-//! black seen from below.
+//! Mitsuba 3's smooth `conductor`: a delta reflection weighted by the exact
+//! conductor Fresnel term per RGB channel. One-sided: black seen from below.
 
-use super::distribution::MicrofacetDistribution;
+use super::params::{self, BsdfError, BsdfParam};
 use super::{fresnel_conductor, BsdfSample};
 use crate::color::Rgb;
-use crate::math::{reflect, Vec2, Vec3};
+use crate::math::Vec3;
 
-/// Smooth conductor: a delta reflection weighted by Fresnel.
-pub fn sample_smooth(eta: Rgb, k: Rgb, specular_reflectance: Rgb, wi: Vec3) -> Option<BsdfSample> {
-    if wi.z <= 0.0 {
-        return None;
-    }
-    Some(BsdfSample {
-        wo: Vec3::new(-wi.x, -wi.y, wi.z),
-        weight: specular_reflectance * fresnel_conductor(wi.z, eta, k),
-        pdf: 1.0,
-        specular: true,
-        eta: 1.0,
-    })
-}
-
-/// Parameters of a rough conductor.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RoughConductor {
-    pub distr: MicrofacetDistribution,
+pub struct Conductor {
+    /// Complex index of refraction `eta + i k`, per channel.
     pub eta: Rgb,
     pub k: Rgb,
     pub specular_reflectance: Rgb,
 }
 
-impl RoughConductor {
-    /// f(wi, wo) = F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o).
-    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let h = (wi + wo).normalize();
-        let d = self.distr.d(h);
-        if d == 0.0 {
-            return Rgb::ZERO;
-        }
-        let g = self.distr.g(wi, wo, h);
-        let f = fresnel_conductor(wi.dot(h), self.eta, self.k);
-        self.specular_reflectance * f * (d * g / (4.0 * wi.z * wo.z))
+impl Conductor {
+    /// Parameters (Mitsuba names): `eta`, `k` (material `none`: 0 and 1,
+    /// an ideal mirror; see [`super::conductor_preset`] for `material`),
+    /// `specular_reflectance` (1). All finite and not negative.
+    pub fn new(eta: Rgb, k: Rgb, specular_reflectance: Rgb) -> Result<Conductor, BsdfError> {
+        Ok(Conductor {
+            eta: params::color(BsdfParam::Eta, eta)?,
+            k: params::color(BsdfParam::K, k)?,
+            specular_reflectance: params::color(
+                BsdfParam::SpecularReflectance,
+                specular_reflectance,
+            )?,
+        })
     }
 
-    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let m = (wi + wo).normalize();
-        // Mirror the sidedness checks that G1 applies in eval and sample.
-        if wi.dot(m) <= 0.0 || wo.dot(m) <= 0.0 {
-            return 0.0;
-        }
-        if self.distr.sample_visible {
-            self.distr.d(m) * self.distr.smith_g1(wi, m) / (4.0 * wi.z)
-        } else {
-            self.distr.pdf(wi, m) / (4.0 * wo.dot(m))
-        }
-    }
-
-    pub fn sample(&self, wi: Vec3, u: Vec2) -> Option<BsdfSample> {
+    pub fn sample(&self, wi: Vec3) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
-        let (m, pdf_m) = self.distr.sample(wi, u);
-        let wo = reflect(wi, m);
-        if pdf_m <= 0.0 || wo.z <= 0.0 {
-            return None;
-        }
-        let g = if self.distr.sample_visible {
-            self.distr.smith_g1(wo, m)
-        } else {
-            self.distr.g(wi, wo, m) * wi.dot(m) / (wi.z * m.z)
-        };
-        if g <= 0.0 {
-            return None;
-        }
-        let f = fresnel_conductor(wi.dot(m), self.eta, self.k);
         Some(BsdfSample {
-            wo,
-            weight: self.specular_reflectance * f * g,
-            pdf: pdf_m / (4.0 * wo.dot(m)),
-            specular: false,
+            wo: Vec3::new(-wi.x, -wi.y, wi.z),
+            weight: self.specular_reflectance * fresnel_conductor(wi.z, self.eta, self.k),
+            pdf: 1.0,
+            specular: true,
             eta: 1.0,
         })
     }

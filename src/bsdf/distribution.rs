@@ -8,6 +8,7 @@
 //! Directions are in the local shading frame: x = tangent (the `alpha_u`
 //! axis), y = bitangent (`alpha_v`), z = normal.
 
+use super::params::{self, BsdfError, BsdfParam};
 use crate::math::{Vec2, Vec3, PI};
 use crate::sampling::warp;
 
@@ -49,6 +50,41 @@ impl Default for MicrofacetDistribution {
     /// Mitsuba's defaults: Beckmann, alpha 0.1, visible-normal sampling.
     fn default() -> Self {
         MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.1, 0.1, true)
+    }
+}
+
+/// A microfacet roughness as scene files give it: the distribution, the
+/// roughness along the shading frame's two tangents, and whether sampling
+/// draws visible normals.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Roughness {
+    pub distribution: MicrofacetType,
+    pub alpha_u: f32,
+    pub alpha_v: f32,
+    pub sample_visible: bool,
+}
+
+impl Roughness {
+    /// The same roughness in every direction.
+    pub fn isotropic(distribution: MicrofacetType, alpha: f32, sample_visible: bool) -> Roughness {
+        Roughness {
+            distribution,
+            alpha_u: alpha,
+            alpha_v: alpha,
+            sample_visible,
+        }
+    }
+
+    /// The distribution, for finite, non-negative roughness values.
+    pub fn distribution(&self) -> Result<MicrofacetDistribution, BsdfError> {
+        let alpha_u = params::non_negative(BsdfParam::Alpha, self.alpha_u)?;
+        let alpha_v = params::non_negative(BsdfParam::AlphaV, self.alpha_v)?;
+        Ok(MicrofacetDistribution::new(
+            self.distribution,
+            alpha_u,
+            alpha_v,
+            self.sample_visible,
+        ))
     }
 }
 

@@ -2,6 +2,7 @@
 //! Fresnel over a Lambertian base. The specular weight is 1 - max(kd), and
 //! sampling picks a lobe in proportion to the weights.
 
+use super::params::{self, BsdfError, BsdfParam};
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{reflect, Vec2, Vec3, INV_PI};
@@ -27,57 +28,77 @@ fn smith_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
     }
 }
 
-pub fn eval(alpha: f32, eta: f32, kd: Rgb, ks: f32, wi: Vec3, wo: Vec3) -> Rgb {
-    if wi.z <= 0.0 || wo.z <= 0.0 {
-        return Rgb::ZERO;
-    }
-    let wh = (wi + wo).normalize();
-    let d = warp::beckmann_d(wh, alpha);
-    let (f, _, _) = fresnel_dielectric(wh.dot(wi), eta);
-    let g = smith_g1(wi, wh, alpha) * smith_g1(wo, wh, alpha);
-    kd * INV_PI + Rgb::splat(ks * d * f * g / (4.0 * wi.z * wo.z))
+/// Nori's rough plastic-like model: Beckmann specular lobe (roughness
+/// `alpha`, Fresnel with relative IOR `eta`) weighted by `ks` = 1 - max(kd)
+/// over a Lambertian base `kd`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Microfacet {
+    pub alpha: f32,
+    /// Interior IOR / exterior IOR.
+    pub eta: f32,
+    pub kd: Rgb,
+    pub ks: f32,
 }
 
-pub fn pdf(alpha: f32, ks: f32, wi: Vec3, wo: Vec3) -> f32 {
-    if wi.z <= 0.0 || wo.z <= 0.0 {
-        return 0.0;
+impl Microfacet {
+    /// Nori's parameters: `alpha` (positive), `intIOR`, `extIOR`, `kd`
+    /// (at most 1 per channel: `ks` = 1 - max(kd) must not be negative).
+    pub fn new(alpha: f32, int_ior: f32, ext_ior: f32, kd: Rgb) -> Result<Microfacet, BsdfError> {
+        let kd = params::albedo(BsdfParam::Diffuse, kd)?;
+        Ok(Microfacet {
+            alpha: params::positive(BsdfParam::Alpha, alpha)?,
+            eta: params::relative_ior(int_ior, ext_ior)?,
+            kd,
+            ks: 1.0 - crate::color::max_component(kd),
+        })
     }
-    let wh = (wi + wo).normalize();
-    let spec = warp::square_to_beckmann_pdf(wh, alpha) / (4.0 * wh.dot(wo).abs());
-    ks * spec + (1.0 - ks) * wo.z * INV_PI
-}
 
-pub fn sample(
-    alpha: f32,
-    eta: f32,
-    kd: Rgb,
-    ks: f32,
-    wi: Vec3,
-    u: Vec2,
-    u_lobe: f32,
-) -> Option<BsdfSample> {
-    if wi.z <= 0.0 {
-        return None;
+    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
+        let Microfacet { alpha, eta, kd, ks } = *self;
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let wh = (wi + wo).normalize();
+        let d = warp::beckmann_d(wh, alpha);
+        let (f, _, _) = fresnel_dielectric(wh.dot(wi), eta);
+        let g = smith_g1(wi, wh, alpha) * smith_g1(wo, wh, alpha);
+        kd * INV_PI + Rgb::splat(ks * d * f * g / (4.0 * wi.z * wo.z))
     }
-    let wo = if u_lobe < ks {
-        let wh = warp::square_to_beckmann(u, alpha);
-        reflect(wi, wh)
-    } else {
-        warp::square_to_cosine_hemisphere(u)
-    };
-    if wo.z <= 0.0 {
-        return None;
+
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let Microfacet { alpha, ks, .. } = *self;
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let wh = (wi + wo).normalize();
+        let spec = warp::square_to_beckmann_pdf(wh, alpha) / (4.0 * wh.dot(wo).abs());
+        ks * spec + (1.0 - ks) * wo.z * INV_PI
     }
-    let p = pdf(alpha, ks, wi, wo);
-    if p <= 0.0 {
-        return None;
+
+    pub fn sample(&self, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let wo = if u_lobe < self.ks {
+            let wh = warp::square_to_beckmann(u, self.alpha);
+            reflect(wi, wh)
+        } else {
+            warp::square_to_cosine_hemisphere(u)
+        };
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let p = self.pdf(wi, wo);
+        if p <= 0.0 {
+            return None;
+        }
+        let weight = self.eval(wi, wo) * wo.z / p;
+        Some(BsdfSample {
+            wo,
+            weight,
+            pdf: p,
+            specular: false,
+            eta: 1.0,
+        })
     }
-    let weight = eval(alpha, eta, kd, ks, wi, wo) * wo.z / p;
-    Some(BsdfSample {
-        wo,
-        weight,
-        pdf: p,
-        specular: false,
-        eta: 1.0,
-    })
 }

@@ -4,6 +4,7 @@
 //! smooth one (light that entered, scattered and left): `eval` and `pdf`
 //! cover only the smooth lobe; `sample` returns either.
 
+use super::params::{self, BsdfError, BsdfParam};
 use super::{fresnel_dielectric, fresnel_diffuse_reflectance, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3, INV_PI};
@@ -26,17 +27,24 @@ pub struct Plastic {
 }
 
 impl Plastic {
+    /// Parameters (Mitsuba's names and defaults): `int_ior`
+    /// (polypropylene = 1.49), `ext_ior` (air = 1.000277),
+    /// `diffuse_reflectance` (0.5), `specular_reflectance` (1), `nonlinear`
+    /// (false).
     pub fn new(
         int_ior: f32,
         ext_ior: f32,
         diffuse_reflectance: Rgb,
         specular_reflectance: Rgb,
         nonlinear: bool,
-    ) -> Plastic {
-        let eta = int_ior / ext_ior;
+    ) -> Result<Plastic, BsdfError> {
+        let eta = params::relative_ior(int_ior, ext_ior)?;
+        let diffuse_reflectance = params::color(BsdfParam::Diffuse, diffuse_reflectance)?;
+        let specular_reflectance =
+            params::color(BsdfParam::SpecularReflectance, specular_reflectance)?;
         let d_mean = diffuse_reflectance.element_sum() / 3.0;
         let s_mean = specular_reflectance.element_sum() / 3.0;
-        Plastic {
+        Ok(Plastic {
             eta,
             diffuse_reflectance,
             specular_reflectance,
@@ -47,7 +55,7 @@ impl Plastic {
             } else {
                 0.5
             },
-        }
+        })
     }
 
     /// Probability of sampling the specular lobe at incidence with Fresnel

@@ -4,7 +4,9 @@
 //! probability F / 1 - F. Transmitted radiance is scaled by 1/eta^2 (camera
 //! paths carry radiance), as `Bsdf::Dielectric` does.
 
-use super::distribution::MicrofacetDistribution;
+use super::distribution::{MicrofacetDistribution, Roughness};
+use super::params::BsdfError;
+use super::ThinDielectric;
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{reflect, Vec2, Vec3};
@@ -29,6 +31,31 @@ fn mulsign(v: Vec3, s: f32) -> Vec3 {
 }
 
 impl RoughDielectric {
+    /// Parameters (Mitsuba's names and defaults): `distribution`
+    /// (beckmann), `alpha_u`, `alpha_v` (from `alpha`, 0.1), `int_ior`
+    /// (bk7 = 1.5046), `ext_ior` (air = 1.000277), `specular_reflectance`
+    /// (1), `specular_transmittance` (1), `sample_visible` (true).
+    pub fn new(
+        roughness: Roughness,
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Rgb,
+        specular_transmittance: Rgb,
+    ) -> Result<RoughDielectric, BsdfError> {
+        let smooth = ThinDielectric::new(
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        )?;
+        Ok(RoughDielectric {
+            distr: roughness.distribution()?,
+            eta: smooth.eta,
+            specular_reflectance: smooth.specular_reflectance,
+            specular_transmittance: smooth.specular_transmittance,
+        })
+    }
+
     /// The distribution sampling uses: Walter's widened lobe when not
     /// sampling visible normals (it lowers the weights' variance).
     fn sample_distr(&self, cos_i: f32) -> MicrofacetDistribution {

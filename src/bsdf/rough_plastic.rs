@@ -7,7 +7,9 @@
 //! over the visible-normal sampling domain). Sampling picks the glossy or
 //! the diffuse lobe and reports the combined density (one-sample MIS).
 
-use super::distribution::MicrofacetDistribution;
+use super::distribution::{MicrofacetDistribution, Roughness};
+use super::params::BsdfError;
+use super::Plastic;
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{reflect, Vec2, Vec3, INV_PI};
@@ -103,15 +105,30 @@ impl RoughPlastic {
     /// Builds the tables (about a million normal samples, ~0.1 s for GGX,
     /// ~0.5 s of CPU for Beckmann, spread over the cores: do it once per
     /// material, at scene load).
+    ///
+    /// Parameters (Mitsuba's names and defaults): `distribution`
+    /// (beckmann), `alpha` (0.1; the distribution is used isotropically,
+    /// with `alpha_u`, as in Mitsuba), `int_ior`
+    /// (polypropylene = 1.49), `ext_ior` (air = 1.000277),
+    /// `diffuse_reflectance` (0.5), `specular_reflectance` (1), `nonlinear`
+    /// (false), `sample_visible` (true).
     pub fn new(
-        distr: MicrofacetDistribution,
+        roughness: Roughness,
         int_ior: f32,
         ext_ior: f32,
         diffuse_reflectance: Rgb,
         specular_reflectance: Rgb,
         nonlinear: bool,
-    ) -> RoughPlastic {
-        let eta = int_ior / ext_ior;
+    ) -> Result<RoughPlastic, BsdfError> {
+        let smooth = Plastic::new(
+            int_ior,
+            ext_ior,
+            diffuse_reflectance,
+            specular_reflectance,
+            nonlinear,
+        )?;
+        let distr = roughness.distribution()?;
+        let eta = smooth.eta;
         let d_mean = diffuse_reflectance.element_sum() / 3.0;
         let s_mean = specular_reflectance.element_sum() / 3.0;
         // The tables always use visible-normal sampling, as Mitsuba's.
@@ -136,7 +153,7 @@ impl RoughPlastic {
             *e = r.0;
         }
         let internal: f64 = rows.iter().map(|r| r.1).sum();
-        RoughPlastic {
+        Ok(RoughPlastic {
             distr,
             eta,
             diffuse_reflectance,
@@ -149,7 +166,7 @@ impl RoughPlastic {
             },
             internal_reflectance: (2.0 * internal / TRANSMITTANCE_RES as f64) as f32,
             external_transmittance: ext,
-        }
+        })
     }
 
     /// Linear interpolation in the transmittance table.

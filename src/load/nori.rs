@@ -24,7 +24,7 @@ use super::props::{Kind, Props};
 use super::reader::{self, Dialect};
 use super::xml::{Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfParam, Mirror};
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
@@ -641,18 +641,18 @@ impl<'a> Ctx<'a> {
                         ),
                     );
                 }
-                Bsdf::Diffuse { albedo }
+                Bsdf::diffuse(albedo)
             }
-            "mirror" => Bsdf::Mirror,
+            "mirror" => Ok(Bsdf::Mirror(Mirror)),
             "dielectric" => {
-                let int_ior = positive(&mut p, "intIOR", 1.5046)?;
-                let ext_ior = positive(&mut p, "extIOR", 1.000277)?;
+                let int_ior = p.get_float("intIOR", 1.5046)?;
+                let ext_ior = p.get_float("extIOR", 1.000277)?;
                 Bsdf::dielectric(int_ior, ext_ior)
             }
             "microfacet" => {
-                let alpha = positive(&mut p, "alpha", 0.1)?;
-                let int_ior = positive(&mut p, "intIOR", 1.5046)?;
-                let ext_ior = positive(&mut p, "extIOR", 1.000277)?;
+                let alpha = p.get_float("alpha", 0.1)?;
+                let int_ior = p.get_float("intIOR", 1.5046)?;
+                let ext_ior = p.get_float("extIOR", 1.000277)?;
                 let kd = p.get_rgb("kd", Rgb::splat(0.5))?;
                 fork_hint(
                     &mut p,
@@ -661,19 +661,11 @@ impl<'a> Ctx<'a> {
                      fork's roughconductor; lente's microfacet takes its Fresnel term from \
                      'intIOR' and 'extIOR' and ignores 'R0'",
                 )?;
-                if kd.max_element() > 1.0 {
-                    return Err(p.error(
-                        "kd",
-                        format!(
-                            "'kd' must be at most 1 in every channel, found {} {} {}",
-                            kd.x, kd.y, kd.z
-                        ),
-                    ));
-                }
                 Bsdf::microfacet(alpha, int_ior, ext_ior, kd)
             }
             _ => unreachable!(),
         };
+        let bsdf = bsdf.map_err(|e| p.param_error(nori_bsdf_name(ty, e.param()), &e))?;
         p.finish(&mut self.warnings);
         self.no_children(objects, &owner)?;
         Ok(bsdf)
@@ -937,6 +929,23 @@ const NORI_ENVMAP_NAMES: EnvMapNames = EnvMapNames {
     scale: "scale",
     to_world: "toWorld",
 };
+
+/// Nori's name of a BSDF parameter, for a BSDF of type `ty`.
+fn nori_bsdf_name(ty: &str, param: BsdfParam) -> &'static str {
+    match param {
+        BsdfParam::Diffuse if ty == "diffuse" => "albedo",
+        BsdfParam::Diffuse => "kd",
+        BsdfParam::IntIor => "intIOR",
+        BsdfParam::ExtIor => "extIOR",
+        BsdfParam::Alpha | BsdfParam::AlphaV => "alpha",
+        // Not Nori parameters: no model of Nori's dialect reports them.
+        BsdfParam::SpecularReflectance
+        | BsdfParam::SpecularTransmittance
+        | BsdfParam::Eta
+        | BsdfParam::K
+        | BsdfParam::Nested => "",
+    }
+}
 
 /// Nori's name of a camera parameter.
 fn nori_camera_name(param: CameraParam) -> &'static str {

@@ -342,7 +342,7 @@ mod tests {
     use crate::sampling::warp;
 
     fn microfacet() -> Bsdf {
-        Bsdf::microfacet(0.3, 1.5046, 1.000277, Rgb::new(0.2, 0.1, 0.3))
+        Bsdf::microfacet(0.3, 1.5046, 1.000277, Rgb::new(0.2, 0.1, 0.3)).unwrap()
     }
 
     /// The chi-square test accepts a BSDF's sampling against its own pdf
@@ -358,7 +358,7 @@ mod tests {
 
         // The pdf of a microfacet BSDF whose lobe is 10% wider than the
         // one sampled.
-        let wider = Bsdf::microfacet(0.33, 1.5046, 1.000277, Rgb::new(0.2, 0.1, 0.3));
+        let wider = Bsdf::microfacet(0.33, 1.5046, 1.000277, Rgb::new(0.2, 0.1, 0.3)).unwrap();
         let t = direction_chi2_table(
             wi,
             |wi, s| {
@@ -391,9 +391,9 @@ mod tests {
 
     #[test]
     fn bsdf_weight_of_diffuse_is_its_albedo() {
-        let bsdf = Bsdf::Diffuse {
+        let bsdf = Bsdf::Diffuse(crate::bsdf::Diffuse {
             albedo: Rgb::splat(0.7),
-        };
+        });
         let mv = bsdf_weight_mean(&bsdf, incident_direction(40.0), 1000, 1);
         assert!(students_t_test(&mv, 0.7).passes(0.01));
         assert!(!students_t_test(&mv, 0.7 * 1.02).passes(0.01));

@@ -93,10 +93,10 @@ impl Warp {
         }
         let alpha = || {
             let a = values[0];
-            if a > 0.0 {
+            if a > 0.0 && a.is_finite() {
                 Ok(a)
             } else {
-                Err(format!("ALPHA must be positive, found {a}"))
+                Err(format!("ALPHA must be positive and finite, found {a}"))
             }
         };
         if !angle.is_finite() || !(-90.0..90.0).contains(&angle) {
@@ -224,7 +224,8 @@ pub fn run_warp_test(w: &Warp, seed: u64) -> WarpOutcome {
     } else {
         let table = match *w {
             Warp::MicrofacetBrdf { alpha, kd, angle } => {
-                let bsdf = Bsdf::microfacet(alpha, 1.5046, 1.000277, Rgb::splat(kd));
+                let bsdf = Bsdf::microfacet(alpha, 1.5046, 1.000277, Rgb::splat(kd))
+                    .expect("Warp::parse checked alpha and kd");
                 let t = angle.to_radians();
                 let wi = Vec3::new(t.sin(), 0.0, t.cos().max(1e-4)).normalize();
                 direction_table(

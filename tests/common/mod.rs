@@ -256,9 +256,9 @@ pub fn shape(geometry: Geometry, bsdf: Bsdf, radiance: Option<Rgb>) -> ShapeDesc
 }
 
 pub fn diffuse(a: f32) -> Bsdf {
-    Bsdf::Diffuse {
+    Bsdf::Diffuse(lente::bsdf::Diffuse {
         albedo: Rgb::splat(a),
-    }
+    })
 }
 
 pub fn sphere(center: Vec3, radius: f32) -> Geometry {

@@ -28,8 +28,6 @@ mod sensor;
 mod shape;
 mod texture;
 
-pub use bsdf::{BsdfSpec, ConductorIor, DielectricParams, PlasticParams, Roughness};
-
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
@@ -42,7 +40,6 @@ use super::props::{self, Props, Value};
 use super::reader::{self, Dialect};
 use super::xml::{describe, Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
-use crate::bsdf::Bsdf;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Frame, Mat4, Vec3};
 use crate::render::RenderJob;
@@ -206,8 +203,8 @@ struct Ctx<'d> {
     objects: usize,
     /// Objects being built, nested (each inside the one before).
     depth: usize,
-    /// BSDFs with tables built so far (see [`Ctx::build_bsdf`]).
-    built: Vec<(BsdfSpec, Bsdf)>,
+    /// BSDFs built so far.
+    built: bsdf::BuiltBsdfs,
 }
 
 impl<'d> Ctx<'d> {
@@ -222,7 +219,7 @@ impl<'d> Ctx<'d> {
             referenced: HashSet::new(),
             objects: 0,
             depth: 0,
-            built: Vec::new(),
+            built: bsdf::BuiltBsdfs::default(),
         };
         for item in items {
             ctx.cur = item.file;

@@ -2,8 +2,8 @@
 //! their BSDF and area emitter.
 
 use super::emitter::EmitterDesc;
-use super::{BsdfSpec, Ctx};
-use crate::bsdf::Bsdf;
+use super::Ctx;
+use crate::bsdf::{Bsdf, Diffuse};
 use crate::color::Rgb;
 use crate::geometry::{self, Geometry, ShapeError, Sphere, SphereError, TriangleMesh};
 use crate::load::props::positive;
@@ -118,7 +118,7 @@ impl<'d> Ctx<'d> {
         };
         p.finish(&mut self.warnings);
 
-        let mut bsdf: Option<(BsdfSpec, Pos)> = None;
+        let mut bsdf: Option<(Bsdf, Pos)> = None;
         let mut area: Option<(Rgb, Pos)> = None;
         for c in children {
             match c.node.tag.as_str() {
@@ -198,10 +198,10 @@ impl<'d> Ctx<'d> {
             }
         };
         let bsdf = match bsdf {
-            Some((spec, at)) => self.build_bsdf(&spec, at)?,
+            Some((b, _)) => b,
             // Mitsuba's default (`render/shape.cpp`): diffuse 0.5, but
             // black for an emitter, so lights do not reflect.
-            None if area.is_some() => Bsdf::Diffuse { albedo: Rgb::ZERO },
+            None if area.is_some() => Bsdf::Diffuse(Diffuse { albedo: Rgb::ZERO }),
             None => Bsdf::default(),
         };
         Ok(ShapeDesc {

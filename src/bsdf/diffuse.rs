@@ -1,0 +1,57 @@
+//! Lambertian reflection: Nori's and Mitsuba's `diffuse`. One-sided (black
+//! seen from below, as in Nori).
+
+use super::params::{self, BsdfError, BsdfParam};
+use super::BsdfSample;
+use crate::color::Rgb;
+use crate::math::{Vec2, Vec3, INV_PI};
+use crate::sampling::warp;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Diffuse {
+    pub albedo: Rgb,
+}
+
+impl Diffuse {
+    /// `albedo`: finite and not negative (above 1 is allowed, as in Nori
+    /// and Mitsuba; the readers warn).
+    pub fn new(albedo: Rgb) -> Result<Diffuse, BsdfError> {
+        Ok(Diffuse {
+            albedo: params::color(BsdfParam::Diffuse, albedo)?,
+        })
+    }
+
+    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            Rgb::ZERO
+        } else {
+            self.albedo * INV_PI
+        }
+    }
+
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            0.0
+        } else {
+            warp::square_to_cosine_hemisphere_pdf(wo)
+        }
+    }
+
+    /// Cosine-weighted: the weight is the albedo.
+    pub fn sample(&self, wi: Vec3, u: Vec2) -> Option<BsdfSample> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let wo = warp::square_to_cosine_hemisphere(u);
+        if wo.z <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: self.albedo,
+            pdf: warp::square_to_cosine_hemisphere_pdf(wo),
+            specular: false,
+            eta: 1.0,
+        })
+    }
+}
