@@ -4,7 +4,7 @@
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::color::Rgb;
-use crate::emitter::{Emitter, EmitterContext};
+use crate::emitter::{AreaLight, Emitter, EmitterContext};
 use crate::geometry::{Bvh, Geometry, Intersection};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::sampling::Distribution1D;
@@ -57,20 +57,23 @@ impl Scene {
         for (i, s) in desc.shapes.into_iter().enumerate() {
             geometry.push(s.geometry);
             bsdfs.push(s.bsdf);
-            shape_emitter.push(s.area_radiance.map(|radiance| {
-                emitters.push(Emitter::Area {
-                    shape: i as u32,
-                    radiance,
-                });
-                (emitters.len() - 1) as u32
-            }));
+            let emitter = match s.area_radiance {
+                Some(radiance) => {
+                    let light = AreaLight::new(i as u32, radiance)
+                        .map_err(|e| BuildError::AreaLight(i, e))?;
+                    emitters.push(Emitter::Area(light));
+                    Some((emitters.len() - 1) as u32)
+                }
+                None => None,
+            };
+            shape_emitter.push(emitter);
         }
         emitters.extend(desc.emitters);
         let bvh = Bvh::build(&geometry);
         let mut bounds = bvh.bounds();
         for e in &emitters {
-            if let Emitter::Point { position, .. } = e {
-                bounds = bounds.extend(*position);
+            if let Emitter::Point(light) = e {
+                bounds = bounds.extend(light.position);
             }
         }
         let scene_radius = if bounds.is_empty() {
@@ -179,6 +182,8 @@ pub enum BuildError {
     Camera(crate::camera::CameraError),
     #[error("autofocus: the ray through the image centre hits nothing")]
     NothingToFocusOn,
+    #[error("the area light on shape {0}: its radiance {1}")]
+    AreaLight(usize, crate::emitter::EmitterError),
 }
 
 impl From<crate::camera::CameraError> for BuildError {

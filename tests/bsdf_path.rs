@@ -31,7 +31,10 @@ fn scene(bsdf: Bsdf, strategy: Strategy) -> TestScene {
         diffuse(0.5),
         None,
     ));
-    d.emitters.push(Emitter::Constant { radiance: Rgb::ONE });
+    d.emitters
+        .push(Emitter::Constant(lente::emitter::ConstantLight {
+            radiance: Rgb::ONE,
+        }));
     d.build()
 }
 

@@ -107,7 +107,10 @@ fn white_furnace_all_strategies() {
             }
             let mut d = desc(look_at(Vec3::ZERO, Vec3::Z, 20.0, 16, 16), path(s));
             d.shapes.push(shape(geom, diffuse(rho), None));
-            d.emitters.push(Emitter::Constant { radiance: Rgb::ONE });
+            d.emitters
+                .push(Emitter::Constant(lente::emitter::ConstantLight {
+                    radiance: Rgb::ONE,
+                }));
             let scene = d.build();
             // fov 20 at distance 4: the sphere of radius 1 fills the view.
             let mv = estimate(&scene, 20_000, (10 * i + j) as u64);

@@ -693,7 +693,9 @@ fn transforms_apply_in_document_order() {
     // The light sits at to_world * origin = S R T (0,0,0) = S R (1,0,0)
     // = S (0,1,0) = (0,1,0) (scale x only; y and z default to 1).
     match &desc.scene.emitters[0] {
-        Emitter::Point { position, .. } => close(*position, Vec3::new(0.0, 1.0, 0.0)),
+        Emitter::Point(lente::emitter::PointLight { position, .. }) => {
+            close(*position, Vec3::new(0.0, 1.0, 0.0))
+        }
         e => panic!("{e:?}"),
     }
     // The same ops on a rectangle, checked point by point against the
@@ -747,16 +749,16 @@ fn points_vectors_colours_and_spectra() {
            <emitter type="directional"><vector name="direction" y="-2"/><rgb name="irradiance" value="0.5"/></emitter>"#,
     ));
     match &desc.scene.emitters[..] {
-        [Emitter::Point {
+        [Emitter::Point(lente::emitter::PointLight {
             position: p1,
             intensity: i1,
-        }, Emitter::Point {
+        }), Emitter::Point(lente::emitter::PointLight {
             position: p2,
             intensity: i2,
-        }, Emitter::Directional {
+        }), Emitter::Directional(lente::emitter::DirectionalLight {
             direction,
             irradiance,
-        }] => {
+        })] => {
             close(*p1, Vec3::new(1.0, 0.0, 3.0));
             assert_eq!(*i1, Rgb::splat(5.0));
             close(*p2, Vec3::splat(2.0));
@@ -1156,10 +1158,10 @@ fn emitters() {
         e => panic!("{e:?}"),
     }
     match &desc.scene.emitters[1] {
-        Emitter::Point {
+        Emitter::Point(lente::emitter::PointLight {
             position,
             intensity,
-        } => {
+        }) => {
             close(*position, Vec3::new(1.0, 2.0, 3.0));
             assert_eq!(*intensity, Rgb::ONE);
         }
@@ -1167,11 +1169,11 @@ fn emitters() {
     }
     match (&desc.scene.emitters[2], &desc.scene.emitters[3]) {
         (
-            Emitter::Directional {
+            Emitter::Directional(lente::emitter::DirectionalLight {
                 direction: d1,
                 irradiance,
-            },
-            Emitter::Directional { direction: d2, .. },
+            }),
+            Emitter::Directional(lente::emitter::DirectionalLight { direction: d2, .. }),
         ) => {
             close(*d1, Vec3::Z);
             assert_eq!(*irradiance, Rgb::ONE);

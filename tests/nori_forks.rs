@@ -70,10 +70,10 @@ fn one_warning(text: &str, line: u32, col: u32, words: &[&str]) -> SceneFile {
 
 fn point_intensity(desc: &SceneFile) -> (Vec3, Rgb) {
     match desc.scene.emitters.as_slice() {
-        [Emitter::Point {
+        [Emitter::Point(lente::emitter::PointLight {
             position,
             intensity,
-        }] => (*position, *intensity),
+        })] => (*position, *intensity),
         other => panic!("expected one point light, found {other:?}"),
     }
 }
@@ -346,7 +346,9 @@ fn environment_without_a_file_is_uniform() {
 "#,
     );
     match desc.scene.emitters.as_slice() {
-        [Emitter::Constant { radiance }] => close(*radiance, Rgb::new(1.0, 0.5, 2.0), 0.0),
+        [Emitter::Constant(lente::emitter::ConstantLight { radiance })] => {
+            close(*radiance, Rgb::new(1.0, 0.5, 2.0), 0.0)
+        }
         other => panic!("{other:?}"),
     }
     let text = r#"<scene>
@@ -357,7 +359,9 @@ fn environment_without_a_file_is_uniform() {
 "#;
     let desc = one_warning(text, 4, 5, &["Zaragoza", "'filename'", "radiance 1"]);
     match desc.scene.emitters.as_slice() {
-        [Emitter::Constant { radiance }] => close(*radiance, Rgb::ONE, 0.0),
+        [Emitter::Constant(lente::emitter::ConstantLight { radiance })] => {
+            close(*radiance, Rgb::ONE, 0.0)
+        }
         other => panic!("{other:?}"),
     }
     let e = load_err(
@@ -697,7 +701,9 @@ fn fork_lights_test_file_references_are_the_closed_forms() {
         close(i(k), Rgb::new(2.0, 1.0, 0.5), 1e-6);
     }
     match scenes[5].file.scene.emitters.as_slice() {
-        [Emitter::Constant { radiance }] => close(*radiance, Rgb::splat(0.8), 0.0),
+        [Emitter::Constant(lente::emitter::ConstantLight { radiance })] => {
+            close(*radiance, Rgb::splat(0.8), 0.0)
+        }
         other => panic!("{other:?}"),
     }
 }

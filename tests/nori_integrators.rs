@@ -177,8 +177,9 @@ fn whitted_agrees_with_path_tracing_in_a_furnace() {
                 bsdf.clone(),
                 None,
             ));
-            d.emitters
-                .push(lente::emitter::Emitter::Constant { radiance: Rgb::ONE });
+            d.emitters.push(lente::emitter::Emitter::Constant(
+                lente::emitter::ConstantLight { radiance: Rgb::ONE },
+            ));
             d.build()
         };
         let whitted = estimate(&build(Integrator::Whitted), 50_000, 20 + i as u64);
@@ -229,10 +230,12 @@ fn directional_light_on_a_diffuse_plane() {
         diffuse(1.0),
         None,
     ));
-    d.emitters.push(lente::emitter::Emitter::Directional {
-        direction: dir,
-        irradiance: Rgb::splat(e),
-    });
+    d.emitters.push(lente::emitter::Emitter::Directional(
+        lente::emitter::DirectionalLight {
+            direction: dir,
+            irradiance: Rgb::splat(e),
+        },
+    ));
     let scene = d.build();
     let mv = estimate(&scene, 1000, 9);
     let expect = (e * -dir.y / std::f32::consts::PI) as f64;

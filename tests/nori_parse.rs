@@ -469,17 +469,19 @@ fn scene_level_emitters() {
     );
     assert_eq!(desc.scene.emitters.len(), 2);
     match &desc.scene.emitters[0] {
-        Emitter::Point {
+        Emitter::Point(lente::emitter::PointLight {
             position,
             intensity,
-        } => {
+        }) => {
             close(*position, Vec3::new(1.0, 2.0, 3.0));
             close(*intensity, Vec3::new(4.0, 8.0, 12.0) / (4.0 * PI));
         }
         e => panic!("{e:?}"),
     }
     match &desc.scene.emitters[1] {
-        Emitter::Constant { radiance } => close(*radiance, Rgb::splat(0.5)),
+        Emitter::Constant(lente::emitter::ConstantLight { radiance }) => {
+            close(*radiance, Rgb::splat(0.5))
+        }
         e => panic!("{e:?}"),
     }
 }

@@ -1,29 +1,55 @@
 //! Light sources. `sample` draws a direction towards the light from a
 //! reference point; `pdf` is the solid-angle density of doing so.
 
+mod area;
+mod constant;
+mod directional;
 mod envmap;
+mod point;
 pub mod sky;
 
+pub use area::AreaLight;
+pub use constant::ConstantLight;
+pub use directional::DirectionalLight;
 pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam};
+pub use point::PointLight;
 
-use crate::color::{luminance, Rgb};
+use crate::color::Rgb;
 use crate::geometry::Geometry;
 use crate::math::{Vec2, Vec3, PI};
 
-/// The closed set of emitters.
+/// The closed set of emitters, one kind per file; each is built by its own
+/// checked constructor.
 #[derive(Clone, Debug)]
 pub enum Emitter {
-    /// Uniform emission from the front side of a shape.
-    Area { shape: u32, radiance: Rgb },
-    /// Isotropic point light with radiant intensity `intensity` (W/sr).
-    Point { position: Vec3, intensity: Rgb },
-    /// Parallel light arriving along `direction` (unit, the way the light
-    /// travels) with `irradiance` on a surface facing it.
-    Directional { direction: Vec3, irradiance: Rgb },
-    /// Uniform radiance from every direction at infinity.
-    Constant { radiance: Rgb },
+    Area(AreaLight),
+    Point(PointLight),
+    Directional(DirectionalLight),
+    Constant(ConstantLight),
     /// An image-based light at infinity.
     Environment(Box<EnvMap>),
+}
+
+/// Emitter parameters that describe no light. Each message completes a
+/// sentence that starts with the parameter's name.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EmitterError {
+    #[error("must be finite and not negative, found {0}")]
+    Radiance(Rgb),
+    #[error("must be finite, found {0}")]
+    Position(Vec3),
+    #[error("must be finite and not zero, found {0}")]
+    Direction(Vec3),
+}
+
+/// An emitted quantity (radiance, intensity, irradiance): finite, not
+/// negative.
+fn radiance(value: Rgb) -> Result<Rgb, EmitterError> {
+    if value.is_finite() && value.min_element() >= 0.0 {
+        Ok(value)
+    } else {
+        Err(EmitterError::Radiance(value))
+    }
 }
 
 /// A light sample as seen from a reference point.
@@ -75,16 +101,16 @@ impl Emitter {
     /// Short name for reports.
     pub fn name(&self) -> &'static str {
         match self {
-            Emitter::Area { .. } => "area",
-            Emitter::Point { .. } => "point",
-            Emitter::Directional { .. } => "directional",
-            Emitter::Constant { .. } => "constant",
+            Emitter::Area(_) => "area",
+            Emitter::Point(_) => "point",
+            Emitter::Directional(_) => "directional",
+            Emitter::Constant(_) => "constant",
             Emitter::Environment(_) => "environment",
         }
     }
 
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Emitter::Constant { .. } | Emitter::Environment(_))
+        matches!(self, Emitter::Constant(_) | Emitter::Environment(_))
     }
 
     /// False for an environment map marked invisible to camera rays.
@@ -96,24 +122,18 @@ impl Emitter {
     }
 
     pub fn is_delta(&self) -> bool {
-        matches!(self, Emitter::Point { .. } | Emitter::Directional { .. })
+        matches!(self, Emitter::Point(_) | Emitter::Directional(_))
     }
 
     /// Estimated emitted power (luminance), for choosing lights.
     pub fn power(&self, ctx: &EmitterContext) -> f32 {
         match self {
-            Emitter::Area { shape, radiance } => {
-                PI * ctx.shapes[*shape as usize].area() * luminance(*radiance)
-            }
-            Emitter::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
-            Emitter::Directional { irradiance, .. } => {
-                PI * ctx.scene_radius * ctx.scene_radius * luminance(*irradiance)
-            }
-            Emitter::Constant { radiance } => {
-                PI * ctx.scene_radius * ctx.scene_radius * PI * luminance(*radiance)
-            }
-            Emitter::Environment(env) => {
-                PI * ctx.scene_radius * ctx.scene_radius * PI * env.mean_luminance()
+            Emitter::Area(e) => e.power(ctx),
+            Emitter::Point(e) => e.power(),
+            Emitter::Directional(e) => e.power(ctx),
+            Emitter::Constant(e) => e.power(ctx),
+            Emitter::Environment(e) => {
+                PI * ctx.scene_radius * ctx.scene_radius * PI * e.mean_luminance()
             }
         }
     }
@@ -122,8 +142,8 @@ impl Emitter {
     /// (zero for lights that are not at infinity).
     pub fn eval_infinite(&self, d: Vec3) -> Rgb {
         match self {
-            Emitter::Constant { radiance } => *radiance,
-            Emitter::Environment(env) => env.eval(d),
+            Emitter::Constant(e) => e.radiance,
+            Emitter::Environment(e) => e.eval(d),
             _ => Rgb::ZERO,
         }
     }
@@ -137,94 +157,12 @@ impl Emitter {
         u1: f32,
     ) -> Option<LightSample> {
         match self {
-            Emitter::Area { shape, radiance } => {
-                let s = match &ctx.shapes[*shape as usize] {
-                    Geometry::Mesh(m) => m.sample_area(u1, u),
-                    Geometry::Sphere(sp) => match sp.visible_cone(p_ref) {
-                        // Outside the sphere: sample the cone it subtends.
-                        Some(cone) => {
-                            let (s, pdf) = sp.sample_cone(p_ref, &cone, u);
-                            return Some(LightSample {
-                                wi: (s.p - p_ref).normalize(),
-                                p: s.p,
-                                err: s.err,
-                                n: s.n,
-                                dist: (s.p - p_ref).length(),
-                                weight: *radiance / pdf,
-                                pdf,
-                                delta: false,
-                            });
-                        }
-                        None => sp.sample_area(u),
-                    },
-                };
-                let to = s.p - p_ref;
-                let d2 = to.length_squared();
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                let wi = to / dist;
-                let cos_l = -wi.dot(s.n);
-                if cos_l <= 0.0 {
-                    return None;
-                }
-                let pdf = s.pdf_area * d2 / cos_l;
-                Some(LightSample {
-                    wi,
-                    p: s.p,
-                    err: s.err,
-                    n: s.n,
-                    dist,
-                    weight: *radiance / pdf,
-                    pdf,
-                    delta: false,
-                })
-            }
-            Emitter::Point {
-                position,
-                intensity,
-            } => {
-                let to = *position - p_ref;
-                let d2 = to.length_squared();
-                if d2 <= 0.0 {
-                    return None;
-                }
-                let dist = d2.sqrt();
-                Some(LightSample {
-                    wi: to / dist,
-                    p: *position,
-                    err: Vec3::ZERO,
-                    n: Vec3::ZERO,
-                    dist,
-                    weight: *intensity / d2,
-                    pdf: 0.0,
-                    delta: true,
-                })
-            }
-            Emitter::Directional {
-                direction,
-                irradiance,
-            } => Some(LightSample::at_infinity(
-                ctx,
-                p_ref,
-                -*direction,
-                *irradiance,
-                0.0,
-            )),
-            Emitter::Constant { radiance } => {
-                let wi = crate::sampling::warp::square_to_uniform_sphere(u);
-                let pdf = crate::sampling::warp::square_to_uniform_sphere_pdf(wi);
-                Some(LightSample::at_infinity(
-                    ctx,
-                    p_ref,
-                    wi,
-                    *radiance / pdf,
-                    pdf,
-                ))
-            }
-            Emitter::Environment(env) => {
-                let (wi, weight, pdf) = env.sample(u)?;
+            Emitter::Area(e) => e.sample(ctx, p_ref, u, u1),
+            Emitter::Point(e) => e.sample(p_ref),
+            Emitter::Directional(e) => e.sample(ctx, p_ref),
+            Emitter::Constant(e) => e.sample(ctx, p_ref, u),
+            Emitter::Environment(e) => {
+                let (wi, weight, pdf) = e.sample(u)?;
                 Some(LightSample::at_infinity(ctx, p_ref, wi, weight, pdf))
             }
         }
@@ -241,24 +179,10 @@ impl Emitter {
         n_light: Vec3,
     ) -> f32 {
         match self {
-            Emitter::Area { shape, .. } => {
-                let g = &ctx.shapes[*shape as usize];
-                if let Geometry::Sphere(sp) = g {
-                    if let Some(cone) = sp.visible_cone(p_ref) {
-                        return cone.pdf();
-                    }
-                }
-                let area = g.area();
-                let d2 = (p_light - p_ref).length_squared();
-                let cos_l = (-wi).dot(n_light);
-                if cos_l <= 0.0 || area <= 0.0 {
-                    return 0.0;
-                }
-                d2 / (cos_l * area)
-            }
-            Emitter::Point { .. } | Emitter::Directional { .. } => 0.0,
-            Emitter::Constant { .. } => crate::sampling::warp::square_to_uniform_sphere_pdf(wi),
-            Emitter::Environment(env) => env.pdf(wi),
+            Emitter::Area(e) => e.pdf(ctx, p_ref, wi, p_light, n_light),
+            Emitter::Point(_) | Emitter::Directional(_) => 0.0,
+            Emitter::Constant(e) => e.pdf(wi),
+            Emitter::Environment(e) => e.pdf(wi),
         }
     }
 }

@@ -3,7 +3,7 @@
 
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
-use crate::emitter::Emitter;
+use crate::emitter::{AreaLight, Emitter};
 use crate::math::{Ray, Vec3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -92,7 +92,7 @@ pub fn li(
         if let Some(ei) = scene.shape_emitter[its.shape as usize] {
             if count_emission(specular) && !(depth == 0 && params.hide_emitters) {
                 let e = &scene.emitters[ei as usize];
-                if let Emitter::Area { radiance, .. } = e {
+                if let Emitter::Area(AreaLight { radiance, .. }) = e {
                     if its.ng.dot(wi_world) > 0.0 {
                         let w = if strategy == Strategy::Mis && !specular {
                             let pl = choice_pdf(scene, ei as usize)

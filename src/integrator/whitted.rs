@@ -3,7 +3,7 @@
 //! (continuing with probability 0.95).
 
 use crate::color::Rgb;
-use crate::emitter::Emitter;
+use crate::emitter::{AreaLight, Emitter};
 use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -22,7 +22,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         };
         let wi_world = -ray.d;
         if let Some(ei) = scene.shape_emitter[its.shape as usize] {
-            if let Emitter::Area { radiance, .. } = &scene.emitters[ei as usize] {
+            if let Emitter::Area(AreaLight { radiance, .. }) = &scene.emitters[ei as usize] {
                 if its.ng.dot(wi_world) > 0.0 {
                     l += beta * *radiance;
                 }

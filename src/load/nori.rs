@@ -28,7 +28,7 @@ use crate::bsdf::{Bsdf, BsdfParam, Mirror};
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
-use crate::emitter::{Emitter, EnvFilter};
+use crate::emitter::{ConstantLight, Emitter, EmitterError, EnvFilter, PointLight};
 use crate::geometry::{load_obj, Geometry, Sphere, SphereError};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
@@ -780,20 +780,24 @@ impl<'a> Ctx<'a> {
                     None => p.require_point("position")?,
                 };
                 let intensity = self.point_intensity(&mut p, node.pos, &owner, zaragoza)?;
+                let light = PointLight::new(position, intensity).map_err(|e| match e {
+                    EmitterError::Position(_) => p.param_error("position", &e),
+                    _ => p.object_error(format!("{owner}: its intensity {e}")),
+                })?;
                 EmitterDesc::Free {
-                    emitter: Emitter::Point {
-                        position,
-                        intensity,
-                    },
+                    emitter: Emitter::Point(light),
                     environment: false,
                 }
             }
-            "constant" => EmitterDesc::Free {
-                emitter: Emitter::Constant {
-                    radiance: p.require_rgb("radiance")?,
-                },
-                environment: true,
-            },
+            "constant" => {
+                let radiance = p.require_rgb("radiance")?;
+                let light =
+                    ConstantLight::new(radiance).map_err(|e| p.param_error("radiance", &e))?;
+                EmitterDesc::Free {
+                    emitter: Emitter::Constant(light),
+                    environment: true,
+                }
+            }
             "environment" | "envmap" => {
                 let name = if ty == "environment" {
                     p.opt_string("filename")?
@@ -817,9 +821,11 @@ impl<'a> Ctx<'a> {
                         );
                     }
                     let radiance = radiance.unwrap_or(Rgb::ONE) * scale;
+                    let light =
+                        ConstantLight::new(radiance).map_err(|e| p.param_error("radiance", &e))?;
                     p.finish(&mut self.warnings);
                     return Ok(EmitterDesc::Free {
-                        emitter: Emitter::Constant { radiance },
+                        emitter: Emitter::Constant(light),
                         environment: true,
                     });
                 };

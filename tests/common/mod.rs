@@ -302,8 +302,8 @@ pub fn estimate_region(scene: &TestScene, n: usize, seed: u64, lo: Vec2, hi: Vec
 }
 
 pub fn point_light(position: Vec3, power: Rgb) -> Emitter {
-    Emitter::Point {
+    Emitter::Point(lente::emitter::PointLight {
         position,
         intensity: power / (4.0 * std::f32::consts::PI),
-    }
+    })
 }

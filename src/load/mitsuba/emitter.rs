@@ -2,7 +2,9 @@
 
 use super::Ctx;
 use crate::color::Rgb;
-use crate::emitter::{Emitter, EnvFilter};
+use crate::emitter::{
+    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight,
+};
 use crate::load::envmap::{self, EnvMapNames, EnvMapSpec, Texels};
 use crate::load::props::Props;
 use crate::load::xml::SceneNode;
@@ -88,11 +90,16 @@ impl<'d> Ctx<'d> {
                         .get_transform("to_world", Transform::IDENTITY)?
                         .point(Vec3::ZERO),
                 };
+                let intensity = p.get_rgb_or_float("intensity", Rgb::ONE)?;
+                let light = PointLight::new(position, intensity).map_err(|e| match e {
+                    EmitterError::Position(_) if !p.has("position") => {
+                        p.param_error("to_world", &e)
+                    }
+                    EmitterError::Position(_) => p.param_error("position", &e),
+                    _ => p.param_error("intensity", &e),
+                })?;
                 EmitterDesc::Free {
-                    emitter: Emitter::Point {
-                        position,
-                        intensity: p.get_rgb_or_float("intensity", Rgb::ONE)?,
-                    },
+                    emitter: Emitter::Point(light),
                     environment: false,
                 }
             }
@@ -104,23 +111,28 @@ impl<'d> Ctx<'d> {
                         .get_transform("to_world", Transform::IDENTITY)?
                         .vector(Vec3::Z),
                 };
-                let Some(direction) = d.try_normalize() else {
-                    return Err(p.error("direction", "the direction must not be zero"));
-                };
+                let irradiance = p.get_rgb_or_float("irradiance", Rgb::ONE)?;
+                let light = DirectionalLight::new(d, irradiance).map_err(|e| match e {
+                    EmitterError::Direction(_) if !p.has("direction") => {
+                        p.param_error("to_world", &e)
+                    }
+                    EmitterError::Direction(_) => p.param_error("direction", &e),
+                    _ => p.param_error("irradiance", &e),
+                })?;
                 EmitterDesc::Free {
-                    emitter: Emitter::Directional {
-                        direction,
-                        irradiance: p.get_rgb_or_float("irradiance", Rgb::ONE)?,
-                    },
+                    emitter: Emitter::Directional(light),
                     environment: false,
                 }
             }
-            "constant" => EmitterDesc::Free {
-                emitter: Emitter::Constant {
-                    radiance: p.get_rgb_or_float("radiance", Rgb::ONE)?,
-                },
-                environment: true,
-            },
+            "constant" => {
+                let radiance = p.get_rgb_or_float("radiance", Rgb::ONE)?;
+                let light =
+                    ConstantLight::new(radiance).map_err(|e| p.param_error("radiance", &e))?;
+                EmitterDesc::Free {
+                    emitter: Emitter::Constant(light),
+                    environment: true,
+                }
+            }
             _ => {
                 let name = p.require_string("filename")?;
                 if name.trim().is_empty() {

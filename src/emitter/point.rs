@@ -1,0 +1,48 @@
+//! Isotropic point lights (a delta in position).
+
+use super::{EmitterError, LightSample};
+use crate::color::{luminance, Rgb};
+use crate::math::{Vec3, PI};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    pub position: Vec3,
+    /// Radiant intensity in W/sr.
+    pub intensity: Rgb,
+}
+
+impl PointLight {
+    /// A finite `position`; `intensity` finite and not negative.
+    pub fn new(position: Vec3, intensity: Rgb) -> Result<PointLight, EmitterError> {
+        if !position.is_finite() {
+            return Err(EmitterError::Position(position));
+        }
+        Ok(PointLight {
+            position,
+            intensity: super::radiance(intensity)?,
+        })
+    }
+
+    pub fn power(&self) -> f32 {
+        4.0 * PI * luminance(self.intensity)
+    }
+
+    pub fn sample(&self, p_ref: Vec3) -> Option<LightSample> {
+        let to = self.position - p_ref;
+        let d2 = to.length_squared();
+        if d2 <= 0.0 {
+            return None;
+        }
+        let dist = d2.sqrt();
+        Some(LightSample {
+            wi: to / dist,
+            p: self.position,
+            err: Vec3::ZERO,
+            n: Vec3::ZERO,
+            dist,
+            weight: self.intensity / d2,
+            pdf: 0.0,
+            delta: true,
+        })
+    }
+}
