@@ -25,8 +25,8 @@ fn pattern(w: usize, h: usize, gain: f32) -> Bitmap {
     b
 }
 
-fn save(dir: &TempDir, name: &str, image: &Bitmap) -> String {
-    let p = dir.path(name);
+fn save(dir: &tempfile::TempDir, name: &str, image: &Bitmap) -> String {
+    let p = dir.path().join(name);
     save_image(&p, image).unwrap();
     p.to_str().unwrap().to_string()
 }
@@ -62,14 +62,14 @@ fn fails(args: &[&str], needles: &[&str]) {
 
 #[test]
 fn compare_prints_the_library_metrics() {
-    let dir = TempDir::new("compare");
+    let dir = tempfile::tempdir().unwrap();
     let reference = pattern(7, 5, 1.0);
     let mut noisy = reference.clone();
     noisy.set(3, 2, Rgb::new(5.0, 5.0, 1.0));
     noisy.set(0, 4, Rgb::splat(0.5));
     let a = save(&dir, "a.pfm", &noisy);
     let b = save(&dir, "b.exr", &reference);
-    let diff = dir.path("diff.png");
+    let diff = dir.path().join("diff.png");
     let out = run(&["compare", &a, &b, "--diff", diff.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
@@ -100,28 +100,28 @@ fn compare_prints_the_library_metrics() {
 
 #[test]
 fn compare_errors() {
-    let dir = TempDir::new("compare-err");
+    let dir = tempfile::tempdir().unwrap();
     let a = save(&dir, "a.exr", &pattern(4, 3, 1.0));
     let b = save(&dir, "b.hdr", &pattern(3, 4, 1.0));
     fails(&["compare", &a, &b], &["4x3", "3x4", "a.exr", "b.hdr"]);
-    let missing = dir.path("missing.exr");
+    let missing = dir.path().join("missing.exr");
     fails(
         &["compare", &a, missing.to_str().unwrap()],
         &["missing.exr", "cannot read"],
     );
-    let jpg = dir.path("photo.jpg");
+    let jpg = dir.path().join("photo.jpg");
     std::fs::write(&jpg, b"not really").unwrap();
     fails(
         &["compare", jpg.to_str().unwrap(), &a],
         &["photo.jpg", ".jpg"],
     );
-    let bad_diff = dir.path("diff.tiff");
+    let bad_diff = dir.path().join("diff.tiff");
     fails(
         &["compare", &a, &a, "--diff", bad_diff.to_str().unwrap()],
         &["diff.tiff", "unsupported"],
     );
     assert!(!bad_diff.exists());
-    let garbage = dir.path("garbage.exr");
+    let garbage = dir.path().join("garbage.exr");
     std::fs::write(&garbage, b"\x76\x2f\x31\x01garbage").unwrap();
     fails(
         &["compare", garbage.to_str().unwrap(), &a],
@@ -131,17 +131,17 @@ fn compare_errors() {
 
 #[test]
 fn convert_between_formats() {
-    let dir = TempDir::new("convert");
+    let dir = tempfile::tempdir().unwrap();
     let img = pattern(9, 4, 1.0);
     let exr = save(&dir, "in.exr", &img);
 
     // Float to float without options is lossless (PFM and EXR are f32).
-    let pfm = dir.path("out.pfm");
+    let pfm = dir.path().join("out.pfm");
     let out = run(&["convert", &exr, pfm.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(text(&out.stdout).contains("9x4"));
     assert!(load(pfm.to_str().unwrap()).pixels == img.pixels);
-    let back = dir.path("back.EXR");
+    let back = dir.path().join("back.EXR");
     assert!(
         run(&["convert", pfm.to_str().unwrap(), back.to_str().unwrap()])
             .status
@@ -150,7 +150,7 @@ fn convert_between_formats() {
     assert!(load(back.to_str().unwrap()).pixels == img.pixels);
 
     // Exposure scales float outputs exactly, without clamping.
-    let half = dir.path("half.exr");
+    let half = dir.path().join("half.exr");
     let out = run(&["convert", &exr, half.to_str().unwrap(), "--exposure", "-1"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let h = load(half.to_str().unwrap());
@@ -160,7 +160,7 @@ fn convert_between_formats() {
     assert!(h.pixels.iter().any(|p| p.max_element() > 1.0));
 
     // RGBE keeps about 1% precision.
-    let hdr = dir.path("out.hdr");
+    let hdr = dir.path().join("out.hdr");
     assert!(run(&["convert", &exr, hdr.to_str().unwrap()])
         .status
         .success());
@@ -174,7 +174,7 @@ fn convert_between_formats() {
         (Tonemap::Reinhard, "reinhard"),
         (Tonemap::Aces, "aces"),
     ] {
-        let png = dir.path(&format!("{name}.png"));
+        let png = dir.path().join(format!("{name}.png"));
         let out = run(&[
             "convert",
             &exr,
@@ -193,14 +193,14 @@ fn convert_between_formats() {
         }
     }
     // Tone mapping a float output only when asked.
-    let aces = dir.path("aces.pfm");
+    let aces = dir.path().join("aces.pfm");
     let out = run(&["convert", &exr, aces.to_str().unwrap(), "--tonemap", "ACES"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(load(aces.to_str().unwrap()).pixels == tonemap(&img, 0.0, Tonemap::Aces).pixels);
 
     // PNG in, float out.
-    let png = dir.path("clamp.png");
-    let from_png = dir.path("from_png.exr");
+    let png = dir.path().join("clamp.png");
+    let from_png = dir.path().join("from_png.exr");
     assert!(
         run(&["convert", png.to_str().unwrap(), from_png.to_str().unwrap()])
             .status
@@ -211,20 +211,20 @@ fn convert_between_formats() {
 
 #[test]
 fn convert_errors() {
-    let dir = TempDir::new("convert-err");
+    let dir = tempfile::tempdir().unwrap();
     let exr = save(&dir, "in.exr", &pattern(3, 3, 1.0));
-    let missing = dir.path("nope.pfm");
-    let out = dir.path("out.exr");
+    let missing = dir.path().join("nope.pfm");
+    let out = dir.path().join("out.exr");
     fails(
         &["convert", missing.to_str().unwrap(), out.to_str().unwrap()],
         &["nope.pfm"],
     );
-    let jpg = dir.path("out.jpg");
+    let jpg = dir.path().join("out.jpg");
     fails(
         &["convert", &exr, jpg.to_str().unwrap()],
         &["out.jpg", "unsupported", ".png"],
     );
-    let noext = dir.path("out");
+    let noext = dir.path().join("out");
     fails(&["convert", &exr, noext.to_str().unwrap()], &["extension"]);
     fails(
         &["convert", &exr, out.to_str().unwrap(), "--exposure", "NaN"],

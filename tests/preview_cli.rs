@@ -22,10 +22,10 @@ fn status(port: u16) -> serde_json::Value {
 
 #[test]
 fn preview_and_checkpoints_leave_the_image_unchanged() {
-    let dir = TempDir::new("preview-same");
+    let dir = tempfile::tempdir().unwrap();
     let scene = write_cbox(&dir, 40, 24, 40);
     let scene = scene.to_str().unwrap();
-    let plain = dir.path("plain");
+    let plain = dir.path().join("plain");
     let out = run(&[
         "render",
         scene,
@@ -36,7 +36,7 @@ fn preview_and_checkpoints_leave_the_image_unchanged() {
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
 
-    let watched = dir.path("watched");
+    let watched = dir.path().join("watched");
     let mut r = Running::spawn(&[
         "render",
         scene,
@@ -66,12 +66,12 @@ fn preview_and_checkpoints_leave_the_image_unchanged() {
     assert!(err.contains("preview: render done; serving"), "{err}");
 
     for ext in ["exr", "png"] {
-        let a = std::fs::read(dir.path(&format!("plain.{ext}"))).unwrap();
-        let b = std::fs::read(dir.path(&format!("watched.{ext}"))).unwrap();
+        let a = std::fs::read(dir.path().join(format!("plain.{ext}"))).unwrap();
+        let b = std::fs::read(dir.path().join(format!("watched.{ext}"))).unwrap();
         assert!(a == b, "{ext} files differ with --preview/--checkpoint");
     }
-    let (a, _) = load_image(&dir.path("plain.exr")).unwrap();
-    let (b, _) = load_image(&dir.path("watched.exr")).unwrap();
+    let (a, _) = load_image(&dir.path().join("plain.exr")).unwrap();
+    let (b, _) = load_image(&dir.path().join("watched.exr")).unwrap();
     assert_eq!((a.width, a.height), (40, 24));
     assert!(a.pixels == b.pixels);
     assert!(a.mean().x > 0.0, "the image is black");
@@ -79,9 +79,9 @@ fn preview_and_checkpoints_leave_the_image_unchanged() {
 
 #[test]
 fn preview_endpoints() {
-    let dir = TempDir::new("preview-http");
+    let dir = tempfile::tempdir().unwrap();
     let scene = write_cbox(&dir, 32, 16, 24);
-    let base = dir.path("img");
+    let base = dir.path().join("img");
     let mut r = Running::spawn(&[
         "render",
         scene.to_str().unwrap(),
@@ -136,11 +136,11 @@ fn preview_endpoints() {
     // IHDR: width and height, big-endian, at bytes 16..24.
     assert_eq!(&img.body[16..24], &[0, 0, 0, 32, 0, 0, 0, 16]);
     // The final pass at exposure 0 is what the render wrote as PNG.
-    let written = std::fs::read(dir.path("img.png")).unwrap();
-    let p = dir.path("served.png");
+    let written = std::fs::read(dir.path().join("img.png")).unwrap();
+    let p = dir.path().join("served.png");
     std::fs::write(&p, &img.body).unwrap();
     let (served, _) = load_image(&p).unwrap();
-    let (file, _) = load_image(&dir.path("img.png")).unwrap();
+    let (file, _) = load_image(&dir.path().join("img.png")).unwrap();
     assert!(served.pixels == file.pixels);
     assert!(!written.is_empty());
     let brighter = http(port, "GET", "/image.png?exposure=2");
@@ -155,11 +155,14 @@ fn preview_endpoints() {
     assert_eq!(j["ok"], true);
     assert_eq!(j["spp"], 24);
     let exr = j["exr"].as_str().unwrap();
-    assert_eq!(exr, dir.path("img-preview-24spp.exr").to_str().unwrap());
+    assert_eq!(
+        exr,
+        dir.path().join("img-preview-24spp.exr").to_str().unwrap()
+    );
     let (a, _) = load_image(std::path::Path::new(exr)).unwrap();
-    let (b, _) = load_image(&dir.path("img.exr")).unwrap();
+    let (b, _) = load_image(&dir.path().join("img.exr")).unwrap();
     assert!(a.pixels == b.pixels);
-    assert!(dir.path("img-preview-24spp.png").exists());
+    assert!(dir.path().join("img-preview-24spp.png").exists());
 
     // What must be refused, without taking the server down.
     assert_eq!(http(port, "GET", "/nothing").status, 404);
@@ -199,7 +202,7 @@ fn preview_endpoints() {
 
 #[test]
 fn busy_port_is_a_clear_error() {
-    let dir = TempDir::new("preview-busy");
+    let dir = tempfile::tempdir().unwrap();
     let scene = write_cbox(&dir, 8, 8, 1);
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let port = taken.local_addr().unwrap().port();
@@ -207,7 +210,7 @@ fn busy_port_is_a_clear_error() {
         "render",
         scene.to_str().unwrap(),
         "-o",
-        dir.path("x").to_str().unwrap(),
+        dir.path().join("x").to_str().unwrap(),
         "--preview",
         &port.to_string(),
     ]);
@@ -216,12 +219,12 @@ fn busy_port_is_a_clear_error() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains(&format!("127.0.0.1:{port}")), "{err}");
     assert!(err.contains("already in use"), "{err}");
-    assert!(!dir.path("x.exr").exists());
+    assert!(!dir.path().join("x.exr").exists());
 }
 
 #[test]
 fn bad_flags_are_refused() {
-    let dir = TempDir::new("preview-flags");
+    let dir = tempfile::tempdir().unwrap();
     let scene = write_cbox(&dir, 8, 8, 1);
     let scene = scene.to_str().unwrap();
     for args in [
@@ -241,10 +244,10 @@ fn bad_flags_are_refused() {
 
 #[test]
 fn checkpoints_appear_while_rendering() {
-    let dir = TempDir::new("checkpoint");
+    let dir = tempfile::tempdir().unwrap();
     let scene = write_cbox(&dir, 64, 64, 2048);
-    let base = dir.path("cp");
-    let exr = dir.path("cp.exr");
+    let base = dir.path().join("cp");
+    let exr = dir.path().join("cp.exr");
     let mut r = Running::spawn(&[
         "render",
         scene.to_str().unwrap(),
@@ -256,7 +259,7 @@ fn checkpoints_appear_while_rendering() {
     // The first checkpoint follows the first pass (1 spp), long before the
     // render's end.
     // The EXR and the PNG are written one after the other: wait for both.
-    let png = dir.path("cp.png");
+    let png = dir.path().join("cp.png");
     wait_for("a checkpoint file", Duration::from_secs(60), || {
         (exr.exists() && png.exists()).then_some(())
     });
@@ -281,7 +284,7 @@ fn checkpoints_appear_while_rendering() {
     assert!(*spps.last().unwrap() < 2048);
     assert!(stdout.contains("wrote "), "{stdout}");
     // No temporary files left behind by the atomic writes.
-    let leftovers: Vec<_> = std::fs::read_dir(&dir.0)
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .filter_map(|e| e.ok())
         .map(|e| e.file_name().to_string_lossy().into_owned())

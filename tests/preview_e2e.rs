@@ -346,10 +346,10 @@ fn preview_page_in_headless_chromium() {
         );
         return;
     };
-    let dir = TempDir::new("e2e");
+    let dir = tempfile::tempdir().unwrap();
     // Far more samples than the test waits for: it interrupts the render.
     let scene = write_cbox(&dir, 64, 64, 1_000_000);
-    let base = dir.path("cbox");
+    let base = dir.path().join("cbox");
     let mut lente = Running::spawn(&[
         "render",
         "--preview",
@@ -361,9 +361,9 @@ fn preview_page_in_headless_chromium() {
     let port = lente.preview_port();
     let url = format!("http://127.0.0.1:{port}/");
 
-    let profile = dir.path("profile");
+    let profile = dir.path().join("profile");
     std::fs::create_dir_all(&profile).unwrap();
-    let browser = Browser::start(&chromium, &profile, &dir.path("chromium.log"));
+    let browser = Browser::start(&chromium, &profile, &dir.path().join("chromium.log"));
     let mut cdp = Cdp::connect(browser.port, &browser.ws_path);
     let (target, page) = cdp.open(&url);
 
@@ -422,8 +422,8 @@ fn preview_page_in_headless_chromium() {
         .next()
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("{:?}", saved.saved));
-    let exr = dir.path(&format!("cbox-preview-{spp}spp.exr"));
-    let png = dir.path(&format!("cbox-preview-{spp}spp.png"));
+    let exr = dir.path().join(format!("cbox-preview-{spp}spp.exr"));
+    let png = dir.path().join(format!("cbox-preview-{spp}spp.png"));
     assert!(
         saved.saved.contains(exr.to_str().unwrap()),
         "{:?}",
@@ -461,7 +461,7 @@ fn preview_page_in_headless_chromium() {
     let (status, stdout) = lente.wait(Duration::from_secs(60));
     assert!(status.success(), "{}", lente.stderr_text());
     assert!(stdout.contains("interrupted"), "{stdout}");
-    assert!(dir.path("cbox.exr").exists());
+    assert!(dir.path().join("cbox.exr").exists());
 }
 
 fn base64_decode(s: &str) -> Vec<u8> {

@@ -52,7 +52,7 @@
 use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
 use crate::math::{Transform, Vec2, Vec3, INV_PI, INV_TWO_PI, PI};
-use crate::sampling::Distribution1D;
+use crate::sampling::Distribution2D;
 
 /// 2 pi^2: the Jacobian |d omega / (du dv)| = 2 pi^2 sin(theta).
 const TWO_PI_SQ: f32 = 2.0 * PI * PI;
@@ -67,49 +67,6 @@ pub enum EnvFilter {
     Nearest,
 }
 
-/// Piecewise-constant distribution over the W x H texel cells of [0,1)^2:
-/// a marginal over rows and one conditional per row (the layout of
-/// [`crate::sampling::Distribution2D`], kept here because sampling must know
-/// exactly which cell it picked).
-#[derive(Clone, Debug)]
-struct CellDistribution {
-    marginal: Distribution1D,
-    rows: Vec<Distribution1D>,
-}
-
-impl CellDistribution {
-    fn new(weights: &[f32], w: usize, h: usize) -> CellDistribution {
-        let rows: Vec<Distribution1D> = weights.chunks_exact(w).map(Distribution1D::new).collect();
-        let marg: Vec<f32> = rows.iter().map(|r| r.integral()).collect();
-        debug_assert_eq!(rows.len(), h);
-        CellDistribution {
-            marginal: Distribution1D::new(&marg),
-            rows,
-        }
-    }
-
-    /// Mean weight over the cells.
-    fn integral(&self) -> f32 {
-        self.marginal.integral()
-    }
-
-    /// Picks a cell; returns (column, row, position within the cell in [0,1)^2).
-    fn sample(&self, u: Vec2) -> (usize, usize, Vec2) {
-        let (j, _, dv) = self.marginal.sample_discrete(u.y);
-        let (i, _, du) = self.rows[j].sample_discrete(u.x);
-        (i, j, Vec2::new(du, dv))
-    }
-
-    /// Density w.r.t. area in [0,1)^2 of the points of cell (i, j).
-    fn pdf(&self, i: usize, j: usize) -> f32 {
-        if self.integral() > 0.0 {
-            self.marginal.pdf(j) * self.rows[j].pdf(i)
-        } else {
-            0.0
-        }
-    }
-}
-
 /// A lat-long environment map, importance-sampled by luminance x sin(theta).
 /// Built only through [`EnvMap::new`], which checks it.
 #[derive(Clone, Debug)]
@@ -121,7 +78,7 @@ pub struct EnvMap {
     /// Seen by camera rays (it lights the scene either way).
     pub visible: bool,
     /// Sampling table over texel cells (see the module docs).
-    dist: CellDistribution,
+    dist: Distribution2D,
     /// Mean luminance over the sphere of the unscaled map.
     mean_lum: f32,
 }
@@ -198,7 +155,7 @@ impl EnvMap {
             return Err(EnvMapError::ToWorld);
         }
         let weights = sampling_weights(&image, filter);
-        let dist = CellDistribution::new(&weights, w, h);
+        let dist = Distribution2D::new(&weights, w, h);
         // mean over the sphere = (1 / 4 pi) sum lum * 2 pi^2 sin / (W H)
         //                      = (pi / 2) * mean(weights).
         let mean_lum = 0.5 * PI * dist.integral();
@@ -259,7 +216,7 @@ impl EnvMap {
         if !self.has_light() {
             return None;
         }
-        let (i, j, duv) = self.dist.sample(u);
+        let (i, j, duv) = self.dist.sample_cell(u);
         let cell = (i, j);
         let n = self.cell_count();
         let corner = Vec2::new(i as f32, j as f32);
@@ -341,7 +298,7 @@ impl EnvMap {
             return 0.0;
         }
         let (i, j) = self.cell_of(uv);
-        let pdf = self.dist.pdf(i, j) / (TWO_PI_SQ * sin_theta);
+        let pdf = self.dist.pdf_cell(i, j) / (TWO_PI_SQ * sin_theta);
         if pdf.is_finite() {
             pdf
         } else {

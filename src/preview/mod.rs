@@ -161,26 +161,26 @@ impl PreviewState {
         };
         let outputs: Vec<String> = outputs
             .iter()
-            .map(|p| http::json_string(&p.to_string_lossy()))
+            .map(|p| p.to_string_lossy().into_owned())
             .collect();
-        format!(
-            "{{\"state\":\"{state}\",\"scene\":{},\"pass\":{},\"spp\":{},\"spp_total\":{},\
-             \"percent\":{},\"samples\":{},\"samples_total\":{},\"elapsed\":{},\
-             \"samples_per_second\":{},\"eta\":{},\"width\":{},\"height\":{},\"outputs\":[{}]}}",
-            http::json_string(&self.inner.scene_name),
-            s.pass,
-            s.spp_done,
-            s.spp_total,
-            http::json_number(percent),
-            s.samples,
-            s.samples_total,
-            http::json_number(secs),
-            http::json_number(rate),
-            http::json_number(eta),
-            s.image.width,
-            s.image.height,
-            outputs.join(",")
-        )
+        // Not-finite numbers (no rate yet) become null.
+        serde_json::json!({
+            "state": state,
+            "scene": self.inner.scene_name,
+            "pass": s.pass,
+            "spp": s.spp_done,
+            "spp_total": s.spp_total,
+            "percent": percent,
+            "samples": s.samples,
+            "samples_total": s.samples_total,
+            "elapsed": secs,
+            "samples_per_second": rate,
+            "eta": eta,
+            "width": s.image.width,
+            "height": s.image.height,
+            "outputs": outputs,
+        })
+        .to_string()
     }
 
     /// The latest image as an 8-bit sRGB PNG after scaling by
@@ -332,22 +332,28 @@ mod tests {
     #[test]
     fn status_reports_progress_and_rate() {
         let state = PreviewState::new(4, 2, 8, Path::new("/tmp/out/scene"));
-        let j = state.status_json();
-        assert!(j.contains("\"state\":\"rendering\""), "{j}");
-        assert!(j.contains("\"pass\":0"), "{j}");
-        assert!(j.contains("\"samples_per_second\":null"), "{j}");
-        assert!(j.contains("\"scene\":\"scene\""), "{j}");
+        let parse = |j: String| -> serde_json::Value { serde_json::from_str(&j).unwrap() };
+        let j = parse(state.status_json());
+        assert_eq!(j["state"], "rendering", "{j}");
+        assert_eq!(j["pass"], 0, "{j}");
+        assert!(j["samples_per_second"].is_null(), "{j}");
+        assert_eq!(j["scene"], "scene", "{j}");
         let film = Film::new(4, 2);
         state.publish(&info(&film, 2, 0.5));
-        let j = state.status_json();
-        assert!(j.contains("\"pass\":1,\"spp\":2,\"spp_total\":8"), "{j}");
-        assert!(j.contains("\"percent\":25"), "{j}");
-        assert!(j.contains("\"samples_per_second\":32"), "{j}");
+        let j = parse(state.status_json());
+        assert_eq!(
+            (j["pass"].clone(), j["spp"].clone()),
+            (1.into(), 2.into()),
+            "{j}"
+        );
+        assert_eq!(j["spp_total"], 8, "{j}");
+        assert_eq!(j["percent"], 25.0, "{j}");
+        assert_eq!(j["samples_per_second"], 32.0, "{j}");
         state.finish(false, vec![PathBuf::from("/tmp/a \"b\".exr")]);
-        let j = state.status_json();
-        assert!(j.contains("\"state\":\"done\""), "{j}");
-        assert!(j.contains("\"eta\":0"), "{j}");
-        assert!(j.contains("\"outputs\":[\"/tmp/a \\\"b\\\".exr\"]"), "{j}");
+        let j = parse(state.status_json());
+        assert_eq!(j["state"], "done", "{j}");
+        assert_eq!(j["eta"], 0.0, "{j}");
+        assert_eq!(j["outputs"], serde_json::json!(["/tmp/a \"b\".exr"]), "{j}");
     }
 
     #[test]
@@ -371,31 +377,31 @@ mod tests {
 
     #[test]
     fn save_needs_a_pass_and_names_files_by_spp() {
-        let dir = crate::image::io::test_util::TempDir::new("preview-save");
-        let state = PreviewState::new(4, 2, 8, &dir.path("render.v1"));
+        let dir = tempfile::tempdir().unwrap();
+        let state = PreviewState::new(4, 2, 8, &dir.path().join("render.v1"));
         assert!(matches!(state.save(0.0), Err(SaveError::NothingYet)));
         let film = Film::new(4, 2);
         state.publish(&info(&film, 3, 0.1));
         let saved = state.save(1.0).unwrap();
-        assert_eq!(saved.exr, dir.path("render.v1-preview-3spp.exr"));
-        assert_eq!(saved.png, dir.path("render.v1-preview-3spp.png"));
+        assert_eq!(saved.exr, dir.path().join("render.v1-preview-3spp.exr"));
+        assert_eq!(saved.png, dir.path().join("render.v1-preview-3spp.png"));
         assert!(saved.exr.exists() && saved.png.exists());
     }
 
     #[test]
     fn checkpoints_when_due_but_not_on_the_last_pass() {
-        let dir = crate::image::io::test_util::TempDir::new("checkpoint");
+        let dir = tempfile::tempdir().unwrap();
         let film = Film::new(4, 2);
-        let mut c = Checkpointer::new(Duration::from_secs(1), &dir.path("out"));
+        let mut c = Checkpointer::new(Duration::from_secs(1), &dir.path().join("out"));
         assert_eq!(c.after_pass(&info(&film, 1, 0.5)).unwrap(), None);
-        assert!(!dir.path("out.exr").exists());
+        assert!(!dir.path().join("out.exr").exists());
         assert_eq!(c.after_pass(&info(&film, 2, 1.0)).unwrap(), Some(2));
-        assert!(dir.path("out.exr").exists() && dir.path("out.png").exists());
+        assert!(dir.path().join("out.exr").exists() && dir.path().join("out.png").exists());
         assert_eq!(c.after_pass(&info(&film, 4, 1.9)).unwrap(), None);
         assert_eq!(c.after_pass(&info(&film, 6, 2.0)).unwrap(), Some(6));
         assert_eq!(c.after_pass(&info(&film, 8, 9.0)).unwrap(), None);
         // Every pass when the interval is zero.
-        let mut c = Checkpointer::new(Duration::ZERO, &dir.path("z"));
+        let mut c = Checkpointer::new(Duration::ZERO, &dir.path().join("z"));
         assert_eq!(c.after_pass(&info(&film, 1, 0.0)).unwrap(), Some(1));
         assert_eq!(c.after_pass(&info(&film, 2, 0.0)).unwrap(), Some(2));
     }

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use super::http::{self, read_request, ReadError, Request, Response};
+use super::http::{read_request, ReadError, Request, Response};
 use super::{PreviewState, SaveError};
 
 /// The port used when `--preview` is given without one.
@@ -221,12 +221,13 @@ pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response 
             match state.save(exposure) {
                 Ok(saved) => Response::json(
                     200,
-                    format!(
-                        "{{\"ok\":true,\"spp\":{},\"exr\":{},\"png\":{}}}",
-                        saved.spp,
-                        http::json_string(&saved.exr.to_string_lossy()),
-                        http::json_string(&saved.png.to_string_lossy())
-                    ),
+                    serde_json::json!({
+                        "ok": true,
+                        "spp": saved.spp,
+                        "exr": saved.exr.to_string_lossy(),
+                        "png": saved.png.to_string_lossy(),
+                    })
+                    .to_string(),
                 ),
                 Err(e) => Response::json(
                     if matches!(e, SaveError::NothingYet) {
@@ -234,10 +235,7 @@ pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response 
                     } else {
                         500
                     },
-                    format!(
-                        "{{\"ok\":false,\"error\":{}}}",
-                        http::json_string(&e.to_string())
-                    ),
+                    serde_json::json!({"ok": false, "error": e.to_string()}).to_string(),
                 ),
             }
         }

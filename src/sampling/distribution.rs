@@ -1,5 +1,5 @@
 //! Piecewise-constant distributions for importance sampling tables
-//! (light selection, environment maps).
+//! (light selection, environment maps, mesh areas).
 
 use glam::Vec2;
 
@@ -110,8 +110,10 @@ impl Distribution1D {
     }
 }
 
-/// A piecewise-constant 2D distribution over [0,1)^2 with `nu` x `nv` cells:
-/// a marginal over rows (v) and one conditional per row (u).
+/// A piecewise-constant 2D distribution over the `nu` x `nv` cells of
+/// [0,1)^2: a marginal over rows (v) and one conditional per row (u).
+/// Sampling reports which cell it picked and where inside it, so a caller
+/// with its own mapping of cells (an environment map) uses the same table.
 #[derive(Clone, Debug)]
 pub struct Distribution2D {
     conditional: Vec<Distribution1D>,
@@ -131,15 +133,38 @@ impl Distribution2D {
         }
     }
 
+    /// Mean weight over the cells.
     pub fn integral(&self) -> f32 {
         self.marginal.integral()
     }
 
+    /// Picks a cell: (column, row, position within the cell in [0,1)^2).
+    pub fn sample_cell(&self, u: Vec2) -> (usize, usize, Vec2) {
+        let (j, _, dv) = self.marginal.sample_discrete(u.y);
+        let (i, _, du) = self.conditional[j].sample_discrete(u.x);
+        (i, j, Vec2::new(du, dv))
+    }
+
+    /// Density w.r.t. area in [0,1)^2 of the points of cell (i, j); zero
+    /// everywhere if all weights are zero.
+    pub fn pdf_cell(&self, i: usize, j: usize) -> f32 {
+        if self.integral() > 0.0 {
+            self.marginal.pdf(j) * self.conditional[j].pdf(i)
+        } else {
+            0.0
+        }
+    }
+
     /// Returns (point in [0,1)^2, density w.r.t. area in [0,1)^2).
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
-        let (v, pdf_v, row) = self.marginal.sample_continuous(u.y);
-        let (x, pdf_u, _) = self.conditional[row].sample_continuous(u.x);
-        (Vec2::new(x, v), pdf_u * pdf_v)
+        let (i, j, d) = self.sample_cell(u);
+        let n = Vec2::new(
+            self.conditional[0].len() as f32,
+            self.conditional.len() as f32,
+        );
+        let p =
+            ((Vec2::new(i as f32, j as f32) + d) / n).min(Vec2::splat(1.0 - f32::EPSILON / 2.0));
+        (p, self.pdf_cell(i, j))
     }
 
     /// Density at a point of [0,1]^2 (clamped into range).
@@ -148,10 +173,7 @@ impl Distribution2D {
         let nu = self.conditional[0].len();
         let iu = ((p.x * nu as f32) as usize).min(nu - 1);
         let iv = ((p.y * nv as f32) as usize).min(nv - 1);
-        if self.marginal.integral() <= 0.0 {
-            return 1.0;
-        }
-        self.conditional[iv].func[iu] / self.marginal.integral()
+        self.pdf_cell(iu, iv)
     }
 }
 

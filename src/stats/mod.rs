@@ -140,45 +140,77 @@ impl MeanVar {
     }
 }
 
-/// Two-sided one-sample Student t-test of a sample mean against `reference`.
-/// A sample with zero variance passes only if its mean equals the reference
-/// to within a relative 1e-5.
+/// Smallest standard error the t-test assumes, relative to the larger of
+/// the mean and the reference. An estimator with (almost) no variance
+/// would otherwise fail on the rounding of f32 arithmetic; a bias larger
+/// than about 1e-4 relative still fails. (Nori floors the variance at an
+/// absolute 1e-5 instead, which makes tests of small means toothless.)
+pub const RELATIVE_SE_FLOOR: f64 = 1e-5;
+
+/// Two-sided one-sample Student t-test of a sample mean against a
+/// reference, with the standard error floored at [`RELATIVE_SE_FLOOR`]
+/// (the one rule for samples with no variance: `cargo test` and `lente
+/// test` share it).
 pub fn t_test(sample: &MeanVar, reference: f64) -> TestResult {
     let n = sample.n as f64;
-    let var = sample.variance();
-    if sample.n < 2 || var <= 0.0 {
-        let ok = (sample.mean() - reference).abs() <= 1e-5 * reference.abs().max(1e-6);
-        return TestResult {
-            statistic: if ok { 0.0 } else { f64::INFINITY },
-            dof: (n - 1.0).max(0.0),
-            p_value: if ok { 1.0 } else { 0.0 },
-        };
-    }
-    let t = (sample.mean() - reference) / (var / n).sqrt();
-    let dist = StudentsT::new(0.0, 1.0, n - 1.0).expect("valid t distribution");
-    TestResult {
-        statistic: t,
-        dof: n - 1.0,
-        p_value: 2.0 * (1.0 - dist.cdf(t.abs())),
-    }
+    let mean = sample.mean();
+    let se = if sample.n >= 2 {
+        (sample.variance() / n).sqrt()
+    } else {
+        0.0
+    };
+    let se = se.max(RELATIVE_SE_FLOOR * mean.abs().max(reference.abs()));
+    two_sided(mean - reference, se, n - 1.0)
 }
 
-/// Welch's two-sample t-test: do two estimators have the same mean?
+/// Welch's two-sample t-test: do two estimators have the same mean? The
+/// standard error of the difference is floored as [`t_test`]'s is.
 pub fn welch_t_test(a: &MeanVar, b: &MeanVar) -> TestResult {
     let (na, nb) = (a.n as f64, b.n as f64);
+    if a.n < 2 || b.n < 2 {
+        return two_sided(a.mean() - b.mean(), 0.0, 0.0);
+    }
     let (va, vb) = (a.variance() / na, b.variance() / nb);
+    let floor = RELATIVE_SE_FLOOR * a.mean().abs().max(b.mean().abs());
     let se2 = va + vb;
-    if se2 <= 0.0 {
-        let ok = (a.mean() - b.mean()).abs() <= 1e-5 * a.mean().abs().max(1e-6);
+    let dof = if se2 > floor * floor {
+        // Welch-Satterthwaite.
+        se2 * se2 / (va * va / (na - 1.0) + vb * vb / (nb - 1.0))
+    } else {
+        na + nb - 2.0
+    };
+    two_sided(a.mean() - b.mean(), se2.max(floor * floor).sqrt(), dof)
+}
+
+/// The two-sided test of a difference `diff` with standard error `se`
+/// against Student's t with `dof` degrees of freedom: a zero difference
+/// passes, a non-finite one fails, and so does any other difference when
+/// `se` or `dof` is zero (too few samples to judge).
+fn two_sided(diff: f64, se: f64, dof: f64) -> TestResult {
+    let dof = dof.max(0.0);
+    if !diff.is_finite() {
         return TestResult {
-            statistic: if ok { 0.0 } else { f64::INFINITY },
-            dof: 0.0,
-            p_value: if ok { 1.0 } else { 0.0 },
+            statistic: f64::NAN,
+            dof,
+            p_value: 0.0,
         };
     }
-    let t = (a.mean() - b.mean()) / se2.sqrt();
-    let dof = se2 * se2 / (va * va / (na - 1.0) + vb * vb / (nb - 1.0));
-    let dist = StudentsT::new(0.0, 1.0, dof).expect("valid t distribution");
+    if diff == 0.0 {
+        return TestResult {
+            statistic: 0.0,
+            dof,
+            p_value: 1.0,
+        };
+    }
+    if se.is_nan() || se <= 0.0 || dof <= 0.0 {
+        return TestResult {
+            statistic: f64::INFINITY.copysign(diff),
+            dof,
+            p_value: 0.0,
+        };
+    }
+    let t = diff / se;
+    let dist = StudentsT::new(0.0, 1.0, dof).expect("positive degrees of freedom");
     TestResult {
         statistic: t,
         dof,
@@ -213,6 +245,48 @@ mod tests {
         assert!(r.p_value < 1e-3, "{r:?}");
         let r = chi2_test(&[0.0, 20.0, 20.0], &[0.0, 20.0, 20.0], 5.0);
         assert!(r.passes(0.01));
+    }
+
+    #[test]
+    fn t_test_floors_the_standard_error() {
+        let mut mv = MeanVar::default();
+        for _ in 0..1000 {
+            mv.push(0.5);
+        }
+        assert!(t_test(&mv, 0.5).passes(0.01));
+        // f32 rounding of the reference.
+        assert!(t_test(&mv, 0.5 * (1.0 + 1e-6)).passes(0.01));
+        assert!(!t_test(&mv, 0.51).passes(0.01));
+        assert!(!t_test(&mv, 0.5 * (1.0 + 1e-3)).passes(0.01));
+        let zero = MeanVar::default();
+        assert!(!t_test(&zero, 1.0).passes(0.01));
+    }
+
+    #[test]
+    fn t_test_on_noise() {
+        let mut s = Sampler::new(5, 6);
+        let mut mv = MeanVar::default();
+        for _ in 0..100_000 {
+            mv.push(s.next_1d() as f64);
+        }
+        assert!(t_test(&mv, 0.5).passes(0.01));
+        assert!(!t_test(&mv, 0.5 * 1.02).passes(0.01));
+    }
+
+    #[test]
+    fn welch_floors_the_standard_error_as_the_t_test_does() {
+        let mut a = MeanVar::default();
+        let mut b = MeanVar::default();
+        for _ in 0..1000 {
+            a.push(0.5);
+            b.push(0.5 * (1.0 + 1e-6));
+        }
+        assert!(welch_t_test(&a, &b).passes(0.01));
+        let mut c = MeanVar::default();
+        for _ in 0..1000 {
+            c.push(0.51);
+        }
+        assert!(!welch_t_test(&a, &c).passes(0.01));
     }
 
     #[test]

@@ -1,64 +1,14 @@
-//! The tests of Nori's test files and warp tester: a Student t-test of a
-//! mean against a reference, and chi-square tables of sampled directions in
-//! Nori's binning (cells uniform in cos theta and phi), whose expected
-//! counts integrate the pdf adaptively.
+//! The tables of Nori's test files and warp tester: chi-square tables of
+//! sampled directions in Nori's binning (cells uniform in cos theta and
+//! phi), whose expected counts integrate the pdf adaptively. (Their t-test
+//! is [`super::t_test`], the one `cargo test` uses too.)
 
 use rayon::prelude::*;
-use statrs::distribution::{ContinuousCDF, StudentsT};
 
 use super::quadrature::{adaptive_simpson_2d, Adaptive};
-use super::{Histogram, MeanVar, TestResult};
+use super::{Histogram, TestResult};
 use crate::math::Vec3;
 use crate::sampling::Sampler;
-
-/// Smallest standard error the t-test assumes, relative to the larger of
-/// the mean and the reference. An estimator with (almost) no variance
-/// would otherwise fail on the rounding of f32 arithmetic; a bias larger
-/// than about 1e-4 relative still fails. (Nori floors the variance at an
-/// absolute 1e-5 instead, which makes tests of small means toothless.)
-pub const RELATIVE_SE_FLOOR: f64 = 1e-5;
-
-/// Two-sided one-sample Student t-test of a sample mean against a
-/// reference, with the standard error floored at [`RELATIVE_SE_FLOOR`].
-pub fn students_t_test(sample: &MeanVar, reference: f64) -> TestResult {
-    let n = sample.n as f64;
-    let mean = sample.mean();
-    let diff = mean - reference;
-    let dof = (n - 1.0).max(0.0);
-    if !diff.is_finite() {
-        return TestResult {
-            statistic: f64::NAN,
-            dof,
-            p_value: 0.0,
-        };
-    }
-    let se = if sample.n >= 2 {
-        (sample.variance() / n).sqrt()
-    } else {
-        0.0
-    };
-    let se = se.max(RELATIVE_SE_FLOOR * mean.abs().max(reference.abs()));
-    let t = if diff == 0.0 {
-        0.0
-    } else if se > 0.0 {
-        diff / se
-    } else {
-        f64::INFINITY.copysign(diff)
-    };
-    let p_value = if t == 0.0 {
-        1.0
-    } else if !t.is_finite() || sample.n < 2 {
-        0.0
-    } else {
-        let dist = StudentsT::new(0.0, 1.0, dof).expect("valid t distribution");
-        2.0 * (1.0 - dist.cdf(t.abs()))
-    };
-    TestResult {
-        statistic: t,
-        dof,
-        p_value,
-    }
-}
 
 /// Observed and expected counts of sampled directions.
 #[derive(Clone, Debug)]
@@ -201,32 +151,6 @@ pub fn table_test(t: &DirectionTable, min_expected: f64) -> TestResult {
 mod tests {
     use super::*;
     use crate::sampling::warp;
-
-    #[test]
-    fn t_test_floors_the_standard_error() {
-        let mut mv = MeanVar::default();
-        for _ in 0..1000 {
-            mv.push(0.5);
-        }
-        assert!(students_t_test(&mv, 0.5).passes(0.01));
-        // f32 rounding of the reference.
-        assert!(students_t_test(&mv, 0.5 * (1.0 + 1e-6)).passes(0.01));
-        assert!(!students_t_test(&mv, 0.51).passes(0.01));
-        assert!(!students_t_test(&mv, 0.5 * (1.0 + 1e-3)).passes(0.01));
-        let zero = MeanVar::default();
-        assert!(!students_t_test(&zero, 1.0).passes(0.01));
-    }
-
-    #[test]
-    fn t_test_on_noise() {
-        let mut s = Sampler::new(5, 6);
-        let mut mv = MeanVar::default();
-        for _ in 0..100_000 {
-            mv.push(s.next_1d() as f64);
-        }
-        assert!(students_t_test(&mv, 0.5).passes(0.01));
-        assert!(!students_t_test(&mv, 0.5 * 1.02).passes(0.01));
-    }
 
     #[test]
     fn cells_follow_noris_binning() {

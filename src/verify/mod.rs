@@ -17,7 +17,8 @@ use crate::load::nori_testfile::{NoriTest, TestFile};
 use crate::math::{Vec2, Vec3, PI};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
-use crate::stats::nori::{direction_table, students_t_test, table_test, DirectionTable};
+use crate::stats::nori::{direction_table, table_test, DirectionTable};
+use crate::stats::t_test;
 use crate::stats::{sidak, MeanVar, TestResult};
 
 /// The result of one hypothesis test of a test file.
@@ -230,7 +231,7 @@ pub fn run_test_file(
                     *sample_count as u64,
                     derive_seed(seed, 1, i as u64),
                 );
-                let r = students_t_test(&mv, reference);
+                let r = t_test(&mv, reference);
                 push(Outcome::new(
                     format!(
                         "{name}:{} scene {}/{} ({})",
@@ -261,7 +262,7 @@ pub fn run_test_file(
                         *sample_count as u64,
                         derive_seed(seed, 2, k as u64),
                     );
-                    let r = students_t_test(&mv, reference);
+                    let r = t_test(&mv, reference);
                     push(Outcome::new(
                         format!(
                             "{name}:{} {} {}/{} at {angle} deg",
@@ -395,8 +396,8 @@ mod tests {
             albedo: Rgb::splat(0.7),
         });
         let mv = bsdf_weight_mean(&bsdf, incident_direction(40.0), 1000, 1);
-        assert!(students_t_test(&mv, 0.7).passes(0.01));
-        assert!(!students_t_test(&mv, 0.7 * 1.02).passes(0.01));
+        assert!(t_test(&mv, 0.7).passes(0.01));
+        assert!(!t_test(&mv, 0.7 * 1.02).passes(0.01));
         // Below the horizon: every sample fails, the mean is zero.
         let mv = bsdf_weight_mean(&bsdf, incident_direction(120.0), 1000, 1);
         assert_eq!(mv.mean(), 0.0);

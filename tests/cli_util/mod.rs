@@ -7,46 +7,16 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
-use std::sync::atomic::{AtomicU64, Ordering};
+
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
 pub const LENTE: &str = env!("CARGO_BIN_EXE_lente");
 
-/// A fresh folder under the system temp dir, removed on drop.
-pub struct TempDir(pub PathBuf);
-
-impl TempDir {
-    pub fn new(tag: &str) -> TempDir {
-        static N: AtomicU64 = AtomicU64::new(0);
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0);
-        let dir = std::env::temp_dir().join(format!(
-            "lente-test-{tag}-{}-{}-{nanos}",
-            std::process::id(),
-            N.fetch_add(1, Ordering::Relaxed)
-        ));
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-
-    pub fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 /// Writes a Nori scene file for the project's Cornell box (meshes read
 /// from `scenes/cbox`) at `width` x `height` and `spp` samples per pixel;
 /// returns its path.
-pub fn write_cbox(dir: &TempDir, width: u32, height: u32, spp: u32) -> PathBuf {
+pub fn write_cbox(dir: &tempfile::TempDir, width: u32, height: u32, spp: u32) -> PathBuf {
     let meshes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox");
     let mesh = |name: &str, bsdf: &str| {
         format!(
@@ -83,7 +53,7 @@ pub fn write_cbox(dir: &TempDir, width: u32, height: u32, spp: u32) -> PathBuf {
     xml += "  <mesh type=\"sphere\"><point name=\"center\" value=\"0.45, 0.38, 0.35\"/>\
             <float name=\"radius\" value=\"0.38\"/><bsdf type=\"dielectric\"/></mesh>\n";
     xml += "</scene>\n";
-    let path = dir.path("cbox.xml");
+    let path = dir.path().join("cbox.xml");
     std::fs::write(&path, xml).unwrap();
     path
 }

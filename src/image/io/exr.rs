@@ -166,7 +166,7 @@ mod tests {
         IntegerBounds, Layer, LayerAttributes, SmallVec, WritableImage,
     };
 
-    use super::super::test_util::{test_image, TempDir};
+    use super::super::test_util::test_image;
     use super::super::{load_image, save_image};
     use crate::color::Rgb;
     use crate::image::Bitmap;
@@ -245,10 +245,10 @@ mod tests {
 
     #[test]
     fn exr_round_trip_is_exact() {
-        let dir = TempDir::new("exr-rt");
+        let dir = tempfile::tempdir().unwrap();
         let mut img = test_image(13, 7);
         img.set(12, 6, Rgb::new(1e-30, 3.0e30, 0.1));
-        let path = dir.path("rt.exr");
+        let path = dir.path().join("rt.exr");
         save_image(&path, &img).unwrap();
         let (back, warnings) = load_image(&path).unwrap();
         assert!(warnings.is_empty());
@@ -257,9 +257,9 @@ mod tests {
 
     #[test]
     fn exr_reads_half_float_rgba_and_compressions() {
-        let dir = TempDir::new("exr-kinds");
+        let dir = tempfile::tempdir().unwrap();
         let img = test_image(41, 19);
-        let path = dir.path("k.exr");
+        let path = dir.path().join("k.exr");
         let cases = [
             (&["R", "G", "B"][..], true, Compression::ZIP16, 1e-3),
             (&["R", "G", "B"][..], false, Compression::ZIP1, 0.0),
@@ -282,9 +282,9 @@ mod tests {
 
     #[test]
     fn exr_reads_luminance_only_as_grey() {
-        let dir = TempDir::new("exr-y");
+        let dir = tempfile::tempdir().unwrap();
         let img = test_image(10, 6);
-        let path = dir.path("y.exr");
+        let path = dir.path().join("y.exr");
         for half in [true, false] {
             write(&path, vec![layer(&img, &["Y"], half, Compression::ZIP16)]);
             let (back, _) = load_image(&path).unwrap();
@@ -303,9 +303,9 @@ mod tests {
 
     #[test]
     fn exr_uses_first_layer_with_colour() {
-        let dir = TempDir::new("exr-layers");
+        let dir = tempfile::tempdir().unwrap();
         let img = test_image(8, 5);
-        let path = dir.path("l.exr");
+        let path = dir.path().join("l.exr");
         // Layer 1 has only depth; layer 2 has prefixed colour channels.
         write(
             &path,
@@ -329,12 +329,12 @@ mod tests {
 
     #[test]
     fn exr_half_negative_values_warn_once() {
-        let dir = TempDir::new("exr-neg");
+        let dir = tempfile::tempdir().unwrap();
         let mut img = test_image(6, 4);
         for x in 0..6 {
             img.set(x, 1, Rgb::new(-0.5, 0.25, -2.0));
         }
-        let path = dir.path("n.exr");
+        let path = dir.path().join("n.exr");
         write(
             &path,
             vec![layer(&img, &["R", "G", "B"], true, Compression::PIZ)],

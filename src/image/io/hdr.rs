@@ -373,7 +373,7 @@ pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_util::{test_image, TempDir};
+    use super::super::test_util::test_image;
     use super::super::{load_image, save_image};
     use super::*;
     use crate::color::Rgb;
@@ -460,10 +460,10 @@ mod tests {
 
     #[test]
     fn hdr_reads_rle_scanlines() {
-        let dir = TempDir::new("hdr-rle");
+        let dir = tempfile::tempdir().unwrap();
         let (w, h) = (300, 7);
         let px = rgbe_pixels(w, h);
-        let path = dir.path("rle.hdr");
+        let path = dir.path().join("rle.hdr");
         std::fs::write(&path, rle_file(w, h, &px)).unwrap();
         let (img, warnings) = load_image(&path).unwrap();
         assert!(warnings.is_empty());
@@ -475,12 +475,12 @@ mod tests {
 
     #[test]
     fn hdr_reads_flat_scanlines() {
-        let dir = TempDir::new("hdr-flat");
+        let dir = tempfile::tempdir().unwrap();
         // Width 5 is too short for RLE; width 40000 too long; width 20 is
         // allowed to be flat too (first pixel is not 2,2,...).
         for (w, h) in [(5, 3), (20, 4), (40000, 2)] {
             let px = rgbe_pixels(w, h);
-            let path = dir.path("flat.hdr");
+            let path = dir.path().join("flat.hdr");
             std::fs::write(&path, flat_file(&format!("-Y {h} +X {w}"), &px)).unwrap();
             let (img, _) = load_image(&path).unwrap();
             assert_eq!((img.width, img.height), (w, h));
@@ -492,12 +492,12 @@ mod tests {
 
     #[test]
     fn hdr_reads_old_style_runs() {
-        let dir = TempDir::new("hdr-old");
+        let dir = tempfile::tempdir().unwrap();
         let a = [10, 20, 30, 130];
         let b = [40, 50, 60, 128];
         // a, then 3 repeats of a, then b, then 1 repeat of b: 6 pixels.
         let bytes = flat_file("-Y 1 +X 6", &[a, [1, 1, 1, 3], b, [1, 1, 1, 1]]);
-        let path = dir.path("old.hdr");
+        let path = dir.path().join("old.hdr");
         std::fs::write(&path, bytes).unwrap();
         let (img, _) = load_image(&path).unwrap();
         let want = [a, a, a, a, b, b].map(expected);
@@ -506,7 +506,7 @@ mod tests {
 
     #[test]
     fn hdr_respects_orientation() {
-        let dir = TempDir::new("hdr-orient");
+        let dir = tempfile::tempdir().unwrap();
         // Image (top row first):  p0 p1 p2
         //                         p3 p4 p5
         let p: Vec<[u8; 4]> = (0..6).map(|i| [10 + i as u8, 0, 0, 129]).collect();
@@ -523,7 +523,7 @@ mod tests {
         ];
         for (res, order) in cases {
             let stored: Vec<[u8; 4]> = order.iter().map(|&i| p[i]).collect();
-            let path = dir.path("o.hdr");
+            let path = dir.path().join("o.hdr");
             std::fs::write(&path, flat_file(res, &stored)).unwrap();
             let (img, _) = load_image(&path).unwrap();
             assert_eq!((img.width, img.height), (3, 2), "{res}");
@@ -533,13 +533,13 @@ mod tests {
 
     #[test]
     fn hdr_round_trip_within_rgbe_precision() {
-        let dir = TempDir::new("hdr-rt");
+        let dir = tempfile::tempdir().unwrap();
         // Wide enough for RLE, plus a narrow one written flat.
         for (w, h) in [(67, 9), (4, 3)] {
             let mut img = test_image(w, h);
             img.set(0, 0, Rgb::new(1e4, 0.0, 1e-3));
             img.set(1, 0, Rgb::ZERO);
-            let path = dir.path("rt.hdr");
+            let path = dir.path().join("rt.hdr");
             save_image(&path, &img).unwrap();
             let (back, warnings) = load_image(&path).unwrap();
             assert!(warnings.is_empty());
@@ -588,8 +588,8 @@ mod tests {
 
     #[test]
     fn hdr_rejects_bad_input() {
-        let dir = TempDir::new("hdr-bad");
-        let path = dir.path("b.hdr");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("b.hdr");
         let mut rle_bad_len = flat_file("-Y 1 +X 10", &[]);
         rle_bad_len.extend_from_slice(&[2, 2, 0, 11]);
         let mut rle_overrun = flat_file("-Y 1 +X 10", &[]);

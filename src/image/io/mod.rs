@@ -250,45 +250,9 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
 
 #[cfg(test)]
 pub(crate) mod test_util {
-    use std::path::{Path, PathBuf};
-    use std::sync::atomic::{AtomicU64, Ordering};
 
     use crate::color::Rgb;
     use crate::image::Bitmap;
-
-    /// A fresh, empty folder under the system temp dir, removed on drop.
-    pub struct TempDir(pub PathBuf);
-
-    impl TempDir {
-        pub fn new(tag: &str) -> TempDir {
-            static N: AtomicU64 = AtomicU64::new(0);
-            let nanos = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map(|d| d.as_nanos())
-                .unwrap_or(0);
-            let dir = std::env::temp_dir().join(format!(
-                "lente-imageio-{tag}-{}-{}-{nanos}",
-                std::process::id(),
-                N.fetch_add(1, Ordering::Relaxed)
-            ));
-            std::fs::create_dir_all(&dir).unwrap();
-            TempDir(dir)
-        }
-
-        pub fn path(&self, name: &str) -> PathBuf {
-            self.0.join(name)
-        }
-
-        pub fn dir(&self) -> &Path {
-            &self.0
-        }
-    }
-
-    impl Drop for TempDir {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
 
     /// A small test image with varied, positive values over a wide range;
     /// width != height so transposition or flips show up.
@@ -314,13 +278,13 @@ pub(crate) mod test_util {
 
 #[cfg(test)]
 mod tests {
-    use super::test_util::{test_image, TempDir};
+    use super::test_util::test_image;
     use super::*;
 
     #[test]
     fn unknown_extension_is_an_error_listing_formats() {
-        let dir = TempDir::new("ext");
-        let path = dir.path("picture.jpg");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("picture.jpg");
         fs::write(&path, b"whatever").unwrap();
         let err = load_image(&path).unwrap_err();
         let msg = err.to_string();
@@ -330,16 +294,16 @@ mod tests {
         }
         let err = save_image(&path, &test_image(2, 2)).unwrap_err();
         assert!(err.to_string().contains(".pfm"), "{err}");
-        let err = load_image(&dir.path("noext")).unwrap_err();
+        let err = load_image(&dir.path().join("noext")).unwrap_err();
         assert!(err.to_string().contains("extension"), "{err}");
     }
 
     #[test]
     fn extension_is_case_insensitive() {
-        let dir = TempDir::new("case");
+        let dir = tempfile::tempdir().unwrap();
         let img = test_image(3, 2);
         for name in ["a.PFM", "b.Exr", "c.HDR", "d.PnG"] {
-            let path = dir.path(name);
+            let path = dir.path().join(name);
             save_image(&path, &img).unwrap();
             let (back, _) = load_image(&path).unwrap();
             assert_eq!((back.width, back.height), (3, 2), "{name}");
@@ -348,9 +312,9 @@ mod tests {
 
     #[test]
     fn missing_file_is_an_error_naming_the_path() {
-        let dir = TempDir::new("missing");
+        let dir = tempfile::tempdir().unwrap();
         for name in ["nothere.exr", "nothere.hdr", "nothere.pfm", "nothere.png"] {
-            let path = dir.path(name);
+            let path = dir.path().join(name);
             let err = load_image(&path).unwrap_err();
             assert_eq!(err.path, path);
             assert!(err.to_string().contains(name), "{err}");
@@ -359,10 +323,10 @@ mod tests {
 
     #[test]
     fn truncated_files_are_errors_not_panics() {
-        let dir = TempDir::new("trunc");
+        let dir = tempfile::tempdir().unwrap();
         let img = test_image(37, 23);
         for name in ["t.exr", "t.hdr", "t.pfm", "t.png"] {
-            let path = dir.path(name);
+            let path = dir.path().join(name);
             save_image(&path, &img).unwrap();
             let bytes = fs::read(&path).unwrap();
             // Cut at many places, including inside the header. A PNG whose
@@ -392,7 +356,7 @@ mod tests {
 
     #[test]
     fn garbage_files_are_errors_not_panics() {
-        let dir = TempDir::new("garbage");
+        let dir = tempfile::tempdir().unwrap();
         // A simple deterministic byte generator.
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut next = move || {
@@ -402,7 +366,7 @@ mod tests {
             state as u8
         };
         for name in ["g.exr", "g.hdr", "g.pfm", "g.png"] {
-            let path = dir.path(name);
+            let path = dir.path().join(name);
             for len in [3usize, 64, 1000] {
                 let bytes: Vec<u8> = (0..len).map(|_| next()).collect();
                 fs::write(&path, &bytes).unwrap();
@@ -413,8 +377,8 @@ mod tests {
 
     #[test]
     fn empty_image_is_an_error() {
-        let dir = TempDir::new("empty");
-        let path = dir.path("e.pfm");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("e.pfm");
         fs::write(&path, b"PF\n0 0\n-1\n").unwrap();
         let err = load_image(&path).unwrap_err();
         assert!(err.to_string().contains("empty"), "{err}");
@@ -424,13 +388,13 @@ mod tests {
 
     #[test]
     fn negative_texels_give_one_counting_warning() {
-        let dir = TempDir::new("neg");
+        let dir = tempfile::tempdir().unwrap();
         let mut img = test_image(5, 4);
         img.set(0, 0, Rgb::new(-1.0, 0.5, -2.0));
         img.set(3, 2, Rgb::new(0.5, -0.25, 0.5));
         img.set(4, 3, Rgb::new(-0.0, 0.0, 0.0)); // negative zero is not negative
         for name in ["n.pfm", "n.exr"] {
-            let path = dir.path(name);
+            let path = dir.path().join(name);
             save_image(&path, &img).unwrap();
             let (back, warnings) = load_image(&path).unwrap();
             assert_eq!(
@@ -443,7 +407,7 @@ mod tests {
             assert!(back.pixels.iter().all(|p| p.min_element() >= 0.0));
         }
         let (_, warnings) = load_image(&{
-            let p = dir.path("clean.pfm");
+            let p = dir.path().join("clean.pfm");
             save_image(&p, &test_image(5, 4)).unwrap();
             p
         })
@@ -453,12 +417,12 @@ mod tests {
 
     #[test]
     fn nan_and_infinite_texels_are_errors_with_a_count() {
-        let dir = TempDir::new("nan");
+        let dir = tempfile::tempdir().unwrap();
         let mut img = test_image(4, 3);
         img.set(1, 1, Rgb::new(f32::NAN, 0.0, 0.0));
         img.set(2, 1, Rgb::new(0.0, f32::INFINITY, f32::NEG_INFINITY));
         for name in ["nan.pfm", "nan.exr"] {
-            let path = dir.path(name);
+            let path = dir.path().join(name);
             save_image(&path, &img).unwrap();
             let err = load_image(&path).unwrap_err();
             let msg = err.to_string();
@@ -477,17 +441,17 @@ mod tests {
 
     #[test]
     fn atomic_save_leaves_no_temp_files() {
-        let dir = TempDir::new("atomic");
+        let dir = tempfile::tempdir().unwrap();
         let img = test_image(16, 9);
         for name in ["a.exr", "a.hdr", "a.pfm", "a.png"] {
-            let path = dir.path(name);
+            let path = dir.path().join(name);
             save_image(&path, &img).unwrap();
             // Overwriting an existing file works too.
             save_image(&path, &img).unwrap();
             assert!(load_image(&path).is_ok());
         }
-        assert_eq!(leftover_temp_files(dir.dir()), Vec::<String>::new());
-        let mut names: Vec<String> = fs::read_dir(dir.dir())
+        assert_eq!(leftover_temp_files(dir.path()), Vec::<String>::new());
+        let mut names: Vec<String> = fs::read_dir(dir.path())
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
@@ -497,17 +461,17 @@ mod tests {
 
     #[test]
     fn failed_save_leaves_nothing_behind() {
-        let dir = TempDir::new("failsave");
+        let dir = tempfile::tempdir().unwrap();
         // Renaming a file onto an existing non-empty directory fails after
         // the temporary file was written: it must be cleaned up.
-        let target = dir.path("taken.pfm");
+        let target = dir.path().join("taken.pfm");
         fs::create_dir(&target).unwrap();
         fs::write(target.join("keep"), b"x").unwrap();
         let err = save_image(&target, &test_image(3, 3)).unwrap_err();
         assert_eq!(err.path, target);
-        assert_eq!(leftover_temp_files(dir.dir()), Vec::<String>::new());
+        assert_eq!(leftover_temp_files(dir.path()), Vec::<String>::new());
         // A missing folder is an error naming the path.
-        let path = dir.path("no/such/folder/x.png");
+        let path = dir.path().join("no/such/folder/x.png");
         let err = save_image(&path, &test_image(3, 3)).unwrap_err();
         assert!(err.to_string().contains("x.png"), "{err}");
         // A bitmap whose pixel count does not match its size is refused.
@@ -516,9 +480,9 @@ mod tests {
             height: 4,
             pixels: vec![Rgb::ZERO; 3],
         };
-        assert!(save_image(&dir.path("bad.exr"), &bad).is_err());
-        assert!(!dir.path("bad.exr").exists());
-        assert_eq!(leftover_temp_files(dir.dir()), Vec::<String>::new());
+        assert!(save_image(&dir.path().join("bad.exr"), &bad).is_err());
+        assert!(!dir.path().join("bad.exr").exists());
+        assert_eq!(leftover_temp_files(dir.path()), Vec::<String>::new());
     }
 
     /// Loads the shared light probes when they are present (optional).

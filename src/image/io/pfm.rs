@@ -106,7 +106,7 @@ pub(super) fn encode(image: &Bitmap) -> Vec<u8> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_util::{test_image, TempDir};
+    use super::super::test_util::test_image;
     use super::super::{load_image, save_image};
     use crate::color::Rgb;
 
@@ -131,10 +131,10 @@ mod tests {
 
     #[test]
     fn pfm_round_trip_is_exact() {
-        let dir = TempDir::new("pfm-rt");
+        let dir = tempfile::tempdir().unwrap();
         let mut img = test_image(7, 5);
         img.set(6, 4, Rgb::new(1e-30, 3.0e30, 0.1));
-        let path = dir.path("rt.pfm");
+        let path = dir.path().join("rt.pfm");
         save_image(&path, &img).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         assert!(bytes.starts_with(b"PF\n7 5\n-1\n"));
@@ -145,7 +145,7 @@ mod tests {
 
     #[test]
     fn pfm_reads_both_byte_orders_colour_and_grey_bottom_up() {
-        let dir = TempDir::new("pfm-endian");
+        let dir = tempfile::tempdir().unwrap();
         // 3 wide, 2 high; top row first here.
         let rgb = vec![
             vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0],
@@ -153,7 +153,7 @@ mod tests {
         ];
         let grey = vec![vec![0.1, 0.2, 0.3], vec![4.0, 5.0, 6.5]];
         for le in [true, false] {
-            let path = dir.path("c.pfm");
+            let path = dir.path().join("c.pfm");
             std::fs::write(&path, write_pfm(&rgb, 3, le)).unwrap();
             let (img, w) = load_image(&path).unwrap();
             assert!(w.is_empty());
@@ -163,7 +163,7 @@ mod tests {
                     assert_eq!(img.get(x, y), Rgb::new(r[0], r[1], r[2]), "le={le}");
                 }
             }
-            let path = dir.path("g.pfm");
+            let path = dir.path().join("g.pfm");
             std::fs::write(&path, write_pfm(&grey, 1, le)).unwrap();
             let (img, _) = load_image(&path).unwrap();
             assert_eq!((img.width, img.height), (3, 2));
@@ -177,8 +177,8 @@ mod tests {
 
     #[test]
     fn pfm_bad_headers_are_errors() {
-        let dir = TempDir::new("pfm-bad");
-        let path = dir.path("b.pfm");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("b.pfm");
         let cases: [&[u8]; 7] = [
             b"P6\n1 1\n255\n\0\0\0",
             b"PF\n-1 1\n-1\n",
