@@ -411,9 +411,9 @@ fn cmd_compare(image: &Path, reference: &Path, diff: Option<&Path>) -> Result<()
     }
     let a = load_bitmap(image)?;
     let b = load_bitmap(reference)?;
-    let c = compare(&a, &b).map_err(|e| {
-        anyhow::anyhow!(
-            "cannot compare {} with {}: {e}",
+    let c = compare(&a, &b).with_context(|| {
+        format!(
+            "cannot compare {} with {}",
             image.display(),
             reference.display()
         )
@@ -604,7 +604,7 @@ fn cmd_warptest(
     seed: u64,
 ) -> Result<()> {
     use lente::verify::warptest::{heat_map, run_warp_test, Warp, SIGNIFICANCE};
-    let warp = Warp::parse(name, params, angle).map_err(|e| anyhow::anyhow!(e))?;
+    let warp = Warp::parse(name, params, angle)?;
     let start = std::time::Instant::now();
     let out = run_warp_test(&warp, seed);
     let r = &out.result;

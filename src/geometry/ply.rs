@@ -50,6 +50,12 @@ impl From<String> for PlyError {
     }
 }
 
+impl From<&str> for PlyError {
+    fn from(message: &str) -> Self {
+        PlyError::Malformed(message.to_string())
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Format {
     Ascii,
@@ -124,14 +130,14 @@ struct Header {
     body: usize,
 }
 
-fn parse_header(bytes: &[u8]) -> Result<Header, String> {
+fn parse_header(bytes: &[u8]) -> Result<Header, PlyError> {
     let mut pos = 0;
     let mut line_no = 0;
     let mut format = None;
     let mut elements: Vec<Element> = Vec::new();
     loop {
         if pos >= bytes.len() {
-            return Err("the header has no 'end_header' line".into());
+            return Err(PlyError::from("the header has no 'end_header' line"));
         }
         let end = bytes[pos..]
             .iter()
@@ -145,10 +151,10 @@ fn parse_header(bytes: &[u8]) -> Result<Header, String> {
         let words: Vec<&str> = line.split_whitespace().collect();
         if line_no == 1 {
             if line.trim() != "ply" {
-                return Err(format!(
+                return Err(PlyError::from(format!(
                     "the file does not start with 'ply' (found '{}')",
                     shorten(line)
-                ));
+                )));
             }
             continue;
         }
@@ -157,20 +163,20 @@ fn parse_header(bytes: &[u8]) -> Result<Header, String> {
             None | Some("comment") | Some("obj_info") => {}
             Some("format") => {
                 if words.len() != 3 {
-                    return Err(err("expected 'format <type> 1.0'"));
+                    return Err(PlyError::from(err("expected 'format <type> 1.0'")));
                 }
                 format = Some(match words[1] {
                     "ascii" => Format::Ascii,
                     "binary_little_endian" => Format::BinaryLe,
                     "binary_big_endian" => Format::BinaryBe,
-                    _ => return Err(err(
+                    _ => return Err(PlyError::from(err(
                         "unknown format; expected ascii, binary_little_endian or binary_big_endian",
-                    )),
+                    ))),
                 });
             }
             Some("element") => {
                 if words.len() != 3 {
-                    return Err(err("expected 'element <name> <count>'"));
+                    return Err(PlyError::from(err("expected 'element <name> <count>'")));
                 }
                 let count = words[2]
                     .parse::<usize>()
@@ -183,18 +189,20 @@ fn parse_header(bytes: &[u8]) -> Result<Header, String> {
             }
             Some("property") => {
                 let Some(el) = elements.last_mut() else {
-                    return Err(err("a property before any element"));
+                    return Err(PlyError::from(err("a property before any element")));
                 };
                 let prop = if words.get(1) == Some(&"list") {
                     if words.len() != 5 {
-                        return Err(err(
+                        return Err(PlyError::from(err(
                             "expected 'property list <count type> <item type> <name>'",
-                        ));
+                        )));
                     }
                     let count = Scalar::parse(words[2]).ok_or_else(|| err("unknown count type"))?;
                     let item = Scalar::parse(words[3]).ok_or_else(|| err("unknown item type"))?;
                     if !count.is_integer() {
-                        return Err(err("a list count must have an integer type"));
+                        return Err(PlyError::from(err(
+                            "a list count must have an integer type",
+                        )));
                     }
                     Property {
                         name: words[4].to_string(),
@@ -202,7 +210,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, String> {
                     }
                 } else {
                     if words.len() != 3 {
-                        return Err(err("expected 'property <type> <name>'"));
+                        return Err(PlyError::from(err("expected 'property <type> <name>'")));
                     }
                     let ty = Scalar::parse(words[1]).ok_or_else(|| err("unknown property type"))?;
                     Property {
@@ -213,7 +221,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, String> {
                 el.props.push(prop);
             }
             Some("end_header") => break,
-            Some(_) => return Err(err("unknown header keyword")),
+            Some(_) => return Err(PlyError::from(err("unknown header keyword"))),
         }
     }
     let format = format.ok_or("the header has no 'format' line")?;
@@ -248,7 +256,7 @@ enum Reader<'b> {
 }
 
 impl<'b> Reader<'b> {
-    fn new(bytes: &'b [u8], header: &Header) -> Result<Reader<'b>, String> {
+    fn new(bytes: &'b [u8], header: &Header) -> Result<Reader<'b>, PlyError> {
         let body = &bytes[header.body.min(bytes.len())..];
         Ok(match header.format {
             Format::Ascii => Reader::Ascii {
@@ -273,7 +281,7 @@ impl<'b> Reader<'b> {
         }
     }
 
-    fn value(&mut self, ty: Scalar) -> Result<f64, String> {
+    fn value(&mut self, ty: Scalar) -> Result<f64, PlyError> {
         match self {
             Reader::Ascii { rest, read } => {
                 let text = rest.trim_start_matches(|c: char| c.is_ascii_whitespace());
@@ -283,7 +291,7 @@ impl<'b> Reader<'b> {
                 let tok = &text[..end];
                 *rest = &text[end..];
                 if tok.is_empty() {
-                    return Err("the file ends before all elements are read".into());
+                    return Err(PlyError::from("the file ends before all elements are read"));
                 }
                 *read += 1;
                 let v = if ty.is_integer() {
@@ -292,12 +300,12 @@ impl<'b> Reader<'b> {
                     tok.parse::<f64>().map_err(|_| ())
                 };
                 v.map_err(|_| {
-                    format!(
+                    PlyError::Malformed(format!(
                         "value {} of the body ('{}') is not a valid {}",
                         read,
                         shorten(tok),
                         if ty.is_integer() { "integer" } else { "number" }
-                    )
+                    ))
                 })
             }
             Reader::Binary {
@@ -307,7 +315,7 @@ impl<'b> Reader<'b> {
             } => {
                 let n = ty.size();
                 let Some(raw) = bytes.get(*pos..*pos + n) else {
-                    return Err("the file ends before all elements are read".into());
+                    return Err(PlyError::from("the file ends before all elements are read"));
                 };
                 *pos += n;
                 let mut b = [0u8; 8];
@@ -330,7 +338,7 @@ impl<'b> Reader<'b> {
     }
 
     /// Skips `n` values of type `ty`.
-    fn skip(&mut self, ty: Scalar, n: usize) -> Result<(), String> {
+    fn skip(&mut self, ty: Scalar, n: usize) -> Result<(), PlyError> {
         match self {
             Reader::Binary { bytes, pos, .. } => {
                 let len = n
@@ -349,10 +357,12 @@ impl<'b> Reader<'b> {
         }
     }
 
-    fn list_count(&mut self, ty: Scalar) -> Result<usize, String> {
+    fn list_count(&mut self, ty: Scalar) -> Result<usize, PlyError> {
         let c = self.value(ty)?;
         if c < 0.0 || c.fract() != 0.0 {
-            return Err(format!("a list has a negative length ({c})"));
+            return Err(PlyError::from(format!(
+                "a list has a negative length ({c})"
+            )));
         }
         Ok(c as usize)
     }
@@ -410,7 +420,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, PlyError> {
     TriangleMesh::new(positions, normals, uvs, indices).map_err(PlyError::Invalid)
 }
 
-fn skip_element(r: &mut Reader, el: &Element) -> Result<(), String> {
+fn skip_element(r: &mut Reader, el: &Element) -> Result<(), PlyError> {
     for _ in 0..el.count {
         for p in &el.props {
             match p.ty {
@@ -431,10 +441,12 @@ fn read_vertices(
     positions: &mut Vec<Vec3>,
     normals: &mut Vec<Vec3>,
     uvs: &mut Vec<Vec2>,
-) -> Result<(), String> {
+) -> Result<(), PlyError> {
     let find = |name: &str| el.props.iter().position(|p| p.name == name);
     let (Some(ix), Some(iy), Some(iz)) = (find("x"), find("y"), find("z")) else {
-        return Err("the 'vertex' element lacks one of the properties x, y, z".into());
+        return Err(PlyError::from(
+            "the 'vertex' element lacks one of the properties x, y, z",
+        ));
     };
     let normal_idx = match (find("nx"), find("ny"), find("nz")) {
         (Some(a), Some(b), Some(c)) => Some([a, b, c]),
@@ -454,10 +466,10 @@ fn read_vertices(
         .chain(uv_idx.into_iter().flatten());
     for i in used {
         if matches!(el.props[i].ty, PropType::List { .. }) {
-            return Err(format!(
+            return Err(PlyError::from(format!(
                 "vertex property '{}' must be a number, not a list",
                 el.props[i].name
-            ));
+            )));
         }
     }
     let mut values = vec![0.0f64; el.props.len()];
@@ -475,7 +487,7 @@ fn read_vertices(
         }
         let p = Vec3::new(values[ix] as f32, values[iy] as f32, values[iz] as f32);
         if !p.is_finite() {
-            return Err(format!("vertex {i} is not a finite point"));
+            return Err(PlyError::from(format!("vertex {i} is not a finite point")));
         }
         positions.push(p);
         if let Some([a, b, c]) = normal_idx {
@@ -499,20 +511,22 @@ fn read_faces(
     el: &Element,
     vertex_count: usize,
     indices: &mut Vec<[u32; 3]>,
-) -> Result<(), String> {
+) -> Result<(), PlyError> {
     let Some(list) = el
         .props
         .iter()
         .position(|p| p.name == "vertex_indices")
         .or_else(|| el.props.iter().position(|p| p.name == "vertex_index"))
     else {
-        return Err("the 'face' element has no 'vertex_indices' (or 'vertex_index') list".into());
+        return Err(PlyError::from(
+            "the 'face' element has no 'vertex_indices' (or 'vertex_index') list",
+        ));
     };
     if !matches!(el.props[list].ty, PropType::List { .. }) {
-        return Err(format!(
+        return Err(PlyError::from(format!(
             "the face property '{}' must be a list",
             el.props[list].name
-        ));
+        )));
     }
     indices.reserve(el.count);
     let mut poly: Vec<u32> = Vec::new();
@@ -523,21 +537,23 @@ fn read_faces(
                 PropType::List { count, item } if k == list => {
                     let n = r.list_count(count)?;
                     if n < 3 {
-                        return Err(format!("face {f} has {n} vertices (at least 3 are needed)"));
+                        return Err(PlyError::from(format!(
+                            "face {f} has {n} vertices (at least 3 are needed)"
+                        )));
                     }
                     if n > r.remaining() {
-                        return Err("the file ends before all elements are read".into());
+                        return Err(PlyError::from("the file ends before all elements are read"));
                     }
                     if !item.is_integer() {
-                        return Err("face indices must have an integer type".into());
+                        return Err(PlyError::from("face indices must have an integer type"));
                     }
                     poly.clear();
                     for _ in 0..n {
                         let v = r.value(item)?;
                         if v < 0.0 || v >= vertex_count as f64 {
-                            return Err(format!(
+                            return Err(PlyError::from(format!(
                                 "face {f} refers to vertex {v}, but there are {vertex_count} vertices"
-                            ));
+                            )));
                         }
                         poly.push(v as u32);
                     }

@@ -16,21 +16,29 @@ pub struct Comparison {
     pub psnr: f64,
 }
 
+/// Two images that cannot be compared.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CompareError {
+    #[error("image sizes differ: {0}x{1} vs {2}x{3} (reference)")]
+    Size(usize, usize, usize, usize),
+    #[error("cannot compare empty images")]
+    Empty,
+    #[error("a bitmap's pixel count does not match its size")]
+    PixelCount,
+}
+
 /// Compares `a` against the reference `b`. The sizes must match and the
 /// images must not be empty.
-pub fn compare(a: &Bitmap, b: &Bitmap) -> Result<Comparison, String> {
+pub fn compare(a: &Bitmap, b: &Bitmap) -> Result<Comparison, CompareError> {
     if (a.width, a.height) != (b.width, b.height) {
-        return Err(format!(
-            "image sizes differ: {}x{} vs {}x{} (reference)",
-            a.width, a.height, b.width, b.height
-        ));
+        return Err(CompareError::Size(a.width, a.height, b.width, b.height));
     }
     let n = a.width * a.height;
     if n == 0 {
-        return Err("cannot compare empty images".into());
+        return Err(CompareError::Empty);
     }
     if a.pixels.len() != n || b.pixels.len() != n {
-        return Err("a bitmap's pixel count does not match its size".into());
+        return Err(CompareError::PixelCount);
     }
     let mut sq = 0.0f64;
     let mut rel = 0.0f64;
@@ -154,7 +162,9 @@ mod tests {
 
     #[test]
     fn size_mismatch_is_an_error() {
-        let err = compare(&filled(2, 2, Rgb::ONE), &filled(2, 3, Rgb::ONE)).unwrap_err();
+        let err = compare(&filled(2, 2, Rgb::ONE), &filled(2, 3, Rgb::ONE))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("2x2") && err.contains("2x3"), "{err}");
         assert!(compare(&Bitmap::new(0, 0), &Bitmap::new(0, 0)).is_err());
     }

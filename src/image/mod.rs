@@ -9,7 +9,7 @@ pub mod io;
 pub mod tonemap;
 
 pub use bitmap::Bitmap;
-pub use compare::{compare, difference_image, Comparison};
+pub use compare::{compare, difference_image, CompareError, Comparison};
 pub use film::{Film, FilmBlock};
 pub use filter::Filter;
 pub use io::{load_image, save_image, ImageError};

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use super::envmap::{self, EnvMapNames, EnvMapSpec, Texels};
 use super::props::{int_in, non_negative, positive};
 use super::props::{Kind, Props};
-use super::reader::{self, Dialect};
+use super::reader::{self, Dialect, LookAtError};
 use super::xml::{Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
 use crate::bsdf::{Bsdf, BsdfParam, Mirror};
@@ -1017,21 +1017,19 @@ fn set_sampler(ctx: &Ctx, slot: &mut Option<(u32, Pos)>, spp: u32, pos: Pos) -> 
 }
 
 /// Nori's lookAt: columns (left, up, dir, origin).
-fn look_at(origin: Vec3, target: Vec3, up: Option<Vec3>) -> std::result::Result<Mat4, String> {
+fn look_at(origin: Vec3, target: Vec3, up: Option<Vec3>) -> std::result::Result<Mat4, LookAtError> {
     let up = up.expect("Nori's <lookat> requires 'up'");
     let to = target - origin;
     if !to.length().is_finite() || to.length() <= 0.0 {
-        return Err(
-            "<lookat> target must differ from origin (and the distance must be finite)".into(),
-        );
+        return Err(LookAtError::TargetAtOrigin);
     }
     let dir = to.normalize();
     if !up.length().is_finite() || up.length() <= 0.0 {
-        return Err("<lookat> up vector must be non-zero and finite".into());
+        return Err(LookAtError::ZeroUp);
     }
     let left = up.normalize().cross(dir);
     if !left.is_finite() || left.length() <= 1e-6 {
-        return Err("<lookat> up vector is parallel to the viewing direction".into());
+        return Err(LookAtError::ParallelUp);
     }
     let left = left.normalize();
     let new_up = dir.cross(left).normalize();

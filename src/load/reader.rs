@@ -27,6 +27,17 @@ pub(crate) fn no_special(_: &SceneNode) -> Result<Option<(Value, Pos)>> {
     Ok(None)
 }
 
+/// A `<lookat>` that defines no frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub(crate) enum LookAtError {
+    #[error("invalid <lookat>: target must differ from origin (at a finite distance)")]
+    TargetAtOrigin,
+    #[error("invalid <lookat>: the up vector must be non-zero and finite")]
+    ZeroUp,
+    #[error("invalid <lookat>: the up vector is parallel to the viewing direction")]
+    ParallelUp,
+}
+
 /// The vocabulary of one scene dialect.
 pub(crate) struct Dialect {
     /// Element tags that create objects.
@@ -52,7 +63,7 @@ pub(crate) struct Dialect {
     /// A `<matrix>` may be 3x3 as well as 4x4.
     pub matrix3: bool,
     /// The dialect's `<lookat>`: origin, target and `up` (None if not given).
-    pub look_at: fn(Vec3, Vec3, Option<Vec3>) -> std::result::Result<Mat4, String>,
+    pub look_at: fn(Vec3, Vec3, Option<Vec3>) -> std::result::Result<Mat4, LookAtError>,
     /// Advice for elements the dialect does not know but a user may
     /// write (the other dialect's spelling, a fork's extension).
     pub element_hints: &'static [(&'static str, &'static str)],
@@ -443,7 +454,7 @@ impl Dialect {
                         Some(a) => Some(finite_vec3(file, a, false)?),
                         None => None,
                     };
-                    (self.look_at)(origin, target, up).map_err(|msg| err(op.pos, &msg))?
+                    (self.look_at)(origin, target, up).map_err(|e| err(op.pos, &e.to_string()))?
                 }
                 _ => unreachable!("checked against transform_ops"),
             };

@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
+use crate::image::io::Malformed;
 use crate::image::{save_image, save_png_tonemapped, Bitmap, ImageError, Tonemap};
 use crate::render::PassInfo;
 
@@ -186,7 +187,7 @@ impl PreviewState {
     /// The latest image as an 8-bit sRGB PNG after scaling by
     /// 2^`exposure` (clamped to +-[`MAX_EXPOSURE`]), and its pass number.
     /// The last encoding is cached, so several viewers cost one encode.
-    pub fn png(&self, exposure: f32) -> Result<(u32, Arc<Vec<u8>>), String> {
+    pub fn png(&self, exposure: f32) -> Result<(u32, Arc<Vec<u8>>), Malformed> {
         let exposure = clamp_exposure(exposure);
         let s = self.snapshot();
         if let Some((pass, bits, bytes)) = lock(&self.inner.png_cache).as_ref() {
@@ -261,12 +262,12 @@ pub fn with_ext(base: &Path, ext: &str) -> PathBuf {
 /// Encodes linear RGB as an 8-bit sRGB PNG after scaling by 2^`exposure`,
 /// clipping to [0, 1] (like the PNG the render writes). Fast compression:
 /// the preview favours latency over size.
-pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, String> {
+pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, Malformed> {
     if image.width == 0 || image.height == 0 {
-        return Err(format!(
+        return Err(Malformed(format!(
             "cannot encode a {}x{} image as PNG",
             image.width, image.height
-        ));
+        )));
     }
     if image.pixels.len() != image.width * image.height {
         return Err("pixel count does not match the image size".into());

@@ -199,7 +199,7 @@ pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response 
             match state.png(exposure) {
                 Ok((pass, bytes)) => Response::new(200, "image/png", bytes.as_slice())
                     .with_header("X-Lente-Pass", pass.to_string()),
-                Err(e) => Response::text(500, &e),
+                Err(e) => Response::text(500, &e.to_string()),
             }
         }
         "/save" => {

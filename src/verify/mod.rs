@@ -201,13 +201,22 @@ fn describe_table(t: &DirectionTable, r: &TestResult) -> String {
     s
 }
 
+/// A scene of a test file that cannot be built.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}:{pos}: {error}")]
+pub struct TestRunError {
+    pub file: String,
+    pub pos: crate::load::xml::Pos,
+    pub error: crate::scene::BuildError,
+}
+
 /// Runs every test of a file, reporting each outcome to `report` as soon
 /// as it is known. Fails only if a scene cannot be built.
 pub fn run_test_file(
     file: &TestFile,
     seed: u64,
     mut report: impl FnMut(&Outcome),
-) -> Result<Vec<Outcome>, String> {
+) -> Result<Vec<Outcome>, TestRunError> {
     let alpha = sidak(file.significance, file.test.test_count());
     let name = file.path.display().to_string();
     let mut out = Vec::new();
@@ -222,8 +231,11 @@ pub fn run_test_file(
             sample_count,
         } => {
             for (i, (case, &reference)) in scenes.iter().zip(references).enumerate() {
-                let scene = Scene::new(case.file.scene.clone())
-                    .map_err(|e| format!("{name}:{}: {e}", case.pos))?;
+                let scene = Scene::new(case.file.scene.clone()).map_err(|error| TestRunError {
+                    file: name.clone(),
+                    pos: case.pos,
+                    error,
+                })?;
                 let integrator = &case.file.job.integrator;
                 let mv = scene_mean(
                     &scene,

@@ -54,10 +54,15 @@ pub const WARPS: &[(&str, &str)] = &[
     ("microfacet_brdf", "ALPHA [KD]"),
 ];
 
+/// Warp-test arguments that name no warp (the message says why).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct WarpArgsError(pub String);
+
 impl Warp {
     /// The warp `name` with its parameters (numbers as text);
     /// `angle` is the incidence for `microfacet_brdf`.
-    pub fn parse(name: &str, params: &[String], angle: f32) -> Result<Warp, String> {
+    pub fn parse(name: &str, params: &[String], angle: f32) -> Result<Warp, WarpArgsError> {
         let usage = |n: &str, p: &str| {
             if p.is_empty() {
                 format!("'{n}' takes no parameters")
@@ -67,19 +72,20 @@ impl Warp {
         };
         let Some(&(known, args)) = WARPS.iter().find(|(n, _)| *n == name) else {
             let names: Vec<&str> = WARPS.iter().map(|w| w.0).collect();
-            return Err(format!(
+            return Err(WarpArgsError(format!(
                 "unknown warp '{name}'; known warps: {}",
                 names.join(", ")
-            ));
+            )));
         };
         let mut values = Vec::new();
         for p in params {
-            let v: f32 = p
-                .trim()
-                .parse()
-                .map_err(|_| format!("cannot read the parameter '{p}' as a number"))?;
+            let v: f32 = p.trim().parse().map_err(|_| {
+                WarpArgsError(format!("cannot read the parameter '{p}' as a number"))
+            })?;
             if !v.is_finite() {
-                return Err(format!("the parameter '{p}' must be a finite number"));
+                return Err(WarpArgsError(format!(
+                    "the parameter '{p}' must be a finite number"
+                )));
             }
             values.push(v);
         }
@@ -89,25 +95,27 @@ impl Warp {
             _ => 0,
         };
         if values.len() > max || (max > 0 && values.is_empty()) {
-            return Err(usage(known, args));
+            return Err(WarpArgsError(usage(known, args)));
         }
         let alpha = || {
             let a = values[0];
             if a > 0.0 && a.is_finite() {
                 Ok(a)
             } else {
-                Err(format!("ALPHA must be positive and finite, found {a}"))
+                Err(WarpArgsError(format!(
+                    "ALPHA must be positive and finite, found {a}"
+                )))
             }
         };
         if !angle.is_finite() || !(-90.0..90.0).contains(&angle) {
-            return Err(format!(
+            return Err(WarpArgsError(format!(
                 "the incidence angle must be between -90 and 90 degrees (exclusive), found {angle}"
-            ));
+            )));
         }
         if angle != 0.0 && known != "microfacet_brdf" {
-            return Err(format!(
+            return Err(WarpArgsError(format!(
                 "--angle applies to microfacet_brdf only, not to '{known}'"
-            ));
+            )));
         }
         Ok(match known {
             "square" => Warp::Square,
@@ -120,7 +128,9 @@ impl Warp {
             _ => {
                 let kd = values.get(1).copied().unwrap_or(0.0);
                 if !(0.0..=1.0).contains(&kd) {
-                    return Err(format!("KD must be between 0 and 1, found {kd}"));
+                    return Err(WarpArgsError(format!(
+                        "KD must be between 0 and 1, found {kd}"
+                    )));
                 }
                 Warp::MicrofacetBrdf {
                     alpha: alpha()?,
@@ -346,7 +356,7 @@ pub fn heat_map(h: &Histogram) -> Bitmap {
 mod tests {
     use super::*;
 
-    fn parse(name: &str, params: &[&str]) -> Result<Warp, String> {
+    fn parse(name: &str, params: &[&str]) -> Result<Warp, WarpArgsError> {
         let p: Vec<String> = params.iter().map(|s| s.to_string()).collect();
         Warp::parse(name, &p, 0.0)
     }
@@ -366,16 +376,24 @@ mod tests {
                 angle: 0.0
             })
         );
-        assert!(parse("beckmann", &[]).unwrap_err().contains("ALPHA"));
-        assert!(parse("beckmann", &["-1"]).unwrap_err().contains("positive"));
-        assert!(parse("disk", &["1"]).unwrap_err().contains("no parameters"));
+        assert!(parse("beckmann", &[]).unwrap_err().0.contains("ALPHA"));
+        assert!(parse("beckmann", &["-1"])
+            .unwrap_err()
+            .0
+            .contains("positive"));
+        assert!(parse("disk", &["1"])
+            .unwrap_err()
+            .0
+            .contains("no parameters"));
         assert!(parse("microfacet_brdf", &["0.1", "2"])
             .unwrap_err()
+            .0
             .contains("KD"));
         assert!(parse("beckman", &["0.1"])
             .unwrap_err()
+            .0
             .contains("known warps"));
-        assert!(parse("beckmann", &["x"]).unwrap_err().contains("'x'"));
+        assert!(parse("beckmann", &["x"]).unwrap_err().0.contains("'x'"));
         assert!(Warp::parse("disk", &[], 30.0).is_err());
     }
 

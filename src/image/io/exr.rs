@@ -6,6 +6,7 @@
 //! channels are ignored. Writing produces one 32-bit float RGB layer with
 //! ZIP compression.
 
+use super::Malformed;
 use std::io::Cursor;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -65,19 +66,19 @@ fn pick_channels(layer: &AnyLayer) -> Option<Pick> {
     None
 }
 
-fn channel_values(layer: &AnyLayer, index: usize, pixels: usize) -> Result<Vec<f32>, String> {
+fn channel_values(layer: &AnyLayer, index: usize, pixels: usize) -> Result<Vec<f32>, Malformed> {
     let channel: &AnyChannel<FlatSamples> = &layer.channel_data.list[index];
     let values = samples_as_f32(&channel.sample_data);
     if values.len() != pixels {
-        return Err(format!(
+        return Err(Malformed::from(format!(
             "OpenEXR channel '{}' is subsampled ({}x{}), which is not supported",
             channel.name, channel.sampling.0, channel.sampling.1
-        ));
+        )));
     }
     Ok(values)
 }
 
-pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
+pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
     // The exr crate reports bad files as errors; catching a panic as well
     // keeps any bug of its on hostile input from taking lente down.
     let read = catch_unwind(AssertUnwindSafe(|| {
@@ -91,8 +92,12 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
     }));
     let image = match read {
         Ok(Ok(image)) => image,
-        Ok(Err(e)) => return Err(format!("cannot decode OpenEXR: {e}")),
-        Err(_) => return Err("cannot decode OpenEXR: the decoder failed on this file".into()),
+        Ok(Err(e)) => return Err(Malformed::from(format!("cannot decode OpenEXR: {e}"))),
+        Err(_) => {
+            return Err(Malformed::from(
+                "cannot decode OpenEXR: the decoder failed on this file",
+            ))
+        }
     };
     for layer in &image.layer_data {
         let Some(pick) = pick_channels(layer) else {
@@ -128,18 +133,18 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
         .iter()
         .flat_map(|l| l.channel_data.list.iter().map(|c| c.name.to_string()))
         .collect();
-    Err(format!(
+    Err(Malformed::from(format!(
         "no OpenEXR layer has R, G, B or Y channels (found: {})",
         if found.is_empty() {
             "none".to_string()
         } else {
             found.join(", ")
         }
-    ))
+    )))
 }
 
 /// One layer of 32-bit float R, G, B; ZIP compression, increasing scanlines.
-pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, String> {
+pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
     let w = image.width;
     let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
         let p = image.pixels[pos.y() * w + pos.x()];

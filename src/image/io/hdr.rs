@@ -4,6 +4,7 @@
 //! markers) or "new" run-length encoded (each of the four components
 //! encoded separately).
 
+use super::Malformed;
 use super::RawImage;
 use crate::image::Bitmap;
 
@@ -96,7 +97,7 @@ struct Layout {
     scanline_len: usize,
 }
 
-fn parse_resolution(text: &str) -> Result<Layout, String> {
+fn parse_resolution(text: &str) -> Result<Layout, Malformed> {
     let bad = || {
         format!(
             "bad Radiance resolution line '{}' (expected e.g. '-Y 512 +X 1024')",
@@ -105,7 +106,7 @@ fn parse_resolution(text: &str) -> Result<Layout, String> {
     };
     let parts: Vec<&str> = text.split_whitespace().collect();
     if parts.len() != 4 {
-        return Err(bad());
+        return Err(Malformed::from(bad()));
     }
     let axis = |s: &str| -> Option<(bool, char)> {
         let mut ch = s.chars();
@@ -120,12 +121,14 @@ fn parse_resolution(text: &str) -> Result<Layout, String> {
     let (s1, a1) = axis(parts[0]).ok_or_else(bad)?;
     let (s2, a2) = axis(parts[2]).ok_or_else(bad)?;
     if a1 == a2 {
-        return Err(bad());
+        return Err(Malformed::from(bad()));
     }
     let n1: usize = parts[1].parse().map_err(|_| bad())?;
     let n2: usize = parts[3].parse().map_err(|_| bad())?;
     if n1 > MAX_SIDE || n2 > MAX_SIDE {
-        return Err(format!("Radiance image size {text} is too large"));
+        return Err(Malformed::from(format!(
+            "Radiance image size {text} is too large"
+        )));
     }
     Ok(if a1 == 'Y' {
         // Scanlines are rows; -Y means the first one is the top row.
@@ -154,7 +157,7 @@ fn parse_resolution(text: &str) -> Result<Layout, String> {
 }
 
 /// Decodes one scanline of `out.len()` pixels starting at `*pos`.
-fn read_scanline(bytes: &[u8], pos: &mut usize, out: &mut [[u8; 4]]) -> Result<(), String> {
+fn read_scanline(bytes: &[u8], pos: &mut usize, out: &mut [[u8; 4]]) -> Result<(), Malformed> {
     let len = out.len();
     let truncated = || "Radiance HDR file is truncated (pixel data ends early)".to_string();
     let head = bytes.get(*pos..*pos + 4).ok_or_else(truncated)?;
@@ -165,9 +168,9 @@ fn read_scanline(bytes: &[u8], pos: &mut usize, out: &mut [[u8; 4]]) -> Result<(
     {
         let encoded_len = (usize::from(head[2]) << 8) | usize::from(head[3]);
         if encoded_len != len {
-            return Err(format!(
+            return Err(Malformed::from(format!(
                 "Radiance HDR scanline length {encoded_len} does not match the image width {len}"
-            ));
+            )));
         }
         *pos += 4;
         for ch in 0..4 {
@@ -178,7 +181,7 @@ fn read_scanline(bytes: &[u8], pos: &mut usize, out: &mut [[u8; 4]]) -> Result<(
                 if count > 128 {
                     let run = usize::from(count - 128);
                     if run > len - x {
-                        return Err("Radiance HDR run overruns its scanline".into());
+                        return Err(Malformed::from("Radiance HDR run overruns its scanline"));
                     }
                     let &value = bytes.get(*pos).ok_or_else(truncated)?;
                     *pos += 1;
@@ -189,7 +192,7 @@ fn read_scanline(bytes: &[u8], pos: &mut usize, out: &mut [[u8; 4]]) -> Result<(
                 } else {
                     let n = usize::from(count);
                     if n == 0 || n > len - x {
-                        return Err("Radiance HDR run overruns its scanline".into());
+                        return Err(Malformed::from("Radiance HDR run overruns its scanline"));
                     }
                     let src = bytes.get(*pos..*pos + n).ok_or_else(truncated)?;
                     *pos += n;
@@ -210,11 +213,11 @@ fn read_scanline(bytes: &[u8], pos: &mut usize, out: &mut [[u8; 4]]) -> Result<(
         *pos += 4;
         if p[0] == 1 && p[1] == 1 && p[2] == 1 {
             if x == 0 || shift > 16 {
-                return Err("bad Radiance HDR old-style run".into());
+                return Err(Malformed::from("bad Radiance HDR old-style run"));
             }
             let count = usize::from(p[3]) << shift;
             if count > len - x {
-                return Err("Radiance HDR run overruns its scanline".into());
+                return Err(Malformed::from("Radiance HDR run overruns its scanline"));
             }
             let prev = out[x - 1];
             out[x..x + count].fill(prev);
@@ -229,9 +232,11 @@ fn read_scanline(bytes: &[u8], pos: &mut usize, out: &mut [[u8; 4]]) -> Result<(
     Ok(())
 }
 
-pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
+pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
     if !bytes.starts_with(b"#?") {
-        return Err("not a Radiance HDR file (no '#?' signature)".into());
+        return Err(Malformed::from(
+            "not a Radiance HDR file (no '#?' signature)",
+        ));
     }
     let mut pos = 0;
     loop {
@@ -243,10 +248,10 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
         if let Some(format) = l.strip_prefix(b"FORMAT=") {
             let format = String::from_utf8_lossy(format);
             if format.trim() != "32-bit_rle_rgbe" {
-                return Err(format!(
+                return Err(Malformed::from(format!(
                     "Radiance pixel format '{}' is not supported (only 32-bit_rle_rgbe)",
                     format.trim().escape_default()
-                ));
+                )));
             }
         }
     }
@@ -345,7 +350,7 @@ fn rle_component(data: &[u8], out: &mut Vec<u8>) {
 
 /// RGBE with the standard header and `-Y h +X w` orientation; scanlines are
 /// run-length encoded when their length allows it, flat otherwise.
-pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, String> {
+pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
     let (w, h) = (image.width, image.height);
     let mut out =
         format!("#?RADIANCE\n# lente\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();

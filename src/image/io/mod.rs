@@ -37,6 +37,24 @@ impl ImageError {
     }
 }
 
+/// What is wrong inside an image file (the decoders' and encoders'
+/// message; [`ImageError`] adds the path).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct Malformed(pub String);
+
+impl From<String> for Malformed {
+    fn from(message: String) -> Self {
+        Malformed(message)
+    }
+}
+
+impl From<&str> for Malformed {
+    fn from(message: &str) -> Self {
+        Malformed(message.to_string())
+    }
+}
+
 /// The file formats lente reads and writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Format {
@@ -105,13 +123,13 @@ pub fn load_image(path: &Path) -> Result<(Bitmap, Vec<String>), ImageError> {
         Format::Pfm => pfm::decode(&bytes),
         Format::Png => png::decode(&bytes),
     }
-    .map_err(|message| ImageError::new(path, message))?;
-    finish(raw).map_err(|message| ImageError::new(path, message))
+    .map_err(|m| ImageError::new(path, m.0))?;
+    finish(raw).map_err(|m| ImageError::new(path, m.0))
 }
 
 /// Checks decoded texels and turns them into a bitmap: rejects empty images
 /// and non-finite values, clamps negative values to zero (one warning).
-fn finish(raw: RawImage) -> Result<(Bitmap, Vec<String>), String> {
+fn finish(raw: RawImage) -> Result<(Bitmap, Vec<String>), Malformed> {
     let RawImage {
         width,
         height,
@@ -119,25 +137,27 @@ fn finish(raw: RawImage) -> Result<(Bitmap, Vec<String>), String> {
         mut data,
     } = raw;
     if width == 0 || height == 0 {
-        return Err(format!("image is empty ({width}x{height} pixels)"));
+        return Err(Malformed::from(format!(
+            "image is empty ({width}x{height} pixels)"
+        )));
     }
     let n = width * height;
     if data.len() != n * channels || !(channels == 1 || channels == 3) {
-        return Err(format!(
+        return Err(Malformed::from(format!(
             "internal decoder error: {} values for {width}x{height}x{channels}",
             data.len()
-        ));
+        )));
     }
     let non_finite = data.iter().filter(|v| !v.is_finite()).count();
     if non_finite > 0 {
-        return Err(format!(
+        return Err(Malformed::from(format!(
             "{non_finite} texel {} NaN or infinite",
             if non_finite == 1 {
                 "value is"
             } else {
                 "values are"
             }
-        ));
+        )));
     }
     let mut negative = 0usize;
     for v in &mut data {
@@ -207,7 +227,7 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
         Format::Pfm => Ok(pfm::encode(image)),
         Format::Png => png::encode(image),
     }
-    .map_err(|message| ImageError::new(path, message))?;
+    .map_err(|m| ImageError::new(path, m.0))?;
     write_atomically(path, &bytes)
 }
 
@@ -229,7 +249,7 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
         COUNTER.fetch_add(1, Ordering::Relaxed)
     );
     let tmp = dir.join(tmp_name);
-    let result = (|| -> Result<(), String> {
+    let result = (|| -> Result<(), Malformed> {
         let mut file = fs::OpenOptions::new()
             .write(true)
             .create_new(true)
@@ -240,11 +260,11 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
             .map_err(|e| format!("cannot write temporary file {}: {e}", tmp.display()))?;
         drop(file);
         fs::rename(&tmp, path)
-            .map_err(|e| format!("cannot rename {} into place: {e}", tmp.display()))
+            .map_err(|e| format!("cannot rename {} into place: {e}", tmp.display()).into())
     })();
     result.map_err(|message| {
         let _ = fs::remove_file(&tmp);
-        ImageError::new(path, message)
+        ImageError::new(path, message.0)
     })
 }
 

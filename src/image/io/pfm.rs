@@ -2,11 +2,12 @@
 //! `PF\n<width> <height>\n<scale>\n`, then 32-bit floats, rows bottom to top.
 //! A negative scale means little-endian data, a positive one big-endian.
 
+use super::Malformed;
 use super::RawImage;
 use crate::image::Bitmap;
 
 /// Reads the next whitespace-separated header token starting at `*pos`.
-fn token<'a>(bytes: &'a [u8], pos: &mut usize, what: &str) -> Result<&'a str, String> {
+fn token<'a>(bytes: &'a [u8], pos: &mut usize, what: &str) -> Result<&'a str, Malformed> {
     while *pos < bytes.len() && bytes[*pos].is_ascii_whitespace() {
         *pos += 1;
     }
@@ -15,22 +16,25 @@ fn token<'a>(bytes: &'a [u8], pos: &mut usize, what: &str) -> Result<&'a str, St
         *pos += 1;
     }
     if start == *pos {
-        return Err(format!("PFM header ends before the {what}"));
+        return Err(Malformed::from(format!(
+            "PFM header ends before the {what}"
+        )));
     }
-    std::str::from_utf8(&bytes[start..*pos]).map_err(|_| format!("PFM header: {what} is not text"))
+    std::str::from_utf8(&bytes[start..*pos])
+        .map_err(|_| Malformed(format!("PFM header: {what} is not text")))
 }
 
-pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
+pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
     let mut pos = 0;
     let magic = token(bytes, &mut pos, "'PF' or 'Pf' signature")?;
     let channels = match magic {
         "PF" => 3,
         "Pf" => 1,
         _ => {
-            return Err(format!(
+            return Err(Malformed::from(format!(
                 "not a PFM file: starts with '{}' instead of 'PF' or 'Pf'",
                 magic.escape_default()
-            ))
+            )))
         }
     };
     let parse_dim = |s: &str, what: &str| {
@@ -44,15 +48,15 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
         .parse()
         .map_err(|_| format!("PFM header: bad scale '{}'", scale_text.escape_default()))?;
     if scale == 0.0 || !scale.is_finite() {
-        return Err(format!(
+        return Err(Malformed::from(format!(
             "PFM header: scale must be a non-zero number, found {scale_text}"
-        ));
+        )));
     }
     let little_endian = scale < 0.0;
     // Exactly one whitespace character separates the header from the data.
     match bytes.get(pos) {
         Some(b) if b.is_ascii_whitespace() => pos += 1,
-        _ => return Err("PFM header is not followed by pixel data".into()),
+        _ => return Err(Malformed::from("PFM header is not followed by pixel data")),
     }
     let values = width
         .checked_mul(height)
@@ -61,11 +65,11 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
         .ok_or_else(|| format!("PFM size {width}x{height} is too large"))?;
     let data = &bytes[pos..];
     if data.len() < values * 4 {
-        return Err(format!(
+        return Err(Malformed::from(format!(
             "PFM file is truncated: {width}x{height}x{channels} needs {} bytes of pixel data, found {}",
             values * 4,
             data.len()
-        ));
+        )));
     }
     let row = width * channels;
     let mut out = Vec::with_capacity(values);

@@ -1,6 +1,7 @@
 //! PNG through the `image` crate: any bit depth and colour type in, decoded
 //! from sRGB to linear (alpha ignored); 8-bit sRGB RGB out.
 
+use super::Malformed;
 use std::io::Cursor;
 
 use image::{DynamicImage, ImageEncoder};
@@ -9,7 +10,7 @@ use super::RawImage;
 use crate::color::{srgb_decode, srgb_encode};
 use crate::image::Bitmap;
 
-pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
+pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
     let decoder = image::codecs::png::PngDecoder::new(Cursor::new(bytes))
         .map_err(|e| format!("cannot decode PNG: {e}"))?;
     let img = DynamicImage::from_decoder(decoder).map_err(|e| format!("cannot decode PNG: {e}"))?;
@@ -46,17 +47,17 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, String> {
 }
 
 /// 8-bit sRGB-encoded RGB, values clamped to [0, 1] (NaN becomes 0).
-pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, String> {
+pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
     encode_scaled(image, 1.0, false)
 }
 
 /// Like [`encode`] after multiplying by `scale`; `fast` trades file size
 /// for speed (live previews).
-pub fn encode_scaled(image: &Bitmap, scale: f32, fast: bool) -> Result<Vec<u8>, String> {
+pub fn encode_scaled(image: &Bitmap, scale: f32, fast: bool) -> Result<Vec<u8>, Malformed> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     let (w, h) = match (u32::try_from(image.width), u32::try_from(image.height)) {
         (Ok(w), Ok(h)) => (w, h),
-        _ => return Err("image is too large for PNG".into()),
+        _ => return Err(Malformed::from("image is too large for PNG")),
     };
     let quantise = |v: f32| {
         let v = v * scale;

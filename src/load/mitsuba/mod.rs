@@ -37,7 +37,7 @@ use sensor::{default_sensor, SensorDesc};
 
 use super::props::shorten;
 use super::props::{self, Props, Value};
-use super::reader::{self, Dialect};
+use super::reader::{self, Dialect, LookAtError};
 use super::xml::{describe, Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
 use crate::integrator::{Integrator, PathParams, Strategy};
@@ -700,14 +700,12 @@ fn spectrum_property(file: &Path, node: &SceneNode) -> Result<Option<(Value, Pos
 /// Mitsuba's `look_at`: columns (left, up, dir, origin) with left =
 /// up x dir; a zero `up` takes the first tangent of Mitsuba's
 /// `coordinate_system(dir)` (the same frame as [`Frame::from_normal`]).
-fn look_at(origin: Vec3, target: Vec3, up: Option<Vec3>) -> std::result::Result<Mat4, String> {
+fn look_at(origin: Vec3, target: Vec3, up: Option<Vec3>) -> std::result::Result<Mat4, LookAtError> {
     let up = up.unwrap_or(Vec3::ZERO);
     let to = target - origin;
     let len = to.length();
     if !(len > 0.0 && len.is_finite()) {
-        return Err(
-            "invalid <lookat>: target must differ from origin (at a finite distance)".into(),
-        );
+        return Err(LookAtError::TargetAtOrigin);
     }
     let dir = to / len;
     let up = if up == Vec3::ZERO {
@@ -718,7 +716,7 @@ fn look_at(origin: Vec3, target: Vec3, up: Option<Vec3>) -> std::result::Result<
     let left = up.cross(dir);
     let l = left.length();
     if !(l > 1e-6 * up.length() && l.is_finite()) {
-        return Err("invalid <lookat>: the up vector is parallel to the viewing direction".into());
+        return Err(LookAtError::ParallelUp);
     }
     let left = left / l;
     let new_up = dir.cross(left);
