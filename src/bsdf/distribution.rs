@@ -65,14 +65,23 @@ pub struct Roughness {
 }
 
 impl Roughness {
-    /// The same roughness in every direction.
-    pub fn isotropic(distribution: MicrofacetType, alpha: f32, sample_visible: bool) -> Roughness {
+    pub fn new(
+        distribution: MicrofacetType,
+        alpha_u: f32,
+        alpha_v: f32,
+        sample_visible: bool,
+    ) -> Roughness {
         Roughness {
             distribution,
-            alpha_u: alpha,
-            alpha_v: alpha,
+            alpha_u,
+            alpha_v,
             sample_visible,
         }
+    }
+
+    /// The same roughness in every direction.
+    pub fn isotropic(distribution: MicrofacetType, alpha: f32, sample_visible: bool) -> Roughness {
+        Roughness::new(distribution, alpha, alpha, sample_visible)
     }
 
     /// The distribution, for finite, non-negative roughness values.

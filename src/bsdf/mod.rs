@@ -127,12 +127,7 @@ impl Bsdf {
         specular_reflectance: Rgb,
         sample_visible: bool,
     ) -> Result<Bsdf, BsdfError> {
-        let roughness = Roughness {
-            distribution,
-            alpha_u,
-            alpha_v,
-            sample_visible,
-        };
+        let roughness = Roughness::new(distribution, alpha_u, alpha_v, sample_visible);
         Ok(Bsdf::RoughConductor(RoughConductor::new(
             roughness,
             eta,
@@ -168,12 +163,7 @@ impl Bsdf {
         specular_transmittance: Rgb,
         sample_visible: bool,
     ) -> Result<Bsdf, BsdfError> {
-        let roughness = Roughness {
-            distribution,
-            alpha_u,
-            alpha_v,
-            sample_visible,
-        };
+        let roughness = Roughness::new(distribution, alpha_u, alpha_v, sample_visible);
         Ok(Bsdf::RoughDielectric(RoughDielectric::new(
             roughness,
             int_ior,

@@ -13,7 +13,7 @@ use lente::emitter::{Emitter, EnvMap};
 use lente::geometry::Geometry;
 use lente::image::Bitmap;
 use lente::integrator::{Integrator, Strategy};
-use lente::load::{load_scene_str, SceneError, SceneFile, Warning};
+use lente::load::{SceneError, SceneFile, Warning};
 use lente::math::{Vec2, Vec3, PI};
 use lente::render::{render, RenderJob, RenderOptions};
 use lente::scene::Scene;
@@ -27,30 +27,17 @@ fn scene_path() -> PathBuf {
 
 #[track_caller]
 fn load(text: &str) -> (SceneFile, Vec<Warning>) {
-    load_at(text, &scene_path())
-}
-
-#[track_caller]
-fn load_at(text: &str, path: &Path) -> (SceneFile, Vec<Warning>) {
-    match load_scene_str(text, path) {
-        Ok(r) => r,
-        Err(e) => panic!("scene should load: {e}\n{text}"),
-    }
+    crate::common::load_at(text, &scene_path(), &[])
 }
 
 #[track_caller]
 fn load_clean(text: &str) -> SceneFile {
-    let (desc, warnings) = load(text);
-    assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
-    desc
+    crate::common::load_clean_at(text, &scene_path())
 }
 
 #[track_caller]
 fn load_err(text: &str) -> SceneError {
-    match load_scene_str(text, &scene_path()) {
-        Ok(_) => panic!("scene should not load:\n{text}"),
-        Err(e) => e,
-    }
+    crate::common::load_err_at(text, &scene_path())
 }
 
 /// The one warning of a scene, which must mention every word of `words`
@@ -468,7 +455,7 @@ fn environment_map_as_the_zaragoza_fork_writes_it() {
     let gain = Rgb::new(2.0, 1.0, 0.5) * 1.5;
 
     // As written: lente's layout, with the warning.
-    let (desc, warnings) = load_at(&scene(""), &path);
+    let (desc, warnings) = crate::common::load_at(&scene(""), &path, &[]);
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     let w = &warnings[0];
     assert_eq!((w.line, w.col), (6, 39), "{w:?}");
@@ -486,7 +473,7 @@ fn environment_map_as_the_zaragoza_fork_writes_it() {
         r#"
         <transform name="toWorld"><rotate axis="0,1,0" angle="-90"/></transform>"#,
     );
-    let (desc, warnings) = load_at(&rotated, &path);
+    let (desc, warnings) = crate::common::load_at(&rotated, &path, &[]);
     assert!(warnings.is_empty(), "{warnings:?}");
     let env = env_of(&desc);
     let theta = 0.25 * PI;

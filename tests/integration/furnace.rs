@@ -1,9 +1,7 @@
 //! Furnace tests: closed emitting diffuse boxes and white furnaces whose
 //! answers are known in closed form, checked with Student t-tests.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use lente::color::Rgb;
 use lente::emitter::Emitter;
 use lente::geometry::Geometry;

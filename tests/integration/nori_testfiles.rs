@@ -2,12 +2,10 @@
 //! all of them pass, wrong references fail, and the references are what
 //! the formulas in the files' comments say.
 
-mod cli_util;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use cli_util::dump;
+use crate::cli_util::dump;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
 use lente::load::nori_testfile::{load_test, NoriTest};

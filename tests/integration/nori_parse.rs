@@ -1,7 +1,5 @@
 //! Valid Nori scenes: defaults, transforms, filters, files, value syntax.
 
-use std::path::Path;
-
 use lente::bsdf::Bsdf;
 use lente::camera::{Aperture, CameraParams};
 use lente::color::Rgb;
@@ -9,25 +7,10 @@ use lente::emitter::Emitter;
 use lente::geometry::Geometry;
 use lente::image::Filter;
 use lente::integrator::{Integrator, PathParams, Strategy};
-use lente::load::SceneFile;
-use lente::load::{load_scene, load_scene_str, Warning};
+use lente::load::{load_scene, load_scene_str};
 use lente::math::{Transform, Vec3, PI};
 
-#[track_caller]
-fn load(text: &str) -> (SceneFile, Vec<Warning>) {
-    match load_scene_str(text, Path::new("test.xml")) {
-        Ok(r) => r,
-        Err(e) => panic!("scene should load: {e}"),
-    }
-}
-
-/// Loads a scene that must produce no warnings.
-#[track_caller]
-fn load_clean(text: &str) -> SceneFile {
-    let (desc, warnings) = load(text);
-    assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
-    desc
-}
+use crate::common::load_clean;
 
 #[track_caller]
 fn close(a: Vec3, b: Vec3) {

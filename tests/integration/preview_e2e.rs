@@ -11,8 +11,6 @@
 //! Without Chromium the test is skipped, unless `CI` is set: then it fails
 //! (`.ci/run` installs Debian's `chromium`).
 
-mod cli_util;
-
 use std::fs::File;
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -20,7 +18,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use cli_util::*;
+use crate::cli_util::*;
 use serde_json::{json, Value};
 
 /// The Chromium binary: `$LENTE_CHROMIUM`, or `chromium` /

@@ -1,11 +1,9 @@
 //! Renders are the same bit for bit whatever the thread count, and renders
 //! with different seeds are independent.
 
-mod common;
-
 use std::sync::atomic::AtomicBool;
 
-use common::*;
+use crate::common::*;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
 use lente::geometry::Geometry;

@@ -1,11 +1,9 @@
 //! `lente compare` and `lente convert` from the outside: results match the
 //! library's, and bad input fails with one line and a non-zero exit code.
 
-mod cli_util;
-
 use std::path::Path;
 
-use cli_util::*;
+use crate::cli_util::*;
 use lente::color::Rgb;
 use lente::image::{compare, load_image, save_image, tonemap, Bitmap, Tonemap};
 

@@ -16,37 +16,12 @@ use lente::load::{
 };
 use lente::math::{Mat4, Transform, Vec2, Vec3, PI};
 
+use crate::common::{load, load_clean, load_err};
+
+/// [`crate::common::load_at`] `test.xml` with `-D` parameters.
 #[track_caller]
 fn load_with(text: &str, defines: &[(&str, &str)]) -> (SceneFile, Vec<Warning>) {
-    let defines: Vec<(String, String)> = defines
-        .iter()
-        .map(|(a, b)| (a.to_string(), b.to_string()))
-        .collect();
-    match load_scene_str_with(text, Path::new("test.xml"), &defines) {
-        Ok(r) => r,
-        Err(e) => panic!("scene should load: {e}\n{text}"),
-    }
-}
-
-#[track_caller]
-fn load(text: &str) -> (SceneFile, Vec<Warning>) {
-    load_with(text, &[])
-}
-
-/// Loads a scene that must produce no warnings.
-#[track_caller]
-fn load_clean(text: &str) -> SceneFile {
-    let (desc, warnings) = load(text);
-    assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
-    desc
-}
-
-#[track_caller]
-fn load_err(text: &str) -> SceneError {
-    match load_scene_str(text, Path::new("test.xml")) {
-        Ok(_) => panic!("scene should not load:\n{text}"),
-        Err(e) => e,
-    }
+    crate::common::load_at(text, Path::new(crate::common::TEST_XML), defines)
 }
 
 /// The error must be at line:col and mention every word.

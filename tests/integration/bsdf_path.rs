@@ -6,9 +6,7 @@
 //! and rough glass
 //! go through NEE and MIS with their eval/pdf, glass from both sides.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use lente::bsdf::{conductor_preset, Bsdf, MicrofacetType};
 use lente::color::Rgb;
 use lente::emitter::Emitter;

@@ -1,18 +1,16 @@
 //! `lente warptest`: Nori's warps pass their chi-square tests, the heat
 //! map is written, and bad arguments are refused.
 
-mod cli_util;
-
 use std::process::Output;
 
-use cli_util::dump;
+use crate::cli_util::dump;
 use lente::image::io::load_image;
 
 fn warptest(args: &[&str]) -> Output {
     let all: Vec<&str> = std::iter::once("warptest")
         .chain(args.iter().copied())
         .collect();
-    cli_util::run(&all)
+    crate::cli_util::run(&all)
 }
 
 fn passes(args: &[&str]) {

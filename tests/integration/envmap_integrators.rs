@@ -1,9 +1,7 @@
 //! The three path tracers under an environment map with a small, very
 //! bright sun: they agree in expectation, and MIS is far less noisy.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
 use lente::emitter::{Emitter, EnvFilter, EnvMap};

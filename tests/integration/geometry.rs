@@ -1,9 +1,7 @@
 //! Geometry: the BVH with the watertight triangle test lets no ray escape a
 //! closed mesh; robust offsets avoid self-intersection.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use lente::geometry::{Bvh, Geometry};
 use lente::math::{offset_ray_origin, Ray, Vec3};
 use lente::sampling::{warp, Sampler};
@@ -147,12 +145,15 @@ fn huge_triangles_do_not_shadow_themselves() {
         vec![[0, 2, 1], [0, 3, 2]],
     )
     .unwrap();
-    let mut d = common::desc(
-        common::look_at(Vec3::new(0.0, 2.0, 5.0), Vec3::ZERO, 40.0, 8, 8),
-        common::path(lente::integrator::Strategy::Mis),
+    let mut d = crate::common::desc(
+        crate::common::look_at(Vec3::new(0.0, 2.0, 5.0), Vec3::ZERO, 40.0, 8, 8),
+        crate::common::path(lente::integrator::Strategy::Mis),
     );
-    d.shapes
-        .push(common::shape(Geometry::Mesh(m), common::diffuse(0.5), None));
+    d.shapes.push(crate::common::shape(
+        Geometry::Mesh(m),
+        crate::common::diffuse(0.5),
+        None,
+    ));
     let scene = d.build();
     let mut s = Sampler::new(3, 3);
     let mut self_hits = 0;

@@ -2,8 +2,6 @@
 //! that uses every part of the dialect either load or fail with a located
 //! error.
 
-mod mutation;
-
 use lente::load::load_scene_str_with;
 
 /// A valid scene that touches every part of the dialect.
@@ -128,7 +126,7 @@ fn random_mutations_never_panic() {
     assert_eq!(desc.scene.shapes.len(), 7);
     assert_eq!(desc.scene.emitters.len(), 3);
 
-    mutation::loads_or_fails_located(
+    crate::mutation::loads_or_fails_located(
         RICH_SCENE,
         "<>/=\"' ,.-+e0123456789\n\t&;!?xyz$\\:é\u{0}\u{feff}",
         0x3175_0BA5,

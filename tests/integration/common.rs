@@ -1,6 +1,8 @@
 //! Scene builders and estimators shared by the integration tests.
 #![allow(dead_code)]
 
+use std::path::Path;
+
 use lente::bsdf::Bsdf;
 use lente::camera::CameraParams;
 use lente::color::{luminance, Rgb};
@@ -8,11 +10,65 @@ use lente::emitter::Emitter;
 use lente::geometry::{Geometry, Sphere, TriangleMesh};
 use lente::image::Filter;
 use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::load::{load_scene_str, load_scene_str_with, SceneError, SceneFile, Warning};
 use lente::math::{Transform, Vec2, Vec3};
 use lente::render::RenderJob;
 use lente::sampling::Sampler;
 use lente::scene::{Scene, SceneDesc, ShapeDesc};
 use lente::stats::MeanVar;
+
+/// Where scene text under test is said to come from, unless a test names
+/// another path (relative file names resolve against its folder).
+pub const TEST_XML: &str = "test.xml";
+
+/// Loads scene text as read from `path`, with `-D` parameters; panics
+/// with the error (and its causes) if it does not load.
+#[track_caller]
+pub fn load_at(text: &str, path: &Path, defines: &[(&str, &str)]) -> (SceneFile, Vec<Warning>) {
+    let defines: Vec<(String, String)> = defines
+        .iter()
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+        .collect();
+    match load_scene_str_with(text, path, &defines) {
+        Ok(r) => r,
+        Err(e) => panic!("scene should load: {}\n{text}", e.report()),
+    }
+}
+
+/// [`load_at`] `test.xml` without parameters.
+#[track_caller]
+pub fn load(text: &str) -> (SceneFile, Vec<Warning>) {
+    load_at(text, Path::new(TEST_XML), &[])
+}
+
+/// Loads scene text that must load without warnings.
+#[track_caller]
+pub fn load_clean_at(text: &str, path: &Path) -> SceneFile {
+    let (file, warnings) = load_at(text, path, &[]);
+    assert!(warnings.is_empty(), "unexpected warnings: {warnings:?}");
+    file
+}
+
+/// [`load_clean_at`] `test.xml`.
+#[track_caller]
+pub fn load_clean(text: &str) -> SceneFile {
+    load_clean_at(text, Path::new(TEST_XML))
+}
+
+/// The error of scene text that must not load.
+#[track_caller]
+pub fn load_err_at(text: &str, path: &Path) -> SceneError {
+    match load_scene_str(text, path) {
+        Ok(_) => panic!("scene should not load:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+/// [`load_err_at`] `test.xml`.
+#[track_caller]
+pub fn load_err(text: &str) -> SceneError {
+    load_err_at(text, Path::new(TEST_XML))
+}
 
 /// An axis-aligned box [-h, h]^3 with each face split into `n` x `n` quads
 /// sharing vertices (so the mesh is closed), triangles facing outwards.

@@ -1,9 +1,7 @@
 //! Nori's remaining integrators agree in expectation with the path tracers
 //! (or with closed forms) where they compute the same quantity.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
 use lente::geometry::{Geometry, TriangleMesh};

@@ -1,8 +1,6 @@
 //! Bad scene files: every error and warning names the file, the right line
 //! and column, and what went wrong; no input makes the loader panic.
 
-mod mutation;
-
 use std::path::{Path, PathBuf};
 
 use tempfile::TempDir;
@@ -863,7 +861,7 @@ fn random_mutations_never_panic() {
     let (_, warnings) = load_scene_str(RICH_SCENE, &path).expect("the base scene must load");
     assert!(warnings.is_empty(), "{warnings:?}");
 
-    mutation::loads_or_fails_located(
+    crate::mutation::loads_or_fails_located(
         RICH_SCENE,
         "<>/=\"' ,.-+e0123456789\n\t&;!?xyzé\u{0}\u{feff}",
         0x5EED_1E47,

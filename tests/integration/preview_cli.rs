@@ -3,11 +3,9 @@
 //! answer (and refuse what they should), a busy port is a clear error, and
 //! checkpoints appear while the render runs.
 
-mod cli_util;
-
 use std::time::Duration;
 
-use cli_util::*;
+use crate::cli_util::*;
 use lente::image::load_image;
 
 fn status(port: u16) -> serde_json::Value {

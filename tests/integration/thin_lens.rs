@@ -1,11 +1,9 @@
 //! Thin-lens depth of field: geometry of the circle of confusion, and
 //! renders of point-like lights in and out of focus.
 
-mod common;
-
 use std::sync::atomic::AtomicBool;
 
-use common::*;
+use crate::common::*;
 use lente::camera::{Aperture, Camera, CameraParams};
 use lente::color::{luminance, Rgb};
 use lente::image::Bitmap;
