@@ -22,6 +22,7 @@ mod geometry;
 mod microfacet;
 mod mitsuba_conformance;
 mod mitsuba_mutations;
+mod mitsuba_objects;
 mod mitsuba_parse;
 mod nori_forks;
 mod nori_integrators;
