@@ -7,7 +7,7 @@ folder; files go next to this script). Plain Python, no packages:
 - prism.ply: a hexagonal prism, binary little-endian, with uvs and
   per-corner normals (flat sides, split vertices);
 - stripes.pfm: a 32 x 16 lat-long map whose rows are all equal (it varies
-  with the azimuth only; see tests/mitsuba_conformance.rs for why), with a
+  with the azimuth only; see tests/integration/mitsuba_conformance.rs for why), with a
   bright sector and a colour ramp.
 """
 

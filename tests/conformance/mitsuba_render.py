@@ -6,7 +6,7 @@ scalar_rgb) and writes the per-pixel mean and the variance of that mean.
 
 writes PREFIX-mean.pfm and PREFIX-var.pfm (3-channel little-endian PFM,
 linear RGB): mean = (1/K) sum_k x_k, var = sample variance of the x_k / K.
-Used by tests/mitsuba_conformance.rs; needs only the mitsuba wheel (no
+Used by tests/integration/mitsuba_conformance.rs; needs only the mitsuba wheel (no
 numpy). Seeds are 1, 3, 5, ...: in scalar variants Mitsuba seeds pixel i of
 block b with seed * W * H + b * B * B + i (B = block size), so the blocks of
 seed s can reach into seed s + 1's range when the image is not a multiple
