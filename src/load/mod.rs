@@ -5,11 +5,11 @@
 //! `mitsuba` map Nori's and Mitsuba 3's dialects onto the scene objects;
 //! `nori_testfile` reads Nori's `<test>` files.
 
-mod envmap;
 mod error;
 pub mod mitsuba;
 pub mod nori;
 pub mod nori_testfile;
+mod objects;
 pub mod props;
 mod reader;
 pub mod xml;

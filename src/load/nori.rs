@@ -18,7 +18,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::envmap::{self, EnvMapNames, EnvMapSpec, Texels};
+use super::objects::{self, EnvMapNames, EnvMapSpec, Texels};
 use super::props::{int_in, non_negative, positive};
 use super::props::{Kind, Props};
 use super::reader::{self, Dialect, LookAtError};
@@ -29,7 +29,7 @@ use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
 use crate::emitter::{ConstantLight, Emitter, EmitterError, EnvFilter, PointLight};
-use crate::geometry::{load_obj, Geometry, Sphere, SphereError};
+use crate::geometry::{load_obj, Geometry, Sphere};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Mat4, Transform, Vec3, PI};
@@ -72,6 +72,7 @@ static NORI: Dialect = Dialect {
     xyz_attributes: false,
     matrix3: false,
     look_at,
+    shape_tag: "mesh",
     element_hints: &[
         (
             "texture",
@@ -563,15 +564,7 @@ impl<'a> Ctx<'a> {
                 }
                 Source::Obj(self.dir.join(name))
             }
-            "sphere" => {
-                let center = p.get_point("center", Vec3::ZERO)?;
-                let radius = p.get_float("radius", 1.0)?;
-                let sphere = Sphere::new(center, radius).map_err(|e| match e {
-                    SphereError::Radius(_) => p.param_error("radius", &e),
-                    _ => p.param_error("center", &e),
-                })?;
-                Source::Sphere(sphere)
-            }
+            "sphere" => Source::Sphere(objects::sphere(&mut p)?),
             _ => unreachable!(),
         };
         let filename_pos = p.value_pos("filename");
@@ -732,23 +725,7 @@ impl<'a> Ctx<'a> {
     fn emitter(&mut self, node: &SceneNode, in_mesh: bool) -> Result<EmitterDesc> {
         let ty = self.object_type(node, EMITTER_TYPES)?;
         let owner = format!("<emitter type=\"{ty}\">");
-        if in_mesh && ty != "area" {
-            return Err(self.err(
-                node.pos,
-                format!(
-                    "{owner} cannot stand inside a <mesh>; only area emitters can, \
-                     a {ty} emitter belongs directly inside <scene>"
-                ),
-            ));
-        }
-        if !in_mesh && ty == "area" {
-            return Err(self.err(
-                node.pos,
-                format!(
-                    "{owner} cannot stand inside <scene>; an area emitter belongs inside a <mesh>"
-                ),
-            ));
-        }
+        NORI.check_emitter_place(self.file, node, ty, in_mesh)?;
         let (mut p, objects) = self.read_object(node, &owner)?;
         self.no_children(objects, &owner)?;
         let desc = match ty {
@@ -871,7 +848,7 @@ impl<'a> Ctx<'a> {
                     to_world,
                     filter,
                 };
-                let mut env = envmap::build(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
+                let mut env = objects::envmap(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 env.visible = visible;
                 p.finish(&mut self.warnings);
                 return Ok(EmitterDesc::Free {
@@ -914,7 +891,7 @@ impl<'a> Ctx<'a> {
                     to_world: Transform::IDENTITY,
                     filter: EnvFilter::Bilinear,
                 };
-                let mut env = envmap::build(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
+                let mut env = objects::envmap(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 env.visible = visible;
                 p.finish(&mut self.warnings);
                 return Ok(EmitterDesc::Free {

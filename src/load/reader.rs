@@ -64,6 +64,8 @@ pub(crate) struct Dialect {
     pub matrix3: bool,
     /// The dialect's `<lookat>`: origin, target and `up` (None if not given).
     pub look_at: fn(Vec3, Vec3, Option<Vec3>) -> std::result::Result<Mat4, LookAtError>,
+    /// The element of a shape (`mesh`, `shape`), where area emitters go.
+    pub shape_tag: &'static str,
     /// Advice for elements the dialect does not know but a user may
     /// write (the other dialect's spelling, a fork's extension).
     pub element_hints: &'static [(&'static str, &'static str)],
@@ -219,6 +221,31 @@ impl Dialect {
             t.value_pos,
             format!("{what}; lente reads: {}{hint}", known.join(", ")),
         ))
+    }
+
+    /// An area emitter must stand in a shape and every other emitter
+    /// directly in the scene; `in_shape` says where `node` (an emitter of
+    /// type `ty`) stands.
+    pub fn check_emitter_place(
+        &self,
+        file: &Path,
+        node: &SceneNode,
+        ty: &str,
+        in_shape: bool,
+    ) -> Result<()> {
+        let owner = describe(node);
+        let shape = self.shape_tag;
+        let message = match (in_shape, ty == "area") {
+            (true, false) => format!(
+                "{owner} cannot stand inside a <{shape}>; only area emitters can, a {ty} \
+                 emitter belongs directly inside <scene>"
+            ),
+            (false, true) => format!(
+                "{owner} cannot stand inside <scene>; an area emitter belongs inside a <{shape}>"
+            ),
+            _ => return Ok(()),
+        };
+        Err(SceneError::new(file, node.pos, message))
     }
 
     /// Reads one property element into `props`.

@@ -5,7 +5,7 @@ use crate::color::Rgb;
 use crate::emitter::{
     ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight,
 };
-use crate::load::envmap::{self, EnvMapNames, EnvMapSpec, Texels};
+use crate::load::objects::{self, EnvMapNames, EnvMapSpec, Texels};
 use crate::load::props::Props;
 use crate::load::xml::SceneNode;
 use crate::load::SceneError;
@@ -47,23 +47,7 @@ impl<'d> Ctx<'d> {
             ],
         )?;
         let owner = format!("<emitter type=\"{ty}\">");
-        if in_shape && ty != "area" {
-            return Err(self.err(
-                node.pos,
-                format!(
-                    "{owner} cannot stand inside a <shape>; only area emitters can, \
-                     a {ty} emitter belongs directly inside <scene>"
-                ),
-            ));
-        }
-        if !in_shape && ty == "area" {
-            return Err(self.err(
-                node.pos,
-                format!(
-                    "{owner} cannot stand inside <scene>; an area emitter belongs inside a <shape>"
-                ),
-            ));
-        }
+        super::MITSUBA.check_emitter_place(self.file(), node, ty, in_shape)?;
         let (mut p, children) = self.read_object(node, &owner)?;
         self.no_children(&children, &owner)?;
         let both = |p: &Props, a: &str, b: &str| -> Result<()> {
@@ -145,7 +129,7 @@ impl<'d> Ctx<'d> {
                     to_world: p.get_transform("to_world", Transform::IDENTITY)?,
                     filter: EnvFilter::Bilinear,
                 };
-                let env = envmap::build(&p, &MITSUBA_ENVMAP_NAMES, spec, &mut self.warnings)?;
+                let env = objects::envmap(&p, &MITSUBA_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 p.finish(&mut self.warnings);
                 return Ok(EmitterDesc::Free {
                     emitter: Emitter::Environment(Box::new(env)),

@@ -84,6 +84,7 @@ static MITSUBA: Dialect = Dialect {
     xyz_attributes: true,
     matrix3: true,
     look_at,
+    shape_tag: "shape",
     element_hints: &[
         ("color", "that is Nori's; Mitsuba writes <rgb>"),
         ("mesh", "that is Nori's; Mitsuba writes <shape>"),

@@ -6,6 +6,7 @@ use super::Ctx;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::color::Rgb;
 use crate::geometry::{self, Geometry, ShapeError, Sphere, SphereError, TriangleMesh};
+use crate::load::objects;
 use crate::load::props::positive;
 use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
@@ -106,15 +107,7 @@ impl<'d> Ctx<'d> {
                     smooth: false,
                 }
             }
-            _ => {
-                let center = p.get_point("center", Vec3::ZERO)?;
-                let radius = p.get_float("radius", 1.0)?;
-                let sphere = Sphere::new(center, radius).map_err(|e| match e {
-                    SphereError::Radius(_) => p.param_error("radius", &e),
-                    _ => p.param_error("center", &e),
-                })?;
-                Source::Sphere(sphere)
-            }
+            _ => Source::Sphere(objects::sphere(&mut p)?),
         };
         p.finish(&mut self.warnings);
 

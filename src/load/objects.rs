@@ -1,6 +1,7 @@
-//! Environment maps named in scene files, for both dialects: the image
-//! is read once, here, and [`EnvMap::new`] checks the map; errors point
-//! at the property that names the wrong value.
+//! Scene objects both dialects build the same way from their properties:
+//! environment maps (the image is read once, here, and [`EnvMap::new`]
+//! checks the map) and spheres. Errors point at the property that names
+//! the wrong value.
 
 use std::path::PathBuf;
 
@@ -8,8 +9,9 @@ use super::props::Props;
 use super::{SceneError, Warning};
 use crate::color::Rgb;
 use crate::emitter::{EnvFilter, EnvMap, EnvMapParam};
+use crate::geometry::{Sphere, SphereError};
 use crate::image::Bitmap;
-use crate::math::Transform;
+use crate::math::{Transform, Vec3};
 
 /// Where a map's texels come from.
 pub(crate) enum Texels {
@@ -38,7 +40,7 @@ pub(crate) struct EnvMapSpec {
 }
 
 /// Builds the map; the image's warnings go to `warnings` at the object.
-pub(crate) fn build(
+pub(crate) fn envmap(
     p: &Props,
     names: &EnvMapNames,
     spec: EnvMapSpec,
@@ -66,5 +68,16 @@ pub(crate) fn build(
         EnvMapParam::Image => p.error(names.filename, format!("the environment map {e}")),
         EnvMapParam::Scale => p.param_error(names.scale, &e),
         EnvMapParam::ToWorld => p.param_error(names.to_world, &e),
+    })
+}
+
+/// A sphere from `center` (default the origin) and `radius` (default 1),
+/// the names both dialects use.
+pub(crate) fn sphere(p: &mut Props) -> Result<Sphere, SceneError> {
+    let center = p.get_point("center", Vec3::ZERO)?;
+    let radius = p.get_float("radius", 1.0)?;
+    Sphere::new(center, radius).map_err(|e| match e {
+        SphereError::Radius(_) => p.param_error("radius", &e),
+        _ => p.param_error("center", &e),
     })
 }
