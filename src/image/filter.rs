@@ -31,7 +31,67 @@ impl Default for Filter {
     }
 }
 
+/// Widest filter accepted, in pixels (each tile's film block keeps a
+/// border this wide).
+pub const MAX_FILTER_RADIUS: f32 = 32.0;
+
+/// The parameter of a [`Filter`] a [`FilterError`] is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterParam {
+    Radius,
+    Stddev,
+    B,
+    C,
+}
+
+/// Filter parameters that describe no filter. Each message completes a
+/// sentence that starts with the parameter's name.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FilterError {
+    #[error("must be positive and at most {MAX_FILTER_RADIUS} pixels, found {1}")]
+    Size(FilterParam, f32),
+    #[error("must be a finite number, found {1}")]
+    NotFinite(FilterParam, f32),
+}
+
+impl FilterError {
+    /// The parameter that is wrong.
+    pub fn param(&self) -> FilterParam {
+        match self {
+            FilterError::Size(p, _) | FilterError::NotFinite(p, _) => *p,
+        }
+    }
+}
+
 impl Filter {
+    /// Checks the parameters: a radius (and a Gaussian's standard
+    /// deviation) in (0, [`MAX_FILTER_RADIUS`]], finite Mitchell B and C.
+    pub fn validate(&self) -> Result<(), FilterError> {
+        let size = |param, v: f32| {
+            if v > 0.0 && v <= MAX_FILTER_RADIUS {
+                Ok(())
+            } else {
+                Err(FilterError::Size(param, v))
+            }
+        };
+        let finite = |param, v: f32| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(FilterError::NotFinite(param, v))
+            }
+        };
+        size(FilterParam::Radius, self.radius())?;
+        match *self {
+            Filter::Gaussian { stddev, .. } => size(FilterParam::Stddev, stddev),
+            Filter::Mitchell { b, c, .. } => {
+                finite(FilterParam::B, b)?;
+                finite(FilterParam::C, c)
+            }
+            Filter::Box { .. } | Filter::Tent { .. } => Ok(()),
+        }
+    }
+
     pub fn radius(&self) -> f32 {
         match *self {
             Filter::Gaussian { radius, .. }
@@ -84,6 +144,25 @@ impl Filter {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn invalid_filters_name_the_parameter() {
+        assert_eq!(Filter::default().validate(), Ok(()));
+        let bad = |f: Filter| f.validate().unwrap_err().param();
+        assert_eq!(bad(Filter::Box { radius: 0.0 }), FilterParam::Radius);
+        assert_eq!(bad(Filter::Tent { radius: 1e6 }), FilterParam::Radius);
+        let g = Filter::Gaussian {
+            radius: 2.0,
+            stddev: -1.0,
+        };
+        assert_eq!(bad(g), FilterParam::Stddev);
+        let m = Filter::Mitchell {
+            radius: 2.0,
+            b: f32::NAN,
+            c: 0.0,
+        };
+        assert_eq!(bad(m), FilterParam::B);
+    }
+
     use super::*;
 
     #[test]

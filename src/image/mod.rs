@@ -11,6 +11,6 @@ pub mod tonemap;
 pub use bitmap::Bitmap;
 pub use compare::{compare, difference_image, CompareError, Comparison};
 pub use film::{Film, FilmBlock};
-pub use filter::Filter;
+pub use filter::{Filter, FilterError, FilterParam, MAX_FILTER_RADIUS};
 pub use io::{load_image, save_image, ImageError};
 pub use tonemap::{save_png_tonemapped, tonemap, Tonemap};

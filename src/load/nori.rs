@@ -19,7 +19,7 @@
 use std::path::{Path, PathBuf};
 
 use super::objects::{self, EnvMapNames, EnvMapSpec, Texels};
-use super::props::{int_in, non_negative, positive};
+use super::props::{int_in, non_negative};
 use super::props::{Kind, Props};
 use super::reader::{self, Dialect, LookAtError};
 use super::xml::{Pos, SceneNode};
@@ -436,22 +436,25 @@ impl<'a> Ctx<'a> {
         let (mut p, objects) = self.read_object(node, &owner)?;
         let filter = match ty {
             "gaussian" => Filter::Gaussian {
-                radius: positive(&mut p, "radius", 2.0)?,
-                stddev: positive(&mut p, "stddev", 0.5)?,
+                radius: p.get_float("radius", 2.0)?,
+                stddev: p.get_float("stddev", 0.5)?,
             },
             "box" => Filter::Box {
-                radius: positive(&mut p, "radius", 0.5)?,
+                radius: p.get_float("radius", 0.5)?,
             },
             "tent" => Filter::Tent {
-                radius: positive(&mut p, "radius", 1.0)?,
+                radius: p.get_float("radius", 1.0)?,
             },
             "mitchell" => Filter::Mitchell {
-                radius: positive(&mut p, "radius", 2.0)?,
+                radius: p.get_float("radius", 2.0)?,
                 b: p.get_float("B", 1.0 / 3.0)?,
                 c: p.get_float("C", 1.0 / 3.0)?,
             },
             _ => unreachable!(),
         };
+        filter
+            .validate()
+            .map_err(|e| p.param_error(objects::filter_name(e.param()), &e))?;
         p.finish(&mut self.warnings);
         self.no_children(objects, &owner)?;
         Ok(filter)

@@ -1,6 +1,6 @@
 //! Scene objects both dialects build the same way from their properties:
 //! environment maps (the image is read once, here, and [`EnvMap::new`]
-//! checks the map) and spheres. Errors point at the property that names
+//! checks the map), spheres, and the names of filter parameters. Errors point at the property that names
 //! the wrong value.
 
 use std::path::PathBuf;
@@ -10,7 +10,7 @@ use super::{SceneError, Warning};
 use crate::color::Rgb;
 use crate::emitter::{EnvFilter, EnvMap, EnvMapParam};
 use crate::geometry::{Sphere, SphereError};
-use crate::image::Bitmap;
+use crate::image::{Bitmap, FilterParam};
 use crate::math::{Transform, Vec3};
 
 /// Where a map's texels come from.
@@ -80,4 +80,14 @@ pub(crate) fn sphere(p: &mut Props) -> Result<Sphere, SceneError> {
         SphereError::Radius(_) => p.param_error("radius", &e),
         _ => p.param_error("center", &e),
     })
+}
+
+/// The name of a filter parameter (Nori's and Mitsuba's).
+pub(crate) fn filter_name(param: FilterParam) -> &'static str {
+    match param {
+        FilterParam::Radius => "radius",
+        FilterParam::Stddev => "stddev",
+        FilterParam::B => "B",
+        FilterParam::C => "C",
+    }
 }

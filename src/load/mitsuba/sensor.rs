@@ -3,8 +3,8 @@
 
 use super::{Child, Ctx};
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
-use crate::image::Filter;
-use crate::load::props::{int_in, positive, Kind, Props};
+use crate::image::{Filter, FilterParam};
+use crate::load::props::{int_in, Kind, Props};
 use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
 use crate::math::{Aabb, Mat4, Transform, Vec3};
@@ -231,9 +231,9 @@ impl<'d> Ctx<'d> {
         let filter = match ty {
             "box" => Filter::Box { radius: 0.5 },
             "tent" => Filter::Tent {
-                radius: positive(&mut p, "radius", 1.0)?,
+                radius: p.get_float("radius", 1.0)?,
             },
-            "gaussian" => mitsuba_gaussian(positive(&mut p, "stddev", 0.5)?),
+            "gaussian" => mitsuba_gaussian(p.get_float("stddev", 0.5)?),
             "mitchell" => Filter::Mitchell {
                 radius: 2.0,
                 b: p.get_float("B", 1.0 / 3.0)?,
@@ -245,6 +245,14 @@ impl<'d> Ctx<'d> {
                 c: 0.5,
             },
         };
+        filter.validate().map_err(|e| {
+            // Mitsuba's gaussian radius is 4 stddev.
+            let name = match (ty, e.param()) {
+                ("gaussian", FilterParam::Radius) => "stddev",
+                (_, param) => crate::load::objects::filter_name(param),
+            };
+            p.param_error(name, &e)
+        })?;
         p.finish(&mut self.warnings);
         Ok(filter)
     }
