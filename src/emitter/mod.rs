@@ -11,7 +11,7 @@ pub mod sky;
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
-pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam};
+pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, LightPdf, TexelRows};
 pub use point::PointLight;
 
 use crate::color::Rgb;
@@ -148,13 +148,15 @@ impl Emitter {
         }
     }
 
-    /// Samples incident illumination at `p_ref`.
+    /// Samples incident illumination at `p_ref` with the density `which`
+    /// (only environment maps have more than one).
     pub fn sample(
         &self,
         ctx: &EmitterContext,
         p_ref: Vec3,
         u: Vec2,
         u1: f32,
+        which: LightPdf,
     ) -> Option<LightSample> {
         match self {
             Emitter::Area(e) => e.sample(ctx, p_ref, u, u1),
@@ -162,14 +164,15 @@ impl Emitter {
             Emitter::Directional(e) => e.sample(ctx, p_ref),
             Emitter::Constant(e) => e.sample(ctx, p_ref, u),
             Emitter::Environment(e) => {
-                let (wi, weight, pdf) = e.sample(u)?;
+                let (wi, weight, pdf) = e.sample(u, which)?;
                 Some(LightSample::at_infinity(ctx, p_ref, wi, weight, pdf))
             }
         }
     }
 
-    /// Solid-angle pdf that `sample` from `p_ref` produces the point `p_light`
-    /// with normal `n_light` (area lights) or the direction `wi` (infinite).
+    /// Solid-angle pdf that `sample` from `p_ref` with the density `which`
+    /// produces the point `p_light` with normal `n_light` (area lights) or
+    /// the direction `wi` (infinite).
     pub fn pdf(
         &self,
         ctx: &EmitterContext,
@@ -177,12 +180,13 @@ impl Emitter {
         wi: Vec3,
         p_light: Vec3,
         n_light: Vec3,
+        which: LightPdf,
     ) -> f32 {
         match self {
             Emitter::Area(e) => e.pdf(ctx, p_ref, wi, p_light, n_light),
             Emitter::Point(_) | Emitter::Directional(_) => 0.0,
             Emitter::Constant(e) => e.pdf(wi),
-            Emitter::Environment(e) => e.pdf(wi),
+            Emitter::Environment(e) => e.pdf(wi, which),
         }
     }
 }

@@ -5,21 +5,24 @@ mod simple;
 mod whitted;
 
 use crate::color::Rgb;
+use crate::emitter::LightPdf;
 use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
 /// Picks an emitter in proportion to its power and samples incident light
-/// at `p` from it. Returns the sample and the probability of the choice.
+/// at `p` from it with the density `which`. Returns the sample and the
+/// probability of the choice.
 fn sample_light(
     scene: &Scene,
     p: crate::math::Vec3,
     sampler: &mut Sampler,
+    which: LightPdf,
 ) -> Option<(crate::emitter::LightSample, f32)> {
     let choice = scene.light_choice.as_ref()?;
     let (i, pchoice, u1) = choice.sample_discrete(sampler.next_1d());
     let u = sampler.next_2d();
-    let ls = scene.emitters[i].sample(&scene.emitter_context(), p, u, u1)?;
+    let ls = scene.emitters[i].sample(&scene.emitter_context(), p, u, u1, which)?;
     Some((ls, pchoice))
 }
 
@@ -53,6 +56,17 @@ pub enum Strategy {
     Ems,
     /// Both, combined with the power heuristic.
     Mis,
+}
+
+impl Strategy {
+    /// The light-sampling density this strategy may use: MIS can leave the
+    /// dim parts of an environment map to BSDF sampling.
+    pub fn light_pdf(self) -> LightPdf {
+        match self {
+            Strategy::Mis => LightPdf::MisCompensated,
+            Strategy::Mats | Strategy::Ems => LightPdf::Complete,
+        }
+    }
 }
 
 /// The closed set of integrators.

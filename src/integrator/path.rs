@@ -40,6 +40,7 @@ pub fn li(
     params: &PathParams,
 ) -> Rgb {
     let ctx = scene.emitter_context();
+    let which = strategy.light_pdf();
     let max_depth = params.max_depth.unwrap_or(u32::MAX);
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;
@@ -77,7 +78,7 @@ pub fn li(
                     }
                     let w = if strategy == Strategy::Mis && !specular {
                         let pl = choice_pdf(scene, i as usize)
-                            * e.pdf(&ctx, prev_p, ray.d, Vec3::ZERO, Vec3::ZERO);
+                            * e.pdf(&ctx, prev_p, ray.d, Vec3::ZERO, Vec3::ZERO, which);
                         power_heuristic(prev_pdf, pl)
                     } else {
                         1.0
@@ -96,7 +97,7 @@ pub fn li(
                     if its.ng.dot(wi_world) > 0.0 {
                         let w = if strategy == Strategy::Mis && !specular {
                             let pl = choice_pdf(scene, ei as usize)
-                                * e.pdf(&ctx, prev_p, ray.d, its.p, its.ng);
+                                * e.pdf(&ctx, prev_p, ray.d, its.p, its.ng, which);
                             power_heuristic(prev_pdf, pl)
                         } else {
                             1.0
@@ -118,7 +119,7 @@ pub fn li(
 
         // Next-event estimation.
         if strategy != Strategy::Mats && !bsdf.is_specular() {
-            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, sampler) {
+            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, sampler, which) {
                 let wo = frame.to_local(ls.wi);
                 let f = bsdf.eval(wi, wo);
                 if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {

@@ -3,7 +3,7 @@
 //! (continuing with probability 0.95).
 
 use crate::color::Rgb;
-use crate::emitter::{AreaLight, Emitter};
+use crate::emitter::{AreaLight, Emitter, LightPdf};
 use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -32,7 +32,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         let wi = its.shading.to_local(wi_world);
         if !bsdf.is_specular() {
             // One emitter sample, chosen in proportion to power.
-            if let Some((ls, p)) = super::sample_light(scene, its.p, sampler) {
+            if let Some((ls, p)) = super::sample_light(scene, its.p, sampler, LightPdf::Complete) {
                 let wo = its.shading.to_local(ls.wi);
                 let f = bsdf.eval(wi, wo);
                 if f != Rgb::ZERO && scene.unoccluded(&its, &ls) {

@@ -28,7 +28,7 @@ use crate::bsdf::{Bsdf, BsdfParam, Mirror};
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
-use crate::emitter::{ConstantLight, Emitter, EmitterError, EnvFilter, PointLight};
+use crate::emitter::{ConstantLight, Emitter, EmitterError, EnvFilter, PointLight, TexelRows};
 use crate::geometry::{load_obj, Geometry, Sphere};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
@@ -850,6 +850,7 @@ impl<'a> Ctx<'a> {
                     scale,
                     to_world,
                     filter,
+                    rows: TexelRows::CellCentres,
                 };
                 let mut env = objects::envmap(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 env.visible = visible;
@@ -893,6 +894,7 @@ impl<'a> Ctx<'a> {
                     scale: 1.0,
                     to_world: Transform::IDENTITY,
                     filter: EnvFilter::Bilinear,
+                    rows: TexelRows::CellCentres,
                 };
                 let mut env = objects::envmap(&p, &NORI_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 env.visible = visible;

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use super::props::Props;
 use super::{SceneError, Warning};
 use crate::color::Rgb;
-use crate::emitter::{EnvFilter, EnvMap, EnvMapParam};
+use crate::emitter::{EnvFilter, EnvMap, EnvMapParam, TexelRows};
 use crate::geometry::{Sphere, SphereError};
 use crate::image::{Bitmap, FilterParam};
 use crate::math::{Transform, Vec3};
@@ -37,6 +37,8 @@ pub(crate) struct EnvMapSpec {
     pub scale: f32,
     pub to_world: Transform,
     pub filter: EnvFilter,
+    /// Where the dialect puts texel rows.
+    pub rows: TexelRows,
 }
 
 /// Builds the map; the image's warnings go to `warnings` at the object.
@@ -64,10 +66,12 @@ pub(crate) fn envmap(
             *px *= spec.tint;
         }
     }
-    EnvMap::new(image, spec.scale, spec.to_world, spec.filter).map_err(|e| match e.param() {
-        EnvMapParam::Image => p.error(names.filename, format!("the environment map {e}")),
-        EnvMapParam::Scale => p.param_error(names.scale, &e),
-        EnvMapParam::ToWorld => p.param_error(names.to_world, &e),
+    EnvMap::new(image, spec.scale, spec.to_world, spec.filter, spec.rows).map_err(|e| {
+        match e.param() {
+            EnvMapParam::Image => p.error(names.filename, format!("the environment map {e}")),
+            EnvMapParam::Scale => p.param_error(names.scale, &e),
+            EnvMapParam::ToWorld => p.param_error(names.to_world, &e),
+        }
     })
 }
 

@@ -1,9 +1,11 @@
 //! Geometric primitives shared by every module: rays, frames, transforms.
 
+mod approx;
 mod frame;
 mod ray;
 mod transform;
 
+pub use approx::{fast_atan2, FAST_ATAN2_MAX_ERROR};
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 pub use ray::{barycentric_error, gamma, offset_ray_origin, Ray};

@@ -1,8 +1,13 @@
-//! Random numbers, warps with their pdfs, and piecewise-constant distributions.
+//! Random numbers, warps with their pdfs, piecewise-constant distributions
+//! and alias tables.
 
+mod alias;
 mod distribution;
+mod linear;
 mod sampler;
 pub mod warp;
 
+pub use alias::AliasTable;
 pub use distribution::{Distribution1D, Distribution2D};
+pub use linear::{linear_pdf, sample_linear};
 pub use sampler::Sampler;

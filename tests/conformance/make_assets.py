@@ -8,7 +8,10 @@ folder; files go next to this script). Plain Python, no packages:
   per-corner normals (flat sides, split vertices);
 - stripes.pfm: a 32 x 16 lat-long map whose rows are all equal (it varies
   with the azimuth only; see tests/integration/mitsuba_conformance.rs for why), with a
-  bright sector and a colour ramp.
+  bright sector and a colour ramp;
+- sky_rows.pfm: a 32 x 12 lat-long sky that varies with the elevation
+  (zenith blue to a pale horizon, a dark ground, a bright soft sun of 2 x 2
+  texels 30-45 degrees up): it shows where each renderer puts texel rows.
 """
 
 import math
@@ -111,7 +114,32 @@ def stripes():
                 f.write(struct.pack("<3f", *px))
 
 
+def sky_rows():
+    w, h = 32, 12
+    rows = []
+    for j in range(h):
+        t = j / (h - 1)  # 0 at the zenith row, 1 at the nadir row
+        row = []
+        for i in range(w):
+            if t < 0.5:
+                k = t / 0.5
+                px = (0.15 + 0.75 * k, 0.3 + 0.6 * k, 1.0 - 0.05 * k)
+            else:
+                k = (t - 0.5) / 0.5
+                px = (0.25 - 0.2 * k, 0.2 - 0.17 * k, 0.15 - 0.13 * k)
+            if j in (3, 4) and i in (9, 10):
+                px = (20.0, 18.0, 14.0)
+            row.append(px)
+        rows.append(row)
+    with open(os.path.join(HERE, "sky_rows.pfm"), "wb") as f:
+        f.write(b"PF\n%d %d\n-1.0\n" % (w, h))
+        for row in reversed(rows):  # PFM stores the bottom row first
+            for px in row:
+                f.write(struct.pack("<3f", *px))
+
+
 if __name__ == "__main__":
     icosphere()
     prism()
     stripes()
+    sky_rows()

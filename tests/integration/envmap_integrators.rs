@@ -4,7 +4,7 @@
 use crate::common::*;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
-use lente::emitter::{Emitter, EnvFilter, EnvMap};
+use lente::emitter::{Emitter, EnvFilter, EnvMap, TexelRows};
 use lente::geometry::{Geometry, TriangleMesh};
 use lente::image::Bitmap;
 use lente::integrator::Strategy;
@@ -92,7 +92,14 @@ fn scene(strategy: Strategy, sun: f32, w: u32, h: u32) -> TestScene {
         None,
     ));
     d.emitters.push(Emitter::Environment(Box::new(
-        EnvMap::new(sun_map(sun), 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap(),
+        EnvMap::new(
+            sun_map(sun),
+            1.0,
+            Transform::IDENTITY,
+            EnvFilter::Bilinear,
+            TexelRows::CellCentres,
+        )
+        .unwrap(),
     )));
     d.build()
 }

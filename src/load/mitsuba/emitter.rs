@@ -3,7 +3,7 @@
 use super::Ctx;
 use crate::color::Rgb;
 use crate::emitter::{
-    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight,
+    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight, TexelRows,
 };
 use crate::load::objects::{self, EnvMapNames, EnvMapSpec, Texels};
 use crate::load::props::Props;
@@ -128,6 +128,7 @@ impl<'d> Ctx<'d> {
                     scale: p.get_float("scale", 1.0)?,
                     to_world: p.get_transform("to_world", Transform::IDENTITY)?,
                     filter: EnvFilter::Bilinear,
+                    rows: TexelRows::PoleToPole,
                 };
                 let env = objects::envmap(&p, &MITSUBA_ENVMAP_NAMES, spec, &mut self.warnings)?;
                 p.finish(&mut self.warnings);

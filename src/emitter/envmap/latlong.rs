@@ -1,0 +1,52 @@
+//! Directions to lat-long (u, v) and back (the convention is in the
+//! module docs of `envmap`).
+
+use crate::math::{fast_atan2, Vec2, Vec3, INV_PI, INV_TWO_PI, PI};
+
+/// (u, v) to the local unit direction.
+#[inline]
+pub fn uv_to_dir(uv: Vec2) -> Vec3 {
+    let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
+    let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+    Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi)
+}
+
+/// (u, v) and sin(theta) of a local direction (normalised or not; zero and
+/// non-finite input give the top-left corner and sin(theta) = 0). The
+/// angles are within [`FAST_ATAN2_MAX_ERROR`](crate::math::FAST_ATAN2_MAX_ERROR)
+/// radians of libm's.
+#[inline]
+pub fn dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
+    let len = d.length();
+    let d = if len > 0.0 && len.is_finite() {
+        d / len
+    } else {
+        return (Vec2::ZERO, 0.0);
+    };
+    let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
+    // atan2 is accurate near the poles, where acos(y) is not.
+    let theta = fast_atan2(sin_theta, d.y);
+    let phi = fast_atan2(d.x, -d.z);
+    let mut u = phi * INV_TWO_PI;
+    if u < 0.0 {
+        u += 1.0;
+    }
+    if u >= 1.0 {
+        // Rounding can land on the modulus for tiny negative angles.
+        u = 0.0;
+    }
+    let v = (theta * INV_PI).clamp(0.0, 1.0);
+    (Vec2::new(u, v), sin_theta)
+}
+
+/// Unit vector in the direction of `v`, robust to tiny and huge lengths.
+#[inline]
+pub fn normalize_robust(v: Vec3) -> Option<Vec3> {
+    let m = v.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    let v = v / m;
+    let n = v / v.length();
+    n.is_finite().then_some(n)
+}

@@ -1,0 +1,382 @@
+//! Image-based lighting from a lat-long HDR probe.
+//!
+//! # Convention
+//!
+//! For a unit direction `(x, y, z)` in the map's local frame (the world
+//! direction taken through the inverse of `to_world`):
+//!
+//! ```text
+//! theta = atan2(sqrt(x^2 + z^2), y),  phi = atan2(x, -z)
+//! u = phi / 2pi wrapped into [0, 1) (rem_euclid),  v = theta / pi clamped to [0, 1]
+//! ```
+//!
+//! so the left edge (u = 0) looks down -z, u = 0.25 down +x, the centre column
+//! (u = 0.5) down +z, u = 0.75 down -x, and the top row (v = 0) is +y. The
+//! inverse is `phi = 2 pi u`, `theta = pi v`,
+//! `d = (sin theta sin phi, cos theta, -sin theta cos phi)`
+//! ([`EnvMap::uv_to_dir`], [`EnvMap::dir_to_uv`], in `latlong.rs`; the
+//! angles use [`fast_atan2`](crate::math::fast_atan2), within 6e-7 rad).
+//!
+//! `to_world` must be a rotation (reflections and uniform scale are harmless:
+//! directions are renormalised). A shear or non-uniform scale would distort
+//! solid angles and make `pdf` disagree with `sample`.
+//!
+//! # Lookup
+//!
+//! Radiance is `texel * scale`. Texel `i` of a row is centred at
+//! `u = (i + 0.5) / W` and u wraps; where rows sit along v is the map's
+//! [`TexelRows`]: cell centres `(j + 0.5) / H` with v clamped beyond the
+//! first and last (lente, Nori), or `j / (H - 1)` from pole to pole
+//! (Mitsuba). [`EnvFilter::Bilinear`] interpolates between those texel
+//! positions, [`EnvFilter::Nearest`] returns the nearest texel (`grid.rs`
+//! holds both rules). A map with texels that are negative or not finite is
+//! refused when it is built (a light cannot emit negative or infinite
+//! radiance); scene files' maps come through the image loader, which clamps
+//! negative texels to zero with a warning.
+//!
+//! # Importance sampling
+//!
+//! The density over (u, v) follows luminance x sin(theta) the way the
+//! lookup does (`warp.rs`): with the bilinear filter it is the bilinear
+//! interpolant, inside each cell, of luminance x sin(theta) at the
+//! interpolation vertices, so around a texel-sized sun the density falls
+//! off exactly as the radiance does; with the nearest filter it is constant
+//! per texel (luminance x sin of the texel's middle). The solid-angle
+//! density is `pdf_uv / (2 pi^2 sin theta)`, theta of the direction itself.
+//! Both vanish only where the lookup's luminance does (or on the poles, a
+//! set of measure zero): `pdf > 0` wherever `eval > 0`.
+//!
+//! Two densities are built: the complete one, and for multiple importance
+//! sampling ([`LightPdf::MisCompensated`]) one made from
+//! `max(luminance - mean, 0)` (Karlik et al. 2019, "MIS compensation"),
+//! which leaves the smooth part of the sky to BSDF sampling and spends the
+//! light samples on what is brighter than average. That density is zero
+//! where the map is dimmer than its mean, so it is only valid where BSDF
+//! sampling covers those directions, which is what MIS guarantees. For
+//! nearly constant maps (mean - minimum <= 1% of the mean) both are the
+//! same.
+//!
+//! Everything is built by [`EnvMap::new`] for the `image`, `filter` and
+//! rows it is given; the fields are read-only, so they cannot drift apart.
+
+mod grid;
+mod latlong;
+mod warp;
+
+pub use grid::TexelRows;
+
+use crate::color::{luminance, Rgb};
+use crate::image::Bitmap;
+use crate::math::{Transform, Vec2, Vec3, PI};
+use grid::{CellPoint, TexelGrid};
+use latlong::{dir_to_uv_sin, normalize_robust};
+use warp::EnvWarp;
+
+/// 2 pi^2: the Jacobian |d omega / (du dv)| = 2 pi^2 sin(theta).
+const TWO_PI_SQ: f32 = 2.0 * PI * PI;
+
+/// Which light-sampling density a caller wants (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightPdf {
+    /// A density that is positive wherever the light shines: for
+    /// estimators that rely on light sampling alone.
+    #[default]
+    Complete,
+    /// A density that may leave dim regions to BSDF sampling: only for
+    /// combining with BSDF sampling by MIS, with the same choice in `pdf`.
+    MisCompensated,
+}
+
+/// How texels are looked up.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EnvFilter {
+    /// Bilinear interpolation between texel centres (u wraps, v clamps).
+    #[default]
+    Bilinear,
+    /// The texel containing (u, v).
+    Nearest,
+}
+
+/// A lat-long environment map, importance-sampled by luminance x sin(theta).
+/// Built only through [`EnvMap::new`], which checks it.
+#[derive(Clone, Debug)]
+pub struct EnvMap {
+    image: Bitmap,
+    scale: f32,
+    to_world: Transform,
+    rows: TexelRows,
+    /// Seen by camera rays (it lights the scene either way).
+    pub visible: bool,
+    /// Cells of the lookup and of the densities.
+    grid: TexelGrid,
+    /// The complete density; `None` if the map is black.
+    warp: Option<EnvWarp>,
+    /// The MIS-compensated density; `None` where it would equal `warp`.
+    mis_warp: Option<EnvWarp>,
+    /// Mean luminance over the sphere of the unscaled map.
+    mean_lum: f32,
+}
+
+/// How far from orthonormal `to_world` may be (on M M^T; Mitsuba's
+/// `has_scale` tolerance).
+pub const ROTATION_TOLERANCE: f32 = 1e-3;
+
+/// The parameter of an environment map an [`EnvMapError`] is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvMapParam {
+    Image,
+    Scale,
+    ToWorld,
+}
+
+/// An environment map that cannot be built. Each message completes a
+/// sentence that starts with the parameter's name.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvMapError {
+    #[error("is empty ({width} x {height} texels)")]
+    Empty { width: usize, height: usize },
+    #[error("has texel ({x}, {y}) = {value}: radiance must be finite and not negative")]
+    Texel { x: usize, y: usize, value: Rgb },
+    #[error("must be finite and not negative, found {0}")]
+    Scale(f32),
+    #[error("must be a rotation (an orthogonal matrix)")]
+    ToWorld,
+    #[error("has {height} row: rows from pole to pole (Mitsuba's convention) need at least 2")]
+    TooFewRows { height: usize },
+}
+
+impl EnvMapError {
+    /// The parameter that is wrong.
+    pub fn param(&self) -> EnvMapParam {
+        match self {
+            EnvMapError::Empty { .. }
+            | EnvMapError::Texel { .. }
+            | EnvMapError::TooFewRows { .. } => EnvMapParam::Image,
+            EnvMapError::Scale(_) => EnvMapParam::Scale,
+            EnvMapError::ToWorld => EnvMapParam::ToWorld,
+        }
+    }
+}
+
+impl EnvMap {
+    /// A map of `image` (W x H > 0 texels of finite, non-negative
+    /// radiance; H >= 2 with [`TexelRows::PoleToPole`]) times `scale`
+    /// (finite, >= 0), turned by `to_world` (a rotation, possibly with a
+    /// mirror), looked up with `filter` at texel positions given by `rows`.
+    pub fn new(
+        image: Bitmap,
+        scale: f32,
+        to_world: Transform,
+        filter: EnvFilter,
+        rows: TexelRows,
+    ) -> Result<EnvMap, EnvMapError> {
+        let (w, h) = (image.width, image.height);
+        if w == 0 || h == 0 || image.pixels.len() != w * h {
+            return Err(EnvMapError::Empty {
+                width: w,
+                height: h,
+            });
+        }
+        if rows == TexelRows::PoleToPole && h < 2 {
+            return Err(EnvMapError::TooFewRows { height: h });
+        }
+        if let Some(i) = image
+            .pixels
+            .iter()
+            .position(|p| !p.is_finite() || p.min_element() < 0.0)
+        {
+            return Err(EnvMapError::Texel {
+                x: i % w,
+                y: i / w,
+                value: image.pixels[i],
+            });
+        }
+        if !(scale >= 0.0 && scale.is_finite()) {
+            return Err(EnvMapError::Scale(scale));
+        }
+        if !to_world.is_rotation(ROTATION_TOLERANCE) {
+            return Err(EnvMapError::ToWorld);
+        }
+        let grid = TexelGrid::new(w, h, filter, rows);
+        let lum: Vec<f32> = image
+            .pixels
+            .iter()
+            .map(|&p| luminance(p).max(0.0))
+            .collect();
+        let mean_lum = grid.sphere_mean(&lum) as f32;
+        let warp = EnvWarp::new(&grid, &lum);
+        let min_lum = lum.iter().copied().fold(f32::INFINITY, f32::min);
+        let mis_warp = if warp.is_some() && mean_lum - min_lum > 0.01 * mean_lum {
+            let compensated: Vec<f32> = lum.iter().map(|&l| (l - mean_lum).max(0.0)).collect();
+            EnvWarp::new(&grid, &compensated)
+        } else {
+            None
+        };
+        Ok(EnvMap {
+            image,
+            scale,
+            to_world,
+            rows,
+            visible: true,
+            grid,
+            warp,
+            mis_warp,
+            mean_lum,
+        })
+    }
+
+    /// The texels (unscaled).
+    pub fn image(&self) -> &Bitmap {
+        &self.image
+    }
+
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    pub fn to_world(&self) -> &Transform {
+        &self.to_world
+    }
+
+    pub fn filter(&self) -> EnvFilter {
+        self.grid.filter
+    }
+
+    pub fn rows(&self) -> TexelRows {
+        self.rows
+    }
+
+    /// Local direction (need not be normalised) to (u, v) in `[0, 1) x [0, 1]`.
+    pub fn dir_to_uv(d: Vec3) -> Vec2 {
+        dir_to_uv_sin(d).0
+    }
+
+    /// (u, v) to the local unit direction.
+    pub fn uv_to_dir(uv: Vec2) -> Vec3 {
+        latlong::uv_to_dir(uv)
+    }
+
+    /// Radiance seen in world direction `d`.
+    pub fn eval(&self, d: Vec3) -> Rgb {
+        if !self.emits() {
+            return Rgb::ZERO;
+        }
+        match self.to_local(d) {
+            Some(l) => self.lookup(dir_to_uv_sin(l).0) * self.scale,
+            None => Rgb::ZERO,
+        }
+    }
+
+    /// The density `which` selects (the complete one where the compensated
+    /// one is not built); `None` if the map emits nothing.
+    fn warp(&self, which: LightPdf) -> Option<&EnvWarp> {
+        if !self.emits() {
+            return None;
+        }
+        match which {
+            LightPdf::MisCompensated => self.mis_warp.as_ref().or(self.warp.as_ref()),
+            LightPdf::Complete => self.warp.as_ref(),
+        }
+    }
+
+    /// (direction, radiance / pdf, solid-angle pdf) drawn from the density
+    /// `which`. `None` if the map emits nothing (or, with vanishing
+    /// probability, if the sample lands on a pole).
+    pub fn sample(&self, u: Vec2, which: LightPdf) -> Option<(Vec3, Rgb, f32)> {
+        let warp = self.warp(which)?;
+        let p = warp.sample(u);
+        // The returned pdf and radiance are evaluated exactly as `pdf(d)`
+        // and `eval(d)` do, at the direction's own (u, v) after the round
+        // trip through the direction, so the three agree bit for bit.
+        // Round-off in that trip can move a point on a cell's edge into a
+        // neighbour whose density differs (nearest filter) or is zero (a
+        // compensated density): then pull it towards its cell's centre and
+        // try again, which moves a vanishing fraction of samples by a sliver
+        // of a texel.
+        for shrink in [1.0, 0.999, 0.99, 0.9, 0.5, 0.0] {
+            let ps = CellPoint {
+                fx: 0.5 + (p.fx - 0.5) * shrink,
+                fy: 0.5 + (p.fy - 0.5) * shrink,
+                ..p
+            };
+            let uv = self.grid.to_uv(ps);
+            let world = normalize_robust(self.to_world.vector(Self::uv_to_dir(uv)))?;
+            let local = self.to_local(world)?;
+            let (uv_w, sin_theta) = dir_to_uv_sin(local);
+            let back = self.grid.locate(uv_w);
+            if self.grid.filter == EnvFilter::Nearest && (back.col, back.band) != (p.col, p.band) {
+                continue;
+            }
+            let pdf = pdf_from(warp, back, sin_theta);
+            if pdf <= 0.0 {
+                continue; // on a pole, or off the compensated support
+            }
+            let radiance = self.grid.lookup(&self.image.pixels, back) * self.scale;
+            return Some((world, radiance / pdf, pdf));
+        }
+        None
+    }
+
+    /// Solid-angle pdf that `sample(_, which)` draws world direction `d`.
+    pub fn pdf(&self, d: Vec3, which: LightPdf) -> f32 {
+        let Some(warp) = self.warp(which) else {
+            return 0.0;
+        };
+        match self.to_local(d) {
+            Some(l) => {
+                let (uv, sin_theta) = dir_to_uv_sin(l);
+                pdf_from(warp, self.grid.locate(uv), sin_theta)
+            }
+            None => 0.0,
+        }
+    }
+
+    /// Mean luminance over the sphere (for choosing between lights).
+    pub fn mean_luminance(&self) -> f32 {
+        if self.emits() {
+            self.mean_lum * self.scale
+        } else {
+            0.0
+        }
+    }
+
+    /// True if the map emits any light (so `sample` can succeed).
+    pub fn has_light(&self) -> bool {
+        self.warp(LightPdf::Complete).is_some()
+    }
+
+    fn emits(&self) -> bool {
+        self.scale > 0.0
+    }
+
+    /// World direction to a unit local direction; `None` for zero, NaN or
+    /// infinite input.
+    fn to_local(&self, d: Vec3) -> Option<Vec3> {
+        if !d.is_finite() {
+            return None;
+        }
+        normalize_robust(self.to_world.inv.transform_vector3(d))
+    }
+
+    /// Unscaled filtered texel value at (u, v), u in [0,1), v in [0,1].
+    fn lookup(&self, uv: Vec2) -> Rgb {
+        self.grid.lookup(&self.image.pixels, self.grid.locate(uv))
+    }
+}
+
+/// Solid-angle density of `warp` at a point with the given sin(theta).
+#[inline]
+fn pdf_from(warp: &EnvWarp, p: CellPoint, sin_theta: f32) -> f32 {
+    if sin_theta.is_nan() || sin_theta <= 0.0 {
+        return 0.0;
+    }
+    let pdf = warp.pdf(p) / (TWO_PI_SQ * sin_theta);
+    if pdf.is_finite() {
+        pdf
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests;

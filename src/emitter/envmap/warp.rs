@@ -1,0 +1,170 @@
+//! The sampling density of an environment map over (u, v): on the cells
+//! of its [`TexelGrid`], bilinear in the luminance x sin(theta) of the
+//! interpolation vertices for the bilinear filter (so it follows the
+//! lookup inside each cell, not just the cell's mean), constant per texel
+//! for the nearest filter.
+//!
+//! Sampling is O(1): an alias table picks the band, a second one the cell
+//! in it, and the position inside the cell inverts the linear marginal in u
+//! and then the linear conditional in v ([`sample_linear`]). The density
+//! at a point is one cell lookup and a bilinear blend.
+
+use super::grid::{CellPoint, TexelGrid};
+use super::EnvFilter;
+use crate::math::Vec2;
+use crate::sampling::{sample_linear, AliasTable};
+
+/// A normalised density over (u, v) in [0, 1]^2.
+#[derive(Clone, Debug)]
+pub(super) struct EnvWarp {
+    /// Bilinear: values at the (bands + 1) x W interpolation vertices;
+    /// nearest: values of the bands x W cells. Row-major.
+    values: Vec<f32>,
+    width: usize,
+    bilinear: bool,
+    /// Picks a band, then a cell of it.
+    bands: AliasTable,
+    cells: Vec<AliasTable>,
+    /// 1 / (integral of the unnormalised density over (u, v)).
+    inv_integral: f32,
+}
+
+impl EnvWarp {
+    /// The density proportional to `weight` (one value per texel, >= 0)
+    /// times sin(theta), filtered as `grid` filters lookups. `None` if it
+    /// is zero everywhere.
+    pub fn new(grid: &TexelGrid, weight: &[f32]) -> Option<EnvWarp> {
+        let w = grid.width;
+        let bilinear = grid.filter == EnvFilter::Bilinear;
+        let value_rows = if bilinear {
+            grid.bands() + 1
+        } else {
+            grid.bands()
+        };
+        let mut values = vec![0.0f32; value_rows * w];
+        for k in 0..value_rows {
+            // sin(theta) averaged over the v this row stands for: the band
+            // (nearest), or half of each band beside the vertex (bilinear).
+            // Never zero, not even on a pole, so the density is positive
+            // wherever the lookup is.
+            let (v0, v1) = if bilinear {
+                let below = if k > 0 { grid.edge(k - 1) } else { 0.0 };
+                let above = if k < grid.bands() {
+                    grid.edge(k + 1)
+                } else {
+                    1.0
+                };
+                (0.5 * (below + grid.edge(k)), 0.5 * (grid.edge(k) + above))
+            } else {
+                grid.band_range(k)
+            };
+            let sin_theta = mean_sin(v0, v1);
+            let src = &weight[grid.texel_row(k) * w..][..w];
+            for (dst, &x) in values[k * w..(k + 1) * w].iter_mut().zip(src) {
+                *dst = if x.is_finite() && x > 0.0 {
+                    x * sin_theta
+                } else {
+                    0.0
+                };
+            }
+        }
+        // Cell integrals (up to the common factor 1 / W): height x mean of
+        // the corners, or height x value.
+        let mut band_weights = Vec::with_capacity(grid.bands());
+        let mut cells = Vec::with_capacity(grid.bands());
+        let mut cell_weights = vec![0.0f32; w];
+        for b in 0..grid.bands() {
+            let (v0, v1) = grid.band_range(b);
+            if bilinear {
+                let (top, bottom) = (&values[b * w..][..w], &values[(b + 1) * w..][..w]);
+                for c in 0..w {
+                    let c1 = (c + 1) % w;
+                    cell_weights[c] = top[c] + top[c1] + bottom[c] + bottom[c1];
+                }
+            } else {
+                cell_weights.copy_from_slice(&values[b * w..][..w]);
+            }
+            let table = AliasTable::new(&cell_weights);
+            let scale = if bilinear { 0.25 } else { 1.0 };
+            band_weights.push(table.total() as f64 * scale * (v1 - v0) as f64 / w as f64);
+            cells.push(table);
+        }
+        let integral: f64 = band_weights.iter().sum();
+        if !(integral > 0.0 && integral.is_finite()) {
+            return None;
+        }
+        let band_weights: Vec<f32> = band_weights.iter().map(|&x| x as f32).collect();
+        let inv_integral = (1.0 / integral) as f32;
+        if !(inv_integral.is_finite() && inv_integral > 0.0) {
+            return None;
+        }
+        Some(EnvWarp {
+            values,
+            width: w,
+            bilinear,
+            bands: AliasTable::new(&band_weights),
+            cells,
+            inv_integral,
+        })
+    }
+
+    /// The four corner values of a bilinear cell: (top-left, top-right,
+    /// bottom-left, bottom-right).
+    #[inline]
+    fn corners(&self, col: usize, band: usize) -> (f32, f32, f32, f32) {
+        let w = self.width;
+        let c1 = if col + 1 == w { 0 } else { col + 1 };
+        let (t, b) = (band * w, (band + 1) * w);
+        let v = &self.values;
+        (v[t + col], v[t + c1], v[b + col], v[b + c1])
+    }
+
+    /// A point drawn from the density with `u` in [0, 1)^2.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> CellPoint {
+        let (band, uy) = self.bands.sample(u.y);
+        let (col, ux) = self.cells[band].sample(u.x);
+        if !self.bilinear {
+            return CellPoint {
+                col,
+                band,
+                fx: ux,
+                fy: uy,
+            };
+        }
+        let (v00, v10, v01, v11) = self.corners(col, band);
+        // Marginal in u: linear between the column sums; conditional in v:
+        // linear between the top and bottom edges at that u.
+        let fx = sample_linear(v00 + v01, v10 + v11, ux);
+        let top = v00 + (v10 - v00) * fx;
+        let bottom = v01 + (v11 - v01) * fx;
+        let fy = sample_linear(top, bottom, uy);
+        CellPoint { col, band, fx, fy }
+    }
+
+    /// Density w.r.t. area in (u, v) at a point.
+    #[inline]
+    pub fn pdf(&self, p: CellPoint) -> f32 {
+        let value = if self.bilinear {
+            let (v00, v10, v01, v11) = self.corners(p.col, p.band);
+            let top = v00 + (v10 - v00) * p.fx;
+            let bottom = v01 + (v11 - v01) * p.fx;
+            top + (bottom - top) * p.fy
+        } else {
+            self.values[p.band * self.width + p.col]
+        };
+        value * self.inv_integral
+    }
+}
+
+/// The mean of sin(pi v) over [v0, v1] (v0 < v1 in [0, 1]).
+fn mean_sin(v0: f32, v1: f32) -> f32 {
+    let (v0, v1) = (v0 as f64, v1 as f64);
+    let pi = std::f64::consts::PI;
+    let m = if v1 > v0 {
+        ((pi * v0).cos() - (pi * v1).cos()) / (pi * (v1 - v0))
+    } else {
+        (pi * v0).sin()
+    };
+    m.max(0.0) as f32
+}
