@@ -148,6 +148,16 @@ impl Emitter {
         }
     }
 
+    /// `(eval_infinite(d), pdf(.., d, .., which))` in one go (an environment
+    /// map finds its texels once).
+    pub fn eval_infinite_pdf(&self, d: Vec3, which: LightPdf) -> (Rgb, f32) {
+        match self {
+            Emitter::Constant(e) => (e.radiance, e.pdf(d)),
+            Emitter::Environment(e) => e.eval_pdf(d, which),
+            _ => (Rgb::ZERO, 0.0),
+        }
+    }
+
     /// Samples incident illumination at `p_ref` with the density `which`
     /// (only environment maps have more than one).
     pub fn sample(

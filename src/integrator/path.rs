@@ -4,7 +4,7 @@
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
 use crate::emitter::{AreaLight, Emitter};
-use crate::math::{Ray, Vec3};
+use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -72,16 +72,12 @@ pub fn li(
                     if depth == 0 && !e.visible_to_camera() {
                         continue;
                     }
-                    let le = e.eval_infinite(ray.d);
-                    if le == Rgb::ZERO {
-                        continue;
-                    }
-                    let w = if strategy == Strategy::Mis && !specular {
-                        let pl = choice_pdf(scene, i as usize)
-                            * e.pdf(&ctx, prev_p, ray.d, Vec3::ZERO, Vec3::ZERO, which);
-                        power_heuristic(prev_pdf, pl)
+                    let (le, w) = if strategy == Strategy::Mis && !specular {
+                        let (le, pdf) = e.eval_infinite_pdf(ray.d, which);
+                        let pl = choice_pdf(scene, i as usize) * pdf;
+                        (le, power_heuristic(prev_pdf, pl))
                     } else {
-                        1.0
+                        (e.eval_infinite(ray.d), 1.0)
                     };
                     l += beta * le * w;
                 }

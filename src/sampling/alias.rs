@@ -117,20 +117,68 @@ impl AliasTable {
     /// (about 24 - log2(n) of them).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32) {
-        let n = self.entries.len();
-        // NaN and negative input count as 0.
-        let u = if u >= 0.0 { u.min(1.0) } else { 0.0 };
-        let x = u * n as f32;
-        let i = (x as usize).min(n - 1);
-        let frac = (x - i as f32).clamp(0.0, 1.0);
-        let e = self.entries[i];
-        let (cell, rest) = if frac < e.keep {
-            (i, frac / e.keep)
-        } else {
-            (e.alias as usize, (frac - e.keep) / (1.0 - e.keep))
-        };
-        (cell, rest.clamp(0.0, ONE_BELOW))
+        sample_entries(&self.entries, u)
     }
+}
+
+/// Several alias tables of the same length stored end to end (one per row
+/// of a 2D table): one allocation, no pointer to chase per sample.
+#[derive(Clone, Debug)]
+pub struct AliasRows {
+    entries: Vec<Entry>,
+    len: usize,
+    totals: Vec<f32>,
+}
+
+impl AliasRows {
+    /// One table per chunk of `len` weights (`weights.len()` a multiple of
+    /// `len` > 0).
+    pub fn new(weights: &[f32], len: usize) -> AliasRows {
+        assert!(
+            len > 0 && weights.len().is_multiple_of(len),
+            "rows of equal length"
+        );
+        let mut entries = Vec::with_capacity(weights.len());
+        let mut totals = Vec::with_capacity(weights.len() / len);
+        for row in weights.chunks_exact(len) {
+            let t = AliasTable::new(row);
+            entries.extend_from_slice(&t.entries);
+            totals.push(t.total);
+        }
+        AliasRows {
+            entries,
+            len,
+            totals,
+        }
+    }
+
+    /// Sum of the weights of row `r`.
+    pub fn total(&self, r: usize) -> f32 {
+        self.totals[r]
+    }
+
+    /// [`AliasTable::sample`] in row `r`.
+    #[inline]
+    pub fn sample(&self, r: usize, u: f32) -> (usize, f32) {
+        sample_entries(&self.entries[r * self.len..(r + 1) * self.len], u)
+    }
+}
+
+#[inline]
+fn sample_entries(entries: &[Entry], u: f32) -> (usize, f32) {
+    let n = entries.len();
+    // NaN and negative input count as 0.
+    let u = if u >= 0.0 { u.min(1.0) } else { 0.0 };
+    let x = u * n as f32;
+    let i = (x as usize).min(n - 1);
+    let frac = (x - i as f32).clamp(0.0, 1.0);
+    let e = entries[i];
+    let (cell, rest) = if frac < e.keep {
+        (i, frac / e.keep)
+    } else {
+        (e.alias as usize, (frac - e.keep) / (1.0 - e.keep))
+    };
+    (cell, rest.clamp(0.0, ONE_BELOW))
 }
 
 /// The largest f32 below 1.
@@ -198,6 +246,21 @@ mod tests {
     }
 
     /// The leftover uniform is uniform and independent of the cell.
+    #[test]
+    fn rows_are_the_tables_of_their_chunks() {
+        let weights: Vec<f32> = (0..60).map(|i| ((i * 7) % 5) as f32).collect();
+        let rows = AliasRows::new(&weights, 12);
+        let mut s = Sampler::new(2, 2);
+        for r in 0..5 {
+            let table = AliasTable::new(&weights[r * 12..(r + 1) * 12]);
+            assert_eq!(rows.total(r), table.total());
+            for _ in 0..1000 {
+                let u = s.next_1d();
+                assert_eq!(rows.sample(r, u), table.sample(u));
+            }
+        }
+    }
+
     #[test]
     fn chi2_leftover_uniform() {
         let weights = [1.0, 5.0, 0.5, 2.5];

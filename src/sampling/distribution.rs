@@ -1,7 +1,5 @@
-//! Piecewise-constant distributions for importance sampling tables
-//! (light selection, environment maps, mesh areas).
-
-use glam::Vec2;
+//! Piecewise-constant 1D distributions for importance sampling tables
+//! (light selection, mesh areas).
 
 /// A discrete/piecewise-constant 1D distribution over `n` equal cells of [0, 1).
 #[derive(Clone, Debug)]
@@ -110,73 +108,6 @@ impl Distribution1D {
     }
 }
 
-/// A piecewise-constant 2D distribution over the `nu` x `nv` cells of
-/// [0,1)^2: a marginal over rows (v) and one conditional per row (u).
-/// Sampling reports which cell it picked and where inside it, so a caller
-/// with its own mapping of cells (an environment map) uses the same table.
-#[derive(Clone, Debug)]
-pub struct Distribution2D {
-    conditional: Vec<Distribution1D>,
-    marginal: Distribution1D,
-}
-
-impl Distribution2D {
-    /// `weights` is row-major, `nv` rows of `nu` cells.
-    pub fn new(weights: &[f32], nu: usize, nv: usize) -> Distribution2D {
-        assert_eq!(weights.len(), nu * nv);
-        let conditional: Vec<Distribution1D> =
-            weights.chunks_exact(nu).map(Distribution1D::new).collect();
-        let marg: Vec<f32> = conditional.iter().map(|d| d.integral()).collect();
-        Distribution2D {
-            conditional,
-            marginal: Distribution1D::new(&marg),
-        }
-    }
-
-    /// Mean weight over the cells.
-    pub fn integral(&self) -> f32 {
-        self.marginal.integral()
-    }
-
-    /// Picks a cell: (column, row, position within the cell in [0,1)^2).
-    pub fn sample_cell(&self, u: Vec2) -> (usize, usize, Vec2) {
-        let (j, _, dv) = self.marginal.sample_discrete(u.y);
-        let (i, _, du) = self.conditional[j].sample_discrete(u.x);
-        (i, j, Vec2::new(du, dv))
-    }
-
-    /// Density w.r.t. area in [0,1)^2 of the points of cell (i, j); zero
-    /// everywhere if all weights are zero.
-    pub fn pdf_cell(&self, i: usize, j: usize) -> f32 {
-        if self.integral() > 0.0 {
-            self.marginal.pdf(j) * self.conditional[j].pdf(i)
-        } else {
-            0.0
-        }
-    }
-
-    /// Returns (point in [0,1)^2, density w.r.t. area in [0,1)^2).
-    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
-        let (i, j, d) = self.sample_cell(u);
-        let n = Vec2::new(
-            self.conditional[0].len() as f32,
-            self.conditional.len() as f32,
-        );
-        let p =
-            ((Vec2::new(i as f32, j as f32) + d) / n).min(Vec2::splat(1.0 - f32::EPSILON / 2.0));
-        (p, self.pdf_cell(i, j))
-    }
-
-    /// Density at a point of [0,1]^2 (clamped into range).
-    pub fn pdf(&self, p: Vec2) -> f32 {
-        let nv = self.conditional.len();
-        let nu = self.conditional[0].len();
-        let iu = ((p.x * nu as f32) as usize).min(nu - 1);
-        let iv = ((p.y * nv as f32) as usize).min(nv - 1);
-        self.pdf_cell(iu, iv)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,19 +131,5 @@ mod tests {
         assert_eq!(d.integral(), 0.0);
         let (x, pdf, _) = d.sample_continuous(0.7);
         assert!((0.0..1.0).contains(&x) && pdf > 0.0);
-    }
-
-    #[test]
-    fn two_d_pdf_matches_sample() {
-        let w = [0.0, 1.0, 2.0, 3.0, 4.0, 0.0];
-        let d = Distribution2D::new(&w, 3, 2);
-        for i in 0..50 {
-            for j in 0..50 {
-                let u = Vec2::new((i as f32 + 0.5) / 50.0, (j as f32 + 0.5) / 50.0);
-                let (p, pdf) = d.sample(u);
-                assert!((d.pdf(p) - pdf).abs() < 1e-4 * pdf.max(1.0));
-                assert!(pdf > 0.0);
-            }
-        }
     }
 }

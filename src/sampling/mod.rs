@@ -7,7 +7,7 @@ mod linear;
 mod sampler;
 pub mod warp;
 
-pub use alias::AliasTable;
-pub use distribution::{Distribution1D, Distribution2D};
+pub use alias::{AliasRows, AliasTable};
+pub use distribution::Distribution1D;
 pub use linear::{linear_pdf, sample_linear};
 pub use sampler::Sampler;

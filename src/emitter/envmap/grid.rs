@@ -125,7 +125,12 @@ impl TexelGrid {
         let w = self.width;
         let x = uv.x * w as f32 - self.col_offset();
         let xf = x.floor();
-        let col = (xf as i64).rem_euclid(w as i64) as usize;
+        // x is in [-0.5, W): the column wraps by at most one turn.
+        let col = match xf as i64 {
+            c if c < 0 => w - 1,
+            c if c as usize >= w => 0,
+            c => c as usize,
+        };
         let fx = (x - xf).clamp(0.0, 1.0);
         let band = ((uv.y * self.band_scale + self.band_offset).floor() as i64)
             .clamp(0, self.bands() as i64 - 1) as usize;

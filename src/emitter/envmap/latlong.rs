@@ -18,11 +18,17 @@ pub fn uv_to_dir(uv: Vec2) -> Vec3 {
 #[inline]
 pub fn dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
     let len = d.length();
-    let d = if len > 0.0 && len.is_finite() {
-        d / len
+    if len > 0.0 && len.is_finite() {
+        unit_dir_to_uv_sin(d / len)
     } else {
-        return (Vec2::ZERO, 0.0);
-    };
+        (Vec2::ZERO, 0.0)
+    }
+}
+
+/// [`dir_to_uv_sin`] of a unit direction (or one within rounding of unit
+/// length).
+#[inline]
+pub fn unit_dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
     let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
     // atan2 is accurate near the poles, where acos(y) is not.
     let theta = fast_atan2(sin_theta, d.y);

@@ -69,7 +69,7 @@ use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
 use crate::math::{Transform, Vec2, Vec3, PI};
 use grid::{CellPoint, TexelGrid};
-use latlong::{dir_to_uv_sin, normalize_robust};
+use latlong::{dir_to_uv_sin, normalize_robust, unit_dir_to_uv_sin};
 use warp::EnvWarp;
 
 /// 2 pi^2: the Jacobian |d omega / (du dv)| = 2 pi^2 sin(theta).
@@ -262,7 +262,7 @@ impl EnvMap {
             return Rgb::ZERO;
         }
         match self.to_local(d) {
-            Some(l) => self.lookup(dir_to_uv_sin(l).0) * self.scale,
+            Some(l) => self.lookup(unit_dir_to_uv_sin(l).0) * self.scale,
             None => Rgb::ZERO,
         }
     }
@@ -282,39 +282,57 @@ impl EnvMap {
     /// (direction, radiance / pdf, solid-angle pdf) drawn from the density
     /// `which`. `None` if the map emits nothing (or, with vanishing
     /// probability, if the sample lands on a pole).
+    ///
+    /// The radiance and pdf are those of the sampled point itself, as
+    /// Mitsuba and pbrt return them: `pdf(d)` and `eval(d)` of the returned
+    /// direction agree with them up to the rounding of the trip through
+    /// the direction (bilinear: ~1e-6 relative; nearest: the same, except
+    /// within rounding of a texel's edge, where they may give the
+    /// neighbour's value).
+    #[inline]
     pub fn sample(&self, u: Vec2, which: LightPdf) -> Option<(Vec3, Rgb, f32)> {
         let warp = self.warp(which)?;
         let p = warp.sample(u);
-        // The returned pdf and radiance are evaluated exactly as `pdf(d)`
-        // and `eval(d)` do, at the direction's own (u, v) after the round
-        // trip through the direction, so the three agree bit for bit.
-        // Round-off in that trip can move a point on a cell's edge into a
-        // neighbour whose density differs (nearest filter) or is zero (a
-        // compensated density): then pull it towards its cell's centre and
-        // try again, which moves a vanishing fraction of samples by a sliver
-        // of a texel.
-        for shrink in [1.0, 0.999, 0.99, 0.9, 0.5, 0.0] {
-            let ps = CellPoint {
+        // A point on an edge where the density vanishes (a pole, or the
+        // border of a compensated density's support) is pulled towards its
+        // cell's centre: this moves a vanishing fraction of samples by a
+        // sliver of a texel.
+        for shrink in [1.0, 0.999, 0.99, 0.5, 0.0] {
+            let p = CellPoint {
                 fx: 0.5 + (p.fx - 0.5) * shrink,
                 fy: 0.5 + (p.fy - 0.5) * shrink,
                 ..p
             };
-            let uv = self.grid.to_uv(ps);
-            let world = normalize_robust(self.to_world.vector(Self::uv_to_dir(uv)))?;
-            let local = self.to_local(world)?;
-            let (uv_w, sin_theta) = dir_to_uv_sin(local);
-            let back = self.grid.locate(uv_w);
-            if self.grid.filter == EnvFilter::Nearest && (back.col, back.band) != (p.col, p.band) {
-                continue;
+            let uv = self.grid.to_uv(p);
+            let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
+            let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+            let local = Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
+            let world = self.to_world.vector(local).normalize_or_zero();
+            let pdf = pdf_from(warp, p, sin_theta);
+            if pdf > 0.0 && world != Vec3::ZERO {
+                let radiance = self.grid.lookup(&self.image.pixels, p) * self.scale;
+                return Some((world, radiance / pdf, pdf));
             }
-            let pdf = pdf_from(warp, back, sin_theta);
-            if pdf <= 0.0 {
-                continue; // on a pole, or off the compensated support
-            }
-            let radiance = self.grid.lookup(&self.image.pixels, back) * self.scale;
-            return Some((world, radiance / pdf, pdf));
         }
         None
+    }
+
+    /// `(eval(d), pdf(d, which))` with one trip from direction to texels:
+    /// what a path needs when a BSDF-sampled ray escapes to the map.
+    #[inline]
+    pub fn eval_pdf(&self, d: Vec3, which: LightPdf) -> (Rgb, f32) {
+        let Some(warp) = self.warp(which) else {
+            return (Rgb::ZERO, 0.0);
+        };
+        match self.to_local(d) {
+            Some(l) => {
+                let (uv, sin_theta) = unit_dir_to_uv_sin(l);
+                let p = self.grid.locate(uv);
+                let radiance = self.grid.lookup(&self.image.pixels, p) * self.scale;
+                (radiance, pdf_from(warp, p, sin_theta))
+            }
+            None => (Rgb::ZERO, 0.0),
+        }
     }
 
     /// Solid-angle pdf that `sample(_, which)` draws world direction `d`.
@@ -324,7 +342,7 @@ impl EnvMap {
         };
         match self.to_local(d) {
             Some(l) => {
-                let (uv, sin_theta) = dir_to_uv_sin(l);
+                let (uv, sin_theta) = unit_dir_to_uv_sin(l);
                 pdf_from(warp, self.grid.locate(uv), sin_theta)
             }
             None => 0.0,
@@ -351,11 +369,19 @@ impl EnvMap {
 
     /// World direction to a unit local direction; `None` for zero, NaN or
     /// infinite input.
+    #[inline]
     fn to_local(&self, d: Vec3) -> Option<Vec3> {
-        if !d.is_finite() {
-            return None;
+        let l = self.to_world.inv.transform_vector3(d);
+        let len2 = l.length_squared();
+        // The common case in one square root; tiny, huge and bad input
+        // take the careful path.
+        if len2 > 1e-20 && len2 < 1e20 {
+            Some(l / len2.sqrt())
+        } else if d.is_finite() {
+            normalize_robust(l)
+        } else {
+            None
         }
-        normalize_robust(self.to_world.inv.transform_vector3(d))
     }
 
     /// Unscaled filtered texel value at (u, v), u in [0,1), v in [0,1].

@@ -12,7 +12,7 @@
 use super::grid::{CellPoint, TexelGrid};
 use super::EnvFilter;
 use crate::math::Vec2;
-use crate::sampling::{sample_linear, AliasTable};
+use crate::sampling::{sample_linear, AliasRows, AliasTable};
 
 /// A normalised density over (u, v) in [0, 1]^2.
 #[derive(Clone, Debug)]
@@ -24,7 +24,7 @@ pub(super) struct EnvWarp {
     bilinear: bool,
     /// Picks a band, then a cell of it.
     bands: AliasTable,
-    cells: Vec<AliasTable>,
+    cells: AliasRows,
     /// 1 / (integral of the unnormalised density over (u, v)).
     inv_integral: f32,
 }
@@ -68,27 +68,29 @@ impl EnvWarp {
                 };
             }
         }
-        // Cell integrals (up to the common factor 1 / W): height x mean of
-        // the corners, or height x value.
-        let mut band_weights = Vec::with_capacity(grid.bands());
-        let mut cells = Vec::with_capacity(grid.bands());
-        let mut cell_weights = vec![0.0f32; w];
+        // Cell weights: the sum of the corners (bilinear) or the value; a
+        // cell's integral is that times its band's height / W (/ 4).
+        let mut cell_weights = vec![0.0f32; grid.bands() * w];
         for b in 0..grid.bands() {
-            let (v0, v1) = grid.band_range(b);
+            let row = &mut cell_weights[b * w..(b + 1) * w];
             if bilinear {
                 let (top, bottom) = (&values[b * w..][..w], &values[(b + 1) * w..][..w]);
                 for c in 0..w {
                     let c1 = (c + 1) % w;
-                    cell_weights[c] = top[c] + top[c1] + bottom[c] + bottom[c1];
+                    row[c] = top[c] + top[c1] + bottom[c] + bottom[c1];
                 }
             } else {
-                cell_weights.copy_from_slice(&values[b * w..][..w]);
+                row.copy_from_slice(&values[b * w..][..w]);
             }
-            let table = AliasTable::new(&cell_weights);
-            let scale = if bilinear { 0.25 } else { 1.0 };
-            band_weights.push(table.total() as f64 * scale * (v1 - v0) as f64 / w as f64);
-            cells.push(table);
         }
+        let cells = AliasRows::new(&cell_weights, w);
+        let scale = if bilinear { 0.25 } else { 1.0 };
+        let band_weights: Vec<f64> = (0..grid.bands())
+            .map(|b| {
+                let (v0, v1) = grid.band_range(b);
+                cells.total(b) as f64 * scale * (v1 - v0) as f64 / w as f64
+            })
+            .collect();
         let integral: f64 = band_weights.iter().sum();
         if !(integral > 0.0 && integral.is_finite()) {
             return None;
@@ -123,7 +125,7 @@ impl EnvWarp {
     #[inline]
     pub fn sample(&self, u: Vec2) -> CellPoint {
         let (band, uy) = self.bands.sample(u.y);
-        let (col, ux) = self.cells[band].sample(u.x);
+        let (col, ux) = self.cells.sample(band, u.x);
         if !self.bilinear {
             return CellPoint {
                 col,

@@ -1,0 +1,226 @@
+#!/usr/bin/env python3
+"""Environment-map lighting, lente against Mitsuba 3, side by side.
+
+Renders the Mitsuba 3 XML scenes of bench/envmap/ with lente and with
+Mitsuba 3 (variants scalar_rgb and llvm_ad_rgb) at equal spp over several
+seeds, and prints per scene: the MSE against a high-spp reference (mean over
+seeds), samples per second, and the ratios, including equal-time efficiency
+(MSE x render time: what halving the error costs). Optionally the same for
+an older lente build in the same run (`--base-rev`), for before/after
+figures on the same machine.
+
+Run it with the Python that has the mitsuba wheel (.ci/run makes one):
+
+    target/mitsuba-venv/bin/python scripts/envmap_compare.py [--spp 64]
+        [--seeds 8] [--ref-spp 4096] [--threads 2] [--base-rev REV]
+        [--scenes sun_sky,studio] [--probes DIR]
+
+The probes are read from ../shared/data/envmaps/ (CC0 Poly Haven maps; see
+its README) or --probes. The reference is Mitsuba's llvm_ad_rgb (scalar_rgb
+without LLVM) at --ref-spp, cached under target/envmap-compare/. Mitsuba's
+LLVM variant needs libLLVM (DRJIT_LIBLLVM_PATH; Debian's libllvm19 works,
+LLVM 15 aborts); without it that column is left out. Mitsuba is timed warm:
+one render of each scene compiles its kernels before the timed ones. Times
+are of the render alone for both (lente's own report; Mitsuba's render and
+evaluation), without loading the scene.
+"""
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BENCH = os.path.join(ROOT, "bench", "envmap")
+OUT = os.path.join(ROOT, "target", "envmap-compare")
+
+# name -> (file, extra scene parameters)
+SCENES = {
+    "sun_sky": ("sun_sky.xml", {}),
+    "sun_sky_turned": ("sun_sky.xml", {"angle": "130", "scale": "0.5"}),
+    "studio": ("studio.xml", {}),
+    "sunset_metal": ("sunset_metal.xml", {}),
+    "thinlens_forest": ("thinlens_forest.xml", {}),
+}
+
+LLVM_CANDIDATES = [
+    "/usr/lib/x86_64-linux-gnu/libLLVM-19.so",
+    "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1",
+    "/usr/lib/llvm-19/lib/libLLVM.so",
+]
+
+
+def log(msg):
+    print(msg, file=sys.stderr, flush=True)
+
+
+def build_lente(rev):
+    """Builds lente at `rev` (None: the working tree); returns the binary."""
+    if rev is None:
+        subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+        return os.path.join(ROOT, "target", "release", "lente")
+    tree = os.path.join(OUT, "base-tree")
+    if os.path.exists(tree):
+        subprocess.run(["git", "worktree", "remove", "--force", tree], cwd=ROOT)
+    subprocess.run(["git", "worktree", "add", "--quiet", "--detach", tree, rev], cwd=ROOT, check=True)
+    try:
+        env = dict(os.environ, CARGO_TARGET_DIR=os.path.join(OUT, "base-target"))
+        subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=tree, env=env, check=True)
+    finally:
+        subprocess.run(["git", "worktree", "remove", "--force", tree], cwd=ROOT)
+    return os.path.join(OUT, "base-target", "release", "lente")
+
+
+def image_values(mi, path):
+    """Linear RGB floats of an image file, row-major."""
+    bmp = mi.Bitmap(path).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, False)
+    return list(mi.TensorXf(bmp).array)
+
+
+def mse(a, b):
+    return sum((x - y) ** 2 for x, y in zip(a, b)) / len(a)
+
+
+def lente_runs(binary, scene, params, spp, seeds, threads):
+    """(list of MSE-ready images, total render seconds)."""
+    images, seconds = [], 0.0
+    for seed in seeds:
+        out = os.path.join(OUT, "lente-run")
+        cmd = [binary, "render", scene, "--spp", str(spp), "--seed", str(seed),
+               "--threads", str(threads), "-q", "-o", out]
+        for k, v in params.items():
+            cmd += ["-D", "%s=%s" % (k, v)]
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        if res.returncode != 0:
+            sys.exit("lente failed on %s:\n%s" % (scene, res.stderr))
+        m = re.search(r"spp, \d+ threads?, ([0-9.]+) s,", res.stdout)
+        if not m:
+            sys.exit("cannot read lente's render time from:\n" + res.stdout)
+        seconds += float(m.group(1))
+        images.append(out + ".exr")
+    return images, seconds
+
+
+def mitsuba_runs(mi, dr, scene_path, params, spp, seeds):
+    """(list of images as flat lists, total render seconds), warm."""
+    scene = mi.load_file(scene_path, **params)
+    img = mi.render(scene, spp=spp, seed=0)  # compiles the kernels
+    dr.eval(img)
+    dr.sync_thread()
+    images, seconds = [], 0.0
+    for seed in seeds:
+        t0 = time.perf_counter()
+        img = mi.render(scene, spp=spp, seed=seed)
+        dr.eval(img)
+        dr.sync_thread()
+        seconds += time.perf_counter() - t0
+        images.append(list(img.array))
+    return images, seconds
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--seeds", type=int, default=8)
+    ap.add_argument("--ref-spp", type=int, default=4096)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--base-rev", help="also measure lente built at this git revision")
+    ap.add_argument("--scenes", default=",".join(SCENES))
+    ap.add_argument("--probes", default=os.path.normpath(os.path.join(ROOT, "..", "shared", "data", "envmaps")))
+    args = ap.parse_args()
+
+    if not os.path.isfile(os.path.join(args.probes, "sky.hdr")):
+        sys.exit("no probes in %s (pass --probes DIR with sky.hdr, studio.hdr, sunset.hdr, forest.hdr)" % args.probes)
+    if "DRJIT_LIBLLVM_PATH" not in os.environ:
+        for c in LLVM_CANDIDATES:
+            if os.path.exists(c):
+                os.environ["DRJIT_LIBLLVM_PATH"] = c
+                break
+    import drjit as dr
+    import mitsuba as mi
+
+    variants = ["scalar_rgb"]
+    try:
+        mi.set_variant("llvm_ad_rgb")
+        variants.append("llvm_ad_rgb")
+        dr.set_thread_count(args.threads)
+    except Exception as e:  # no LLVM
+        log("llvm_ad_rgb unavailable (%s): left out" % e)
+    os.makedirs(OUT, exist_ok=True)
+
+    log("building lente")
+    lente = build_lente(None)
+    builds = [("lente", lente)]
+    if args.base_rev:
+        log("building lente at %s" % args.base_rev)
+        builds.append(("lente@" + args.base_rev, build_lente(args.base_rev)))
+
+    seeds = list(range(1, args.seeds + 1))
+    rows = []
+    for name in args.scenes.split(","):
+        file, extra = SCENES[name]
+        scene_path = os.path.join(BENCH, file)
+        params = dict(extra, probes=args.probes)
+        # Reference.
+        ref_variant = variants[-1]
+        ref_path = os.path.join(OUT, "ref-%s-%d-%s.exr" % (name, args.ref_spp, ref_variant))
+        mi.set_variant(ref_variant)
+        if not os.path.exists(ref_path):
+            log("%s: reference, %s at %d spp" % (name, ref_variant, args.ref_spp))
+            scene = mi.load_file(scene_path, **params)
+            img = mi.render(scene, spp=args.ref_spp, seed=10_000)
+            mi.Bitmap(img).write(ref_path)
+        ref = image_values(mi, ref_path)
+        pixels = len(ref) // 3
+        samples = pixels * args.spp * len(seeds)
+        row = {"scene": name}
+        for label, binary in builds:
+            log("%s: %s" % (name, label))
+            files, secs = lente_runs(binary, scene_path, params, args.spp, seeds, args.threads)
+            row[label] = (sum(mse(image_values(mi, f), ref) for f in files) / len(files), samples / secs)
+        for v in variants:
+            log("%s: mitsuba %s" % (name, v))
+            mi.set_variant(v)
+            if v != "scalar_rgb":
+                dr.set_thread_count(args.threads)
+            imgs, secs = mitsuba_runs(mi, dr, scene_path, dict(params, spp=args.spp), args.spp, seeds)
+            row[v] = (sum(mse(i, ref) for i in imgs) / len(imgs), samples / secs)
+        rows.append(row)
+
+    labels = [b[0] for b in builds] + variants
+    print("\n%d x %d spp per renderer and scene (seeds 1..%d), %d threads; reference: Mitsuba %s at %d spp"
+          % (len(seeds), args.spp, len(seeds), args.threads, variants[-1], args.ref_spp))
+    print("MSE: mean over seeds of the per-render MSE against the reference; efficiency: 1 / (MSE x time),"
+          " as a ratio lente / other (> 1: lente reaches the same error sooner)\n")
+    head = ["scene"] + ["%s MSE" % l for l in labels] + ["%s Msamples/s" % l for l in labels]
+    others = labels[1:]
+    head += ["MSE lente/%s" % o for o in others] + ["efficiency lente/%s" % o for o in others]
+    print("| " + " | ".join(head) + " |")
+    print("|" + " --- |" * len(head))
+    geo = {o: [1.0, 1.0, 0] for o in others}
+    for r in rows:
+        cells = [r["scene"]]
+        cells += ["%.3e" % r[l][0] for l in labels]
+        cells += ["%.2f" % (r[l][1] / 1e6) for l in labels]
+        ml, sl = r["lente"]
+        for o in others:
+            mo, so = r[o]
+            cells.append("%.2f" % (ml / mo))
+        for o in others:
+            mo, so = r[o]
+            eff = (mo / so) / (ml / sl)  # (MSE x time per sample) ratio
+            cells.append("%.2f" % eff)
+            geo[o][0] *= ml / mo
+            geo[o][1] *= eff
+            geo[o][2] += 1
+        print("| " + " | ".join(cells) + " |")
+    for o in others:
+        n = geo[o][2]
+        print("geometric mean vs %s: MSE ratio %.2f, efficiency ratio %.2f"
+              % (o, geo[o][0] ** (1 / n), geo[o][1] ** (1 / n)))
+
+
+if __name__ == "__main__":
+    main()
