@@ -2,6 +2,8 @@
 //! proportion to its weight in O(1), one table read per sample, where an
 //! inverted CDF needs a binary search of O(log n) cache misses.
 
+use super::ONE_MINUS_EPSILON;
+
 /// One cell of the table: keep the cell with probability `keep`, else take
 /// `alias`.
 #[derive(Clone, Copy, Debug)]
@@ -178,11 +180,8 @@ fn sample_entries(entries: &[Entry], u: f32) -> (usize, f32) {
     } else {
         (e.alias as usize, (frac - e.keep) / (1.0 - e.keep))
     };
-    (cell, rest.clamp(0.0, ONE_BELOW))
+    (cell, rest.clamp(0.0, ONE_MINUS_EPSILON))
 }
-
-/// The largest f32 below 1.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {
@@ -235,7 +234,7 @@ mod tests {
             assert!((0.0..1.0).contains(&rest));
         }
         // Edges of the unit interval and garbage stay in range.
-        for u in [0.0, ONE_BELOW, 1.0, -1.0, f32::NAN] {
+        for u in [0.0, ONE_MINUS_EPSILON, 1.0, -1.0, f32::NAN] {
             let (i, rest) = t.sample(u);
             assert!(i == 1 || i == 4, "{u}: picked {i}");
             assert!((0.0..1.0).contains(&rest), "{u}: {rest}");

@@ -1,6 +1,8 @@
 //! Piecewise-constant 1D distributions for importance sampling tables
 //! (light selection, mesh areas).
 
+use super::ONE_MINUS_EPSILON;
+
 /// A discrete/piecewise-constant 1D distribution over `n` equal cells of [0, 1).
 #[derive(Clone, Debug)]
 pub struct Distribution1D {
@@ -86,7 +88,7 @@ impl Distribution1D {
     /// Continuous sample in [0,1): returns (x, density, cell index).
     pub fn sample_continuous(&self, u: f32) -> (f32, f32, usize) {
         let (i, _, du) = self.sample_discrete(u);
-        let x = ((i as f32 + du) / self.len() as f32).min(1.0 - f32::EPSILON / 2.0);
+        let x = ((i as f32 + du) / self.len() as f32).min(ONE_MINUS_EPSILON);
         (x, self.pdf(i), i)
     }
 

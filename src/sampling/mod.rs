@@ -11,3 +11,6 @@ pub use alias::{AliasRows, AliasTable};
 pub use distribution::Distribution1D;
 pub use linear::{linear_pdf, sample_linear};
 pub use sampler::Sampler;
+
+/// The largest f32 below 1: where a sample in [0, 1) is clamped.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;

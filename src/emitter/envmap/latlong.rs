@@ -6,9 +6,16 @@ use crate::math::{fast_atan2, Vec2, Vec3, INV_PI, INV_TWO_PI, PI};
 /// (u, v) to the local unit direction.
 #[inline]
 pub fn uv_to_dir(uv: Vec2) -> Vec3 {
+    uv_to_dir_sin(uv).0
+}
+
+/// (u, v) to the local unit direction and its sin(theta).
+#[inline]
+pub fn uv_to_dir_sin(uv: Vec2) -> (Vec3, f32) {
     let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
     let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-    Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi)
+    let d = Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
+    (d, sin_theta)
 }
 
 /// (u, v) and sin(theta) of a local direction (normalised or not; zero and

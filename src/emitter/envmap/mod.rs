@@ -69,7 +69,7 @@ use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
 use crate::math::{Transform, Vec2, Vec3, PI};
 use grid::{CellPoint, TexelGrid};
-use latlong::{dir_to_uv_sin, normalize_robust, unit_dir_to_uv_sin};
+use latlong::{dir_to_uv_sin, normalize_robust, unit_dir_to_uv_sin, uv_to_dir_sin};
 use warp::EnvWarp;
 
 /// 2 pi^2: the Jacobian |d omega / (du dv)| = 2 pi^2 sin(theta).
@@ -304,9 +304,7 @@ impl EnvMap {
                 ..p
             };
             let uv = self.grid.to_uv(p);
-            let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
-            let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-            let local = Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
+            let (local, sin_theta) = uv_to_dir_sin(uv);
             let world = self.to_world.vector(local).normalize_or_zero();
             let pdf = pdf_from(warp, p, sin_theta);
             if pdf > 0.0 && world != Vec3::ZERO {
