@@ -4,10 +4,9 @@
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::color::Rgb;
-use crate::emitter::{AreaLight, Emitter, EmitterContext};
+use crate::emitter::{AreaLight, Emitter, EmitterContext, LightChoice};
 use crate::geometry::{Bvh, Geometry, Intersection};
 use crate::math::{Aabb, Ray, Vec3};
-use crate::sampling::Distribution1D;
 
 /// A shape as a scene file describes it.
 #[derive(Clone, Debug)]
@@ -38,8 +37,8 @@ pub struct Scene {
     pub emitters: Vec<Emitter>,
     /// Indices of emitters at infinity (seen by escaping rays).
     pub infinite: Vec<u32>,
-    /// Chooses an emitter in proportion to its estimated power.
-    pub light_choice: Option<Distribution1D>,
+    /// Chooses the emitter to sample from a shading point.
+    pub light_choice: Option<LightChoice>,
     pub bvh: Bvh,
     pub bounds: Aabb,
     pub scene_radius: f32,
@@ -91,12 +90,7 @@ impl Scene {
             shapes: &geometry,
             scene_radius,
         };
-        let powers: Vec<f32> = emitters.iter().map(|e| e.power(&ctx)).collect();
-        let light_choice = if powers.iter().any(|&p| p > 0.0) {
-            Some(Distribution1D::new(&powers))
-        } else {
-            None
-        };
+        let light_choice = LightChoice::new(&emitters, &ctx);
         let camera = if desc.camera.autofocus {
             Camera::new(autofocus(desc.camera, &bvh, &geometry)?)?
         } else {

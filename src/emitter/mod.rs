@@ -5,6 +5,7 @@ mod area;
 mod constant;
 mod directional;
 mod envmap;
+mod light_choice;
 mod point;
 pub mod sky;
 
@@ -12,6 +13,7 @@ pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, LightPdf, TexelRows};
+pub use light_choice::{LightBounds, LightChoice, EXHAUSTIVE_MAX};
 pub use point::PointLight;
 
 use crate::color::Rgb;

@@ -4,7 +4,8 @@
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
 use crate::emitter::{AreaLight, Emitter};
-use crate::math::Ray;
+use crate::geometry::Intersection;
+use crate::math::{Ray, Vec3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -23,13 +24,33 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     }
 }
 
-/// Probability that emitter-sampling picks emitter `i`.
+/// Probability that emitter sampling at the point `p` with normal `n`
+/// picks emitter `i`.
 #[inline]
-fn choice_pdf(scene: &Scene, i: usize) -> f32 {
-    scene
-        .light_choice
-        .as_ref()
-        .map_or(0.0, |d| d.discrete_pdf(i))
+fn choice_pdf(scene: &Scene, i: usize, p: Vec3, n: Vec3) -> f32 {
+    scene.light_choice.as_ref().map_or(0.0, |c| c.pdf(p, n, i))
+}
+
+/// Area emitters a camera ray passes through before its first hit, at most.
+const MAX_EMITTER_SKIPS: usize = 64;
+
+/// Mitsuba's `hide_emitters`: camera rays pass through area emitters (up
+/// to [`MAX_EMITTER_SKIPS`] of them) to the surface behind.
+fn skip_area_emitters(
+    scene: &Scene,
+    ray: &Ray,
+    mut hit: Option<Intersection>,
+) -> Option<Intersection> {
+    for _ in 0..MAX_EMITTER_SKIPS {
+        match &hit {
+            Some(its) if scene.shape_emitter[its.shape as usize].is_some() => {
+                let o = its.spawn(ray.d);
+                hit = scene.intersect(&Ray::new(o, ray.d));
+            }
+            _ => break,
+        }
+    }
+    hit
 }
 
 pub fn li(
@@ -50,11 +71,15 @@ pub fn li(
     // Solid-angle pdf of the BSDF sample that produced `ray`, and its origin.
     let mut prev_pdf = 0.0f32;
     let mut prev_p = ray.o;
+    let mut prev_n = Vec3::ZERO;
     let mut eta_scale = 1.0f32;
     let mut depth = 0u32;
 
     loop {
-        let hit = scene.intersect(&ray);
+        let mut hit = scene.intersect(&ray);
+        if depth == 0 && params.hide_emitters {
+            hit = skip_area_emitters(scene, &ray, hit);
+        }
         // Emission found by following the path.
         let count_emission = |specular: bool| -> bool {
             match strategy {
@@ -74,7 +99,7 @@ pub fn li(
                     }
                     let (le, w) = if strategy == Strategy::Mis && !specular {
                         let (le, pdf) = e.eval_infinite_pdf(ray.d, which);
-                        let pl = choice_pdf(scene, i as usize) * pdf;
+                        let pl = choice_pdf(scene, i as usize, prev_p, prev_n) * pdf;
                         (le, power_heuristic(prev_pdf, pl))
                     } else {
                         (e.eval_infinite(ray.d), 1.0)
@@ -92,7 +117,7 @@ pub fn li(
                 if let Emitter::Area(AreaLight { radiance, .. }) = e {
                     if its.ng.dot(wi_world) > 0.0 {
                         let w = if strategy == Strategy::Mis && !specular {
-                            let pl = choice_pdf(scene, ei as usize)
+                            let pl = choice_pdf(scene, ei as usize, prev_p, prev_n)
                                 * e.pdf(&ctx, prev_p, ray.d, its.p, its.ng, which);
                             power_heuristic(prev_pdf, pl)
                         } else {
@@ -115,7 +140,8 @@ pub fn li(
 
         // Next-event estimation.
         if strategy != Strategy::Mats && !bsdf.is_specular() {
-            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, sampler, which) {
+            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, frame.n, sampler, which)
+            {
                 let wo = frame.to_local(ls.wi);
                 let f = bsdf.eval(wi, wo);
                 if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {
@@ -146,6 +172,7 @@ pub fn li(
         specular = bs.specular;
         prev_pdf = if bs.specular { 0.0 } else { bs.pdf };
         prev_p = its.p;
+        prev_n = frame.n;
         if beta == Rgb::ZERO {
             break;
         }

@@ -31,8 +31,10 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         let bsdf = &scene.bsdfs[its.shape as usize];
         let wi = its.shading.to_local(wi_world);
         if !bsdf.is_specular() {
-            // One emitter sample, chosen in proportion to power.
-            if let Some((ls, p)) = super::sample_light(scene, its.p, sampler, LightPdf::Complete) {
+            // One emitter sample, chosen by what it can deliver here.
+            let n = its.shading.n;
+            if let Some((ls, p)) = super::sample_light(scene, its.p, n, sampler, LightPdf::Complete)
+            {
                 let wo = its.shading.to_local(ls.wi);
                 let f = bsdf.eval(wi, wo);
                 if f != Rgb::ZERO && scene.unoccluded(&its, &ls) {

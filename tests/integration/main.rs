@@ -19,6 +19,7 @@ mod determinism;
 mod envmap_integrators;
 mod furnace;
 mod geometry;
+mod lights;
 mod microfacet;
 mod mitsuba_conformance;
 mod mitsuba_mutations;
