@@ -1,11 +1,37 @@
 //! Area lights: uniform emission from the front side of a shape (the side
 //! its shading normal faces). Spheres seen from outside are sampled by the
-//! cone they subtend; other shapes (and points inside a sphere) by area.
+//! cone they subtend. Meshes pick a triangle by area, then sample the solid
+//! angle it subtends (spherical-triangle sampling) where that is neither
+//! tiny nor near a hemisphere, its area elsewhere; points inside a sphere
+//! sample its area.
 
-use super::{EmitterContext, EmitterError, LightSample};
+use super::{EmitterContext, EmitterError, LightHit, LightSample};
 use crate::color::{luminance, Rgb};
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, TriangleMesh};
 use crate::math::{Vec2, Vec3, PI};
+use crate::sampling::spherical_triangle::{self, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
+
+/// The solid angle triangle `tri` of `m` subtends from `p_ref` and the
+/// unit directions to its vertices, if it is sampled by solid angle from
+/// there (see [`spherical_triangle::MIN_SOLID_ANGLE`]).
+fn spherical(m: &TriangleMesh, tri: usize, p_ref: Vec3) -> Option<([Vec3; 3], f32)> {
+    let verts = m.vertices(tri);
+    // Cheap first: the projected area over the squared distance of the
+    // centroid, far below the threshold, settles it without trigonometry.
+    let to_c = (verts[0] + verts[1] + verts[2]) / 3.0 - p_ref;
+    let d2 = to_c.length_squared();
+    let projected = 0.5
+        * (verts[1] - verts[0])
+            .cross(verts[2] - verts[0])
+            .dot(to_c)
+            .abs();
+    if projected < 0.25 * MIN_SOLID_ANGLE * d2 * d2.sqrt() {
+        return None;
+    }
+    let dirs = verts.map(|v| (v - p_ref).normalize_or_zero());
+    let omega = spherical_triangle::solid_angle(dirs[0], dirs[1], dirs[2]);
+    ((MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&omega)).then_some((dirs, omega))
+}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AreaLight {
@@ -35,7 +61,14 @@ impl AreaLight {
         u1: f32,
     ) -> Option<LightSample> {
         let s = match &ctx.shapes[self.shape as usize] {
-            Geometry::Mesh(m) => m.sample_area(u1, u),
+            Geometry::Mesh(m) => {
+                let (tri, p_tri) = m.choose_triangle(u1);
+                if let Some((dirs, omega)) = spherical(m, tri, p_ref) {
+                    return self.sample_spherical(m, tri, p_ref, dirs, p_tri / omega, u);
+                }
+                let b = crate::sampling::warp::square_to_uniform_triangle(u);
+                m.surface_point(tri, b.x, b.y)
+            }
             Geometry::Sphere(sp) => match sp.visible_cone(p_ref) {
                 // Outside the sphere: sample the cone it subtends.
                 Some(cone) => {
@@ -78,28 +111,262 @@ impl AreaLight {
         })
     }
 
-    /// Solid-angle density of `sample` from `p_ref` reaching `p_light`
-    /// (normal `n_light`) in direction `wi`.
-    pub fn pdf(
+    /// A direction uniform over the solid angle of triangle `tri` (unit
+    /// vertex directions `dirs` from `p_ref`), the point it reaches, and
+    /// the solid-angle density `pdf` (triangle choice included).
+    fn sample_spherical(
         &self,
-        ctx: &EmitterContext,
+        m: &TriangleMesh,
+        tri: usize,
         p_ref: Vec3,
-        wi: Vec3,
-        p_light: Vec3,
-        n_light: Vec3,
-    ) -> f32 {
+        dirs: [Vec3; 3],
+        pdf: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        let d = spherical_triangle::sample(dirs[0], dirs[1], dirs[2], u)?;
+        let (b1, b2) = m.barycentrics_along(tri, p_ref, d)?;
+        let s = m.surface_point(tri, b1, b2);
+        let to = s.p - p_ref;
+        let dist = to.length();
+        // The emitting side faces p_ref, or nothing arrives.
+        if dist <= 0.0 || to.dot(s.n) >= 0.0 || !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(LightSample {
+            wi: to / dist,
+            p: s.p,
+            err: s.err,
+            n: s.n,
+            dist,
+            weight: self.radiance / pdf,
+            pdf,
+            delta: false,
+        })
+    }
+
+    /// Solid-angle density of [`AreaLight::sample`] from `p_ref` reaching
+    /// the light point `at` in direction `wi`.
+    pub fn pdf(&self, ctx: &EmitterContext, p_ref: Vec3, wi: Vec3, at: &LightHit) -> f32 {
         let g = &ctx.shapes[self.shape as usize];
-        if let Geometry::Sphere(sp) = g {
-            if let Some(cone) = sp.visible_cone(p_ref) {
-                return cone.pdf();
+        let cos_l = (-wi).dot(at.n);
+        match g {
+            Geometry::Sphere(sp) => {
+                if let Some(cone) = sp.visible_cone(p_ref) {
+                    return cone.pdf();
+                }
+            }
+            Geometry::Mesh(m) => {
+                let tri = at.prim as usize;
+                if tri < m.triangle_count() {
+                    if let Some((_, omega)) = spherical(m, tri, p_ref) {
+                        return if cos_l > 0.0 {
+                            m.triangle_probability(tri) / omega
+                        } else {
+                            0.0
+                        };
+                    }
+                }
             }
         }
         let area = g.area();
-        let d2 = (p_light - p_ref).length_squared();
-        let cos_l = (-wi).dot(n_light);
+        let d2 = (at.p - p_ref).length_squared();
         if cos_l <= 0.0 || area <= 0.0 {
             return 0.0;
         }
         d2 / (cos_l * area)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::sidak;
+
+    /// A downward-facing unit quad at z = 1 (two triangles), a tilted
+    /// triangle beside it and a tiny one (solid angle below
+    /// MIN_SOLID_ANGLE from everywhere here: sampled by area).
+    fn light_mesh() -> TriangleMesh {
+        let p = vec![
+            Vec3::new(-0.5, -0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(-0.5, 0.5, 1.0),
+            Vec3::new(0.8, -0.5, 0.6),
+            Vec3::new(1.6, 0.0, 1.2),
+            Vec3::new(0.8, 0.6, 0.9),
+            Vec3::new(-0.9, 0.0, 0.8),
+            Vec3::new(-0.9, 0.004, 0.8),
+            Vec3::new(-0.904, 0.0, 0.8),
+        ];
+        let idx = vec![[0, 2, 1], [0, 3, 2], [4, 6, 5], [7, 9, 8]];
+        TriangleMesh::new(p, vec![], vec![], idx).unwrap()
+    }
+
+    fn hit(s: crate::geometry::SurfaceSample, tri: usize) -> LightHit {
+        LightHit {
+            p: s.p,
+            n: s.n,
+            prim: tri as u32,
+        }
+    }
+
+    /// Every triangle of `m` the ray from `o` along `d` meets, with its
+    /// barycentrics (Moller-Trumbore, f64).
+    fn hits(m: &TriangleMesh, o: Vec3, d: Vec3) -> Vec<(usize, f32, f32)> {
+        let mut out = Vec::new();
+        for tri in 0..m.triangle_count() {
+            let [a, b, c] = m.vertices(tri).map(|v| v.as_dvec3());
+            let (o, d) = (o.as_dvec3(), d.as_dvec3());
+            let (e1, e2) = (b - a, c - a);
+            let pv = d.cross(e2);
+            let det = e1.dot(pv);
+            if det.abs() < 1e-12 {
+                continue;
+            }
+            let tv = o - a;
+            let b1 = tv.dot(pv) / det;
+            let qv = tv.cross(e1);
+            let b2 = d.dot(qv) / det;
+            let t = e2.dot(qv) / det;
+            if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 && t > 0.0 {
+                out.push((tri, b1 as f32, b2 as f32));
+            }
+        }
+        out
+    }
+
+    /// Sub-triangles of a triangle: `n` x `n` in barycentric space, each
+    /// as three barycentric (b1, b2) corners.
+    fn subdivide(n: usize) -> Vec<[(f32, f32); 3]> {
+        let v = |i: usize, j: usize| (i as f32 / n as f32, j as f32 / n as f32);
+        let mut out = Vec::new();
+        for i in 0..n {
+            for j in 0..n - i {
+                out.push([v(i, j), v(i + 1, j), v(i, j + 1)]);
+                if i + j + 1 < n {
+                    out.push([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+                }
+            }
+        }
+        out
+    }
+
+    /// Index of the sub-triangle of `subdivide(n)` holding (b1, b2).
+    fn sub_index(n: usize, b1: f32, b2: f32) -> usize {
+        let (x, y) = (b1 * n as f32, b2 * n as f32);
+        let (i, j) = ((x as usize).min(n - 1), (y as usize).min(n - 1));
+        let (i, j) = if i + j > n - 1 {
+            (n - 1 - j, j)
+        } else {
+            (i, j)
+        };
+        let upper = (x - i as f32) + (y - j as f32) > 1.0 && i + j + 1 < n;
+        // Position of (i, j) in subdivide's order.
+        let mut k = 0;
+        for ii in 0..i {
+            k += 2 * (n - ii) - 1;
+        }
+        k + 2 * j + usize::from(upper)
+    }
+
+    /// Samples land on the light with the density `pdf` reports for their
+    /// point, and pass a chi-square test against `pdf` integrated over the
+    /// solid angle of sub-triangles of each triangle (bins that follow
+    /// the light's edges: no cut cells), from points close to the light
+    /// (spherical sampling), far (area sampling of the tiny triangle) and
+    /// beside it.
+    #[test]
+    fn mesh_light_sample_matches_pdf() {
+        let shapes = [Geometry::Mesh(light_mesh())];
+        let ctx = EmitterContext {
+            shapes: &shapes,
+            scene_radius: 10.0,
+        };
+        let Geometry::Mesh(m) = &shapes[0] else {
+            unreachable!()
+        };
+        let light = AreaLight::new(0, Rgb::ONE).unwrap();
+        let points = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.2, 0.1, 0.85),
+            Vec3::new(-0.5, 0.3, -2.0),
+            Vec3::new(3.0, 1.0, 1.0),
+        ];
+        let (bins, fine) = (4, 8);
+        let subs = subdivide(bins);
+        let alpha = sidak(0.01, points.len());
+        let mut sampler = crate::sampling::Sampler::new(5, 9);
+        for &p in &points {
+            // Expected: pdf at the centre of each fine sub-triangle times
+            // its solid angle, summed per bin.
+            let mut expected = vec![0.0f64; m.triangle_count() * subs.len()];
+            for tri in 0..m.triangle_count() {
+                for (k, sub) in subs.iter().enumerate() {
+                    for f in subdivide(fine) {
+                        let bary = f.map(|(x, y)| {
+                            let (a, b, c) = (sub[0], sub[1], sub[2]);
+                            (
+                                a.0 + x * (b.0 - a.0) + y * (c.0 - a.0),
+                                a.1 + x * (b.1 - a.1) + y * (c.1 - a.1),
+                            )
+                        });
+                        let pts = bary.map(|(b1, b2)| m.surface_point(tri, b1, b2).p);
+                        let dirs = pts.map(|q| (q - p).normalize());
+                        let omega = spherical_triangle::solid_angle(dirs[0], dirs[1], dirs[2]);
+                        let (c1, c2) = (
+                            (bary[0].0 + bary[1].0 + bary[2].0) / 3.0,
+                            (bary[0].1 + bary[1].1 + bary[2].1) / 3.0,
+                        );
+                        let s = m.surface_point(tri, c1, c2);
+                        let d = (s.p - p).normalize();
+                        let q = light.pdf(&ctx, p, d, &hit(s, tri)) as f64;
+                        expected[tri * subs.len() + k] += q * omega as f64;
+                    }
+                }
+            }
+            let n = 100_000;
+            let mut observed = vec![0.0f64; expected.len()];
+            let mut mismatches = 0;
+            for _ in 0..n {
+                let u1 = sampler.next_1d();
+                let Some(ls) = light.sample(&ctx, p, sampler.next_2d(), u1) else {
+                    continue;
+                };
+                // The triangle the point lies on, and where.
+                let (tri, b1, b2) = hits(m, p, ls.wi)
+                    .into_iter()
+                    .min_by(|a, b| {
+                        let da = (m.surface_point(a.0, a.1, a.2).p - ls.p).length();
+                        let db = (m.surface_point(b.0, b.1, b.2).p - ls.p).length();
+                        da.total_cmp(&db)
+                    })
+                    .expect("the sample lies on the light");
+                let s = m.surface_point(tri, b1, b2);
+                let q = light.pdf(&ctx, p, ls.wi, &hit(s, tri));
+                if (q - ls.pdf).abs() > 1e-3 * q.max(1e-3) {
+                    mismatches += 1;
+                }
+                observed[tri * subs.len() + sub_index(bins, b1, b2)] += 1.0;
+            }
+            assert!(
+                mismatches <= n / 1000,
+                "point {p}: {mismatches} pdf mismatches"
+            );
+            let expected: Vec<f64> = expected.iter().map(|e| e * n as f64).collect();
+            let r = crate::stats::chi2_test(&observed, &expected, 5.0);
+            assert!(r.passes(alpha), "point {p}: {r:?}");
+        }
+    }
+
+    #[test]
+    fn sub_index_inverts_subdivide() {
+        let n = 5;
+        for (k, s) in subdivide(n).iter().enumerate() {
+            let c = (
+                (s[0].0 + s[1].0 + s[2].0) / 3.0,
+                (s[0].1 + s[1].1 + s[2].1) / 3.0,
+            );
+            assert_eq!(sub_index(n, c.0, c.1), k);
+        }
     }
 }

@@ -92,6 +92,15 @@ impl LightSample {
     }
 }
 
+/// Where a ray met an area light: the point, the normal of the side that
+/// emits, and the triangle (0 on spheres).
+#[derive(Clone, Copy, Debug)]
+pub struct LightHit {
+    pub p: Vec3,
+    pub n: Vec3,
+    pub prim: u32,
+}
+
 /// Geometry of the scene the emitters need (area lights live on shapes;
 /// infinite lights need the scene's bounding sphere for power estimates).
 pub struct EmitterContext<'a> {
@@ -183,19 +192,18 @@ impl Emitter {
     }
 
     /// Solid-angle pdf that `sample` from `p_ref` with the density `which`
-    /// produces the point `p_light` with normal `n_light` (area lights) or
-    /// the direction `wi` (infinite).
+    /// produces the point `at` (area lights) or the direction `wi`
+    /// (infinite).
     pub fn pdf(
         &self,
         ctx: &EmitterContext,
         p_ref: Vec3,
         wi: Vec3,
-        p_light: Vec3,
-        n_light: Vec3,
+        at: &LightHit,
         which: LightPdf,
     ) -> f32 {
         match self {
-            Emitter::Area(e) => e.pdf(ctx, p_ref, wi, p_light, n_light),
+            Emitter::Area(e) => e.pdf(ctx, p_ref, wi, at),
             Emitter::Point(_) | Emitter::Directional(_) => 0.0,
             Emitter::Constant(e) => e.pdf(wi),
             Emitter::Environment(e) => e.pdf(wi, which),

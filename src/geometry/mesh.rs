@@ -307,17 +307,36 @@ impl TriangleMesh {
             shading: Frame::from_normal_tangent(ns, self.dpdu(tri)),
             uv,
             shape: 0,
+            prim: hit.index,
         }
     }
 
     /// Samples a point uniformly by area.
     pub fn sample_area(&self, u_tri: f32, u: Vec2) -> SurfaceSample {
-        let (tri, _, _) = self.area_distribution.sample_discrete(u_tri);
+        let (tri, _) = self.choose_triangle(u_tri);
         let b = warp::square_to_uniform_triangle(u);
+        self.surface_point(tri, b.x, b.y)
+    }
+
+    /// A triangle chosen in proportion to its area, and the probability.
+    pub fn choose_triangle(&self, u: f32) -> (usize, f32) {
+        let (tri, p, _) = self.area_distribution.sample_discrete(u);
+        (tri, p)
+    }
+
+    /// Probability that [`TriangleMesh::choose_triangle`] picks `tri`.
+    pub fn triangle_probability(&self, tri: usize) -> f32 {
+        self.area_distribution.discrete_pdf(tri)
+    }
+
+    /// The point at barycentrics (b1, b2) of triangle `tri` as an emitter
+    /// sees it (area density of uniform sampling over the whole mesh).
+    pub fn surface_point(&self, tri: usize, b1: f32, b2: f32) -> SurfaceSample {
         let [a, bb, c] = self.vertices(tri);
-        let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;
-        let err = crate::math::barycentric_error(1.0 - b.x - b.y, b.x, b.y, a, bb, c);
-        let (n, _) = self.shading(tri, b.x, b.y);
+        let b0 = 1.0 - b1 - b2;
+        let p = a * b0 + bb * b1 + c * b2;
+        let err = crate::math::barycentric_error(b0, b1, b2, a, bb, c);
+        let (n, _) = self.shading(tri, b1, b2);
         let ng = self.geometric_normal(tri);
         // Emission is defined on the geometric side the shading normal agrees with.
         let n = if n.dot(ng) < 0.0 { -ng } else { ng };
@@ -327,5 +346,35 @@ impl TriangleMesh {
             n,
             pdf_area: 1.0 / self.area,
         }
+    }
+
+    /// Where the ray from `o` along `d` meets the plane of triangle `tri`,
+    /// as barycentrics (b1, b2) clamped to the triangle; `None` if the ray
+    /// runs parallel to it or points away. (f64: the directions come from
+    /// a solid-angle warp and must land on the triangle they sampled.)
+    pub fn barycentrics_along(&self, tri: usize, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
+        let [a, b, c] = self.vertices(tri).map(|v| v.as_dvec3());
+        let (o, d) = (o.as_dvec3(), d.as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let pvec = d.cross(e2);
+        let det = e1.dot(pvec);
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let tvec = o - a;
+        let qvec = tvec.cross(e1);
+        let t = e2.dot(qvec) / det;
+        if t <= 0.0 {
+            return None;
+        }
+        let b1 = (tvec.dot(pvec) / det).clamp(0.0, 1.0);
+        let b2 = (d.dot(qvec) / det).clamp(0.0, 1.0);
+        let sum = b1 + b2;
+        let (b1, b2) = if sum > 1.0 {
+            (b1 / sum, b2 / sum)
+        } else {
+            (b1, b2)
+        };
+        Some((b1 as f32, b2 as f32))
     }
 }

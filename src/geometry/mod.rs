@@ -139,6 +139,8 @@ pub struct Intersection {
     pub uv: Vec2,
     /// Index of the shape in the scene.
     pub shape: u32,
+    /// Triangle index within its mesh (0 for spheres).
+    pub prim: u32,
 }
 
 impl Intersection {

@@ -162,6 +162,7 @@ impl Sphere {
             shading: Frame::from_normal_tangent(n, self.dpdu(n)),
             uv,
             shape: 0,
+            prim: 0,
         }
     }
 

@@ -3,7 +3,7 @@
 
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
-use crate::emitter::{AreaLight, Emitter};
+use crate::emitter::{AreaLight, Emitter, LightHit};
 use crate::geometry::Intersection;
 use crate::math::{Ray, Vec3};
 use crate::sampling::Sampler;
@@ -118,7 +118,17 @@ pub fn li(
                     if its.ng.dot(wi_world) > 0.0 {
                         let w = if strategy == Strategy::Mis && !specular {
                             let pl = choice_pdf(scene, ei as usize, prev_p, prev_n)
-                                * e.pdf(&ctx, prev_p, ray.d, its.p, its.ng, which);
+                                * e.pdf(
+                                    &ctx,
+                                    prev_p,
+                                    ray.d,
+                                    &LightHit {
+                                        p: its.p,
+                                        n: its.ng,
+                                        prim: its.prim,
+                                    },
+                                    which,
+                                );
                             power_heuristic(prev_pdf, pl)
                         } else {
                             1.0

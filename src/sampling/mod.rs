@@ -1,10 +1,11 @@
 //! Random numbers, warps with their pdfs, piecewise-constant distributions
-//! and alias tables.
+//! alias tables and spherical-triangle sampling.
 
 mod alias;
 mod distribution;
 mod linear;
 mod sampler;
+pub mod spherical_triangle;
 pub mod warp;
 
 pub use alias::{AliasRows, AliasTable};
