@@ -110,6 +110,13 @@ impl Scene {
         })
     }
 
+    /// The shading point `p` with normal `n` as the light choice sees it.
+    pub fn choice_point(&self, p: Vec3, n: Vec3) -> crate::emitter::ChoicePoint {
+        self.light_choice
+            .as_ref()
+            .map_or_else(Default::default, |c| c.at(p, n))
+    }
+
     pub fn emitter_context(&self) -> EmitterContext<'_> {
         EmitterContext {
             shapes: &self.geometry,

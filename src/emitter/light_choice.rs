@@ -259,15 +259,22 @@ impl LightChoice {
         })
     }
 
-    /// Sum of the importance of all bounded lights at (p, n).
-    fn total_importance(&self, p: Vec3, n: Vec3) -> f32 {
-        self.bounded.iter().map(|(_, b)| b.importance(p, n)).sum()
+    /// The shading point `p` with normal `n` (zero for none) as the
+    /// choice sees it: the sum of the bounded lights' importance there is
+    /// computed once, for the emitter sample and for the MIS weight of the
+    /// light a BSDF sample from the same point finds.
+    pub fn at(&self, p: Vec3, n: Vec3) -> ChoicePoint {
+        let total = if self.bounded_by_power.is_none() && self.bounded.len() > 1 {
+            self.bounded.iter().map(|(_, b)| b.importance(p, n)).sum()
+        } else {
+            0.0
+        };
+        ChoicePoint { p, n, total }
     }
 
-    /// Chooses an emitter for the shading point `p` with normal `n` (zero
-    /// for none). Returns its index, the probability of the choice and
-    /// `u` rescaled to [0, 1) for reuse.
-    pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32, f32)> {
+    /// Chooses an emitter for the shading point `at`. Returns its index,
+    /// the probability of the choice and `u` rescaled to [0, 1) for reuse.
+    pub fn sample(&self, at: &ChoicePoint, u: f32) -> Option<(usize, f32, f32)> {
         if u < self.p_unbounded {
             let d = self.unbounded_by_power.as_ref()?;
             let (k, pk, u) = d.sample_discrete((u / self.p_unbounded).min(ONE_MINUS_EPSILON));
@@ -284,7 +291,7 @@ impl LightChoice {
             // gives a zero sample, as it would from any chooser).
             return Some((i as usize, p_bounded, u));
         }
-        let total = self.total_importance(p, n);
+        let total = at.total;
         if !(total > 0.0 && total.is_finite()) {
             return None;
         }
@@ -292,7 +299,7 @@ impl LightChoice {
         let mut acc = 0.0f32;
         let mut last = None;
         for (i, b) in &self.bounded {
-            let w = b.importance(p, n);
+            let w = b.importance(at.p, at.n);
             if w <= 0.0 {
                 continue;
             }
@@ -308,8 +315,8 @@ impl LightChoice {
         Some((i, p_bounded * w / total, ONE_MINUS_EPSILON))
     }
 
-    /// Probability that [`LightChoice::sample`] at (p, n) picks emitter `i`.
-    pub fn pdf(&self, p: Vec3, n: Vec3, i: usize) -> f32 {
+    /// Probability that [`LightChoice::sample`] at `at` picks emitter `i`.
+    pub fn pdf(&self, at: &ChoicePoint, i: usize) -> f32 {
         match self.slot.get(i).copied().flatten() {
             None => 0.0,
             Some((false, k)) => self
@@ -324,14 +331,25 @@ impl LightChoice {
                 if self.bounded.len() == 1 {
                     return p_bounded;
                 }
-                let w = self.bounded[k as usize].1.importance(p, n);
-                if w <= 0.0 {
+                let w = self.bounded[k as usize].1.importance(at.p, at.n);
+                if w <= 0.0 || at.total.is_nan() || at.total <= 0.0 {
                     return 0.0;
                 }
-                p_bounded * w / self.total_importance(p, n)
+                p_bounded * w / at.total
             }
         }
     }
+}
+
+/// A shading point with what the light choice needs there (see
+/// [`LightChoice::at`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ChoicePoint {
+    p: Vec3,
+    n: Vec3,
+    /// Sum of the bounded lights' importance (0 where the choice does not
+    /// weigh them one by one).
+    total: f32,
 }
 
 #[cfg(test)]
@@ -387,8 +405,9 @@ mod tests {
             Emitter::Area(AreaLight::new(1, Rgb::splat(100.0)).unwrap()),
         ];
         let c = LightChoice::new(&emitters, &ctx).unwrap();
-        let p0 = c.pdf(Vec3::ZERO, Vec3::Z, 0);
-        let p1 = c.pdf(Vec3::ZERO, Vec3::Z, 1);
+        let at = c.at(Vec3::ZERO, Vec3::Z);
+        let p0 = c.pdf(&at, 0);
+        let p1 = c.pdf(&at, 1);
         assert!((p0 + p1 - 1.0).abs() < 1e-5);
         assert!(p0 > 0.5, "{p0}");
     }
@@ -428,14 +447,15 @@ mod tests {
         const U_BINS: usize = 20;
         let mut sampler = Sampler::new(7, 0);
         for (p, nrm) in points {
-            let probs: Vec<f32> = (0..emitters.len()).map(|i| c.pdf(p, nrm, i)).collect();
+            let at = c.at(p, nrm);
+            let probs: Vec<f32> = (0..emitters.len()).map(|i| c.pdf(&at, i)).collect();
             assert_eq!(probs[3], 0.0, "a black light is never chosen");
             let sum: f32 = probs.iter().sum();
             assert!((sum - 1.0).abs() < 1e-5, "{probs:?}");
             let mut counts = vec![0.0f64; emitters.len()];
             let mut u_bins = vec![0.0f64; U_BINS];
             for _ in 0..n {
-                let (i, pr, u2) = c.sample(p, nrm, sampler.next_1d()).unwrap();
+                let (i, pr, u2) = c.sample(&at, sampler.next_1d()).unwrap();
                 assert!(
                     (pr - probs[i]).abs() <= 1e-5 * probs[i].max(1e-3),
                     "{pr} {}",

@@ -13,7 +13,7 @@ pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, LightPdf, TexelRows};
-pub use light_choice::{LightBounds, LightChoice, EXHAUSTIVE_MAX};
+pub use light_choice::{ChoicePoint, LightBounds, LightChoice, EXHAUSTIVE_MAX};
 pub use point::PointLight;
 
 use crate::color::Rgb;

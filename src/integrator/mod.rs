@@ -10,19 +10,19 @@ use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
-/// Picks an emitter for the shading point `p` with normal `n` (see
+/// Picks an emitter for the shading point `at` (see
 /// [`crate::emitter::LightChoice`]) and samples incident light at `p` from
 /// it with the density `which`. Returns the sample and the probability of
 /// the choice.
 fn sample_light(
     scene: &Scene,
     p: crate::math::Vec3,
-    n: crate::math::Vec3,
+    at: &crate::emitter::ChoicePoint,
     sampler: &mut Sampler,
     which: LightPdf,
 ) -> Option<(crate::emitter::LightSample, f32)> {
     let choice = scene.light_choice.as_ref()?;
-    let (i, pchoice, u1) = choice.sample(p, n, sampler.next_1d())?;
+    let (i, pchoice, u1) = choice.sample(at, sampler.next_1d())?;
     let u = sampler.next_2d();
     let ls = scene.emitters[i].sample(&scene.emitter_context(), p, u, u1, which)?;
     Some((ls, pchoice))

@@ -3,9 +3,9 @@
 
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
-use crate::emitter::{AreaLight, Emitter, LightHit};
+use crate::emitter::{AreaLight, ChoicePoint, Emitter, LightHit};
 use crate::geometry::Intersection;
-use crate::math::{Ray, Vec3};
+use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -24,11 +24,11 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     }
 }
 
-/// Probability that emitter sampling at the point `p` with normal `n`
-/// picks emitter `i`.
+/// Probability that emitter sampling at the shading point `at` picks
+/// emitter `i`.
 #[inline]
-fn choice_pdf(scene: &Scene, i: usize, p: Vec3, n: Vec3) -> f32 {
-    scene.light_choice.as_ref().map_or(0.0, |c| c.pdf(p, n, i))
+fn choice_pdf(scene: &Scene, i: usize, at: &ChoicePoint) -> f32 {
+    scene.light_choice.as_ref().map_or(0.0, |c| c.pdf(at, i))
 }
 
 /// Area emitters a camera ray passes through before its first hit, at most.
@@ -71,7 +71,8 @@ pub fn li(
     // Solid-angle pdf of the BSDF sample that produced `ray`, and its origin.
     let mut prev_pdf = 0.0f32;
     let mut prev_p = ray.o;
-    let mut prev_n = Vec3::ZERO;
+    // The light choice at the vertex that sampled `ray` (for MIS weights).
+    let mut prev_at = ChoicePoint::default();
     let mut eta_scale = 1.0f32;
     let mut depth = 0u32;
 
@@ -99,7 +100,7 @@ pub fn li(
                     }
                     let (le, w) = if strategy == Strategy::Mis && !specular {
                         let (le, pdf) = e.eval_infinite_pdf(ray.d, which);
-                        let pl = choice_pdf(scene, i as usize, prev_p, prev_n) * pdf;
+                        let pl = choice_pdf(scene, i as usize, &prev_at) * pdf;
                         (le, power_heuristic(prev_pdf, pl))
                     } else {
                         (e.eval_infinite(ray.d), 1.0)
@@ -117,7 +118,7 @@ pub fn li(
                 if let Emitter::Area(AreaLight { radiance, .. }) = e {
                     if its.ng.dot(wi_world) > 0.0 {
                         let w = if strategy == Strategy::Mis && !specular {
-                            let pl = choice_pdf(scene, ei as usize, prev_p, prev_n)
+                            let pl = choice_pdf(scene, ei as usize, &prev_at)
                                 * e.pdf(
                                     &ctx,
                                     prev_p,
@@ -150,7 +151,8 @@ pub fn li(
 
         // Next-event estimation.
         if strategy != Strategy::Mats && !bsdf.is_specular() {
-            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, frame.n, sampler, which)
+            prev_at = scene.choice_point(its.p, frame.n);
+            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, &prev_at, sampler, which)
             {
                 let wo = frame.to_local(ls.wi);
                 let f = bsdf.eval(wi, wo);
@@ -182,7 +184,6 @@ pub fn li(
         specular = bs.specular;
         prev_pdf = if bs.specular { 0.0 } else { bs.pdf };
         prev_p = its.p;
-        prev_n = frame.n;
         if beta == Rgb::ZERO {
             break;
         }

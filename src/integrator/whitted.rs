@@ -32,8 +32,9 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         let wi = its.shading.to_local(wi_world);
         if !bsdf.is_specular() {
             // One emitter sample, chosen by what it can deliver here.
-            let n = its.shading.n;
-            if let Some((ls, p)) = super::sample_light(scene, its.p, n, sampler, LightPdf::Complete)
+            let at = scene.choice_point(its.p, its.shading.n);
+            if let Some((ls, p)) =
+                super::sample_light(scene, its.p, &at, sampler, LightPdf::Complete)
             {
                 let wo = its.shading.to_local(ls.wi);
                 let f = bsdf.eval(wi, wo);

@@ -1,23 +1,28 @@
 #!/usr/bin/env python3
-"""Environment-map lighting, lente against Mitsuba 3, side by side.
+"""lente against Mitsuba 3, side by side, on light sampling.
 
-Renders the Mitsuba 3 XML scenes of bench/envmap/ with lente and with
-Mitsuba 3 (variants scalar_rgb and llvm_ad_rgb) at equal spp over several
-seeds, and prints per scene: the MSE against a high-spp reference (mean over
-seeds), samples per second, and the ratios, including equal-time efficiency
-(MSE x render time: what halving the error costs). Optionally the same for
-an older lente build in the same run (`--base-rev`), for before/after
-figures on the same machine.
+Renders Mitsuba 3 XML scenes with lente and with Mitsuba 3 (variants
+scalar_rgb and llvm_ad_rgb) at equal spp over several seeds, and prints per
+scene: the MSE against a high-spp reference (mean over seeds), samples per
+second, and the ratios, including equal-time efficiency (MSE x render
+time: what halving the error costs). Optionally the same for an older lente
+build in the same run (`--base-rev`), for before/after figures on the same
+machine. Two sets of scenes:
+
+  envmap  bench/envmap/: probes with a sun, a studio, a sunset over a rough
+          conductor, a thin lens under a forest probe
+  lights  bench/lights/ and the Cornell box: Veach's MIS scene (with the
+          lights seen, and hidden), a big light near a floor, the box
 
 Run it with the Python that has the mitsuba wheel (.ci/run makes one):
 
-    target/mitsuba-venv/bin/python scripts/envmap_compare.py [--spp 64]
-        [--seeds 8] [--ref-spp 4096] [--threads 2] [--base-rev REV]
-        [--scenes sun_sky,studio] [--probes DIR]
+    target/mitsuba-venv/bin/python scripts/mitsuba_compare.py [--set envmap]
+        [--spp 64] [--seeds 8] [--ref-spp 4096] [--threads 2]
+        [--base-rev REV] [--scenes sun_sky,studio] [--probes DIR]
 
 The probes are read from ../shared/data/envmaps/ (CC0 Poly Haven maps; see
 its README) or --probes. The reference is Mitsuba's llvm_ad_rgb (scalar_rgb
-without LLVM) at --ref-spp, cached under target/envmap-compare/. Mitsuba's
+without LLVM) at --ref-spp, cached under target/mitsuba-compare/. Mitsuba's
 LLVM variant needs libLLVM (DRJIT_LIBLLVM_PATH; Debian's libllvm19 works,
 LLVM 15 aborts); without it that column is left out. Mitsuba is timed warm:
 one render of each scene compiles its kernels before the timed ones. Times
@@ -33,16 +38,19 @@ import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BENCH = os.path.join(ROOT, "bench", "envmap")
-OUT = os.path.join(ROOT, "target", "envmap-compare")
+OUT = os.path.join(ROOT, "target", "mitsuba-compare")
 
-# name -> (file, extra scene parameters)
+# name -> (set, file relative to the repository, extra scene parameters)
 SCENES = {
-    "sun_sky": ("sun_sky.xml", {}),
-    "sun_sky_turned": ("sun_sky.xml", {"angle": "130", "scale": "0.5"}),
-    "studio": ("studio.xml", {}),
-    "sunset_metal": ("sunset_metal.xml", {}),
-    "thinlens_forest": ("thinlens_forest.xml", {}),
+    "sun_sky": ("envmap", "bench/envmap/sun_sky.xml", {}),
+    "sun_sky_turned": ("envmap", "bench/envmap/sun_sky.xml", {"angle": "130", "scale": "0.5"}),
+    "studio": ("envmap", "bench/envmap/studio.xml", {}),
+    "sunset_metal": ("envmap", "bench/envmap/sunset_metal.xml", {}),
+    "thinlens_forest": ("envmap", "bench/envmap/thinlens_forest.xml", {}),
+    "veach_mis": ("lights", "bench/lights/veach_mis.xml", {}),
+    "veach_mis_hidden": ("lights", "bench/lights/veach_mis.xml", {"hide": "true"}),
+    "near_light": ("lights", "bench/lights/near_light.xml", {}),
+    "cbox": ("lights", "scenes/mitsuba/cbox.xml", {"res": "128"}),
 }
 
 LLVM_CANDIDATES = [
@@ -127,11 +135,18 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=4096)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--base-rev", help="also measure lente built at this git revision")
-    ap.add_argument("--scenes", default=",".join(SCENES))
+    ap.add_argument("--set", choices=["envmap", "lights", "all"], default="envmap")
+    ap.add_argument("--scenes", help="comma-separated scene names (default: those of --set)")
     ap.add_argument("--probes", default=os.path.normpath(os.path.join(ROOT, "..", "shared", "data", "envmaps")))
     args = ap.parse_args()
 
-    if not os.path.isfile(os.path.join(args.probes, "sky.hdr")):
+    names = args.scenes.split(",") if args.scenes else [
+        n for n, (group, _, _) in SCENES.items() if args.set in (group, "all")]
+    for n in names:
+        if n not in SCENES:
+            sys.exit("unknown scene %s (known: %s)" % (n, ", ".join(SCENES)))
+    needs_probes = any(SCENES[n][0] == "envmap" for n in names)
+    if needs_probes and not os.path.isfile(os.path.join(args.probes, "sky.hdr")):
         sys.exit("no probes in %s (pass --probes DIR with sky.hdr, studio.hdr, sunset.hdr, forest.hdr)" % args.probes)
     if "DRJIT_LIBLLVM_PATH" not in os.environ:
         for c in LLVM_CANDIDATES:
@@ -159,10 +174,10 @@ def main():
 
     seeds = list(range(1, args.seeds + 1))
     rows = []
-    for name in args.scenes.split(","):
-        file, extra = SCENES[name]
-        scene_path = os.path.join(BENCH, file)
-        params = dict(extra, probes=args.probes)
+    for name in names:
+        group, file, extra = SCENES[name]
+        scene_path = os.path.join(ROOT, file)
+        params = dict(extra, probes=args.probes) if group == "envmap" else dict(extra)
         # Reference.
         ref_variant = variants[-1]
         ref_path = os.path.join(OUT, "ref-%s-%d-%s.exr" % (name, args.ref_spp, ref_variant))
