@@ -7,7 +7,7 @@
 
 use super::{EmitterContext, EmitterError, LightHit, LightSample};
 use crate::color::{luminance, Rgb};
-use crate::geometry::{Geometry, TriangleMesh};
+use crate::geometry::{Geometry, SurfaceSample, TriangleMesh};
 use crate::math::{Vec2, Vec3, PI};
 use crate::sampling::spherical_triangle::{self, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
 
@@ -73,16 +73,8 @@ impl AreaLight {
                 // Outside the sphere: sample the cone it subtends.
                 Some(cone) => {
                     let (s, pdf) = sp.sample_cone(p_ref, &cone, u);
-                    return Some(LightSample {
-                        wi: (s.p - p_ref).normalize(),
-                        p: s.p,
-                        err: s.err,
-                        n: s.n,
-                        dist: (s.p - p_ref).length(),
-                        weight: self.radiance / pdf,
-                        pdf,
-                        delta: false,
-                    });
+                    let to = s.p - p_ref;
+                    return Some(self.light_sample(&s, to.normalize(), to.length(), pdf));
                 }
                 None => sp.sample_area(u),
             },
@@ -98,8 +90,13 @@ impl AreaLight {
         if cos_l <= 0.0 {
             return None;
         }
-        let pdf = s.pdf_area * d2 / cos_l;
-        Some(LightSample {
+        Some(self.light_sample(&s, wi, dist, s.pdf_area * d2 / cos_l))
+    }
+
+    /// The light sample reaching the point `s` along the unit `wi` at
+    /// distance `dist`, with solid-angle density `pdf`.
+    fn light_sample(&self, s: &SurfaceSample, wi: Vec3, dist: f32, pdf: f32) -> LightSample {
+        LightSample {
             wi,
             p: s.p,
             err: s.err,
@@ -108,7 +105,7 @@ impl AreaLight {
             weight: self.radiance / pdf,
             pdf,
             delta: false,
-        })
+        }
     }
 
     /// A direction uniform over the solid angle of triangle `tri` (unit
@@ -132,16 +129,7 @@ impl AreaLight {
         if dist <= 0.0 || to.dot(s.n) >= 0.0 || !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        Some(LightSample {
-            wi: to / dist,
-            p: s.p,
-            err: s.err,
-            n: s.n,
-            dist,
-            weight: self.radiance / pdf,
-            pdf,
-            delta: false,
-        })
+        Some(self.light_sample(&s, to / dist, dist, pdf))
     }
 
     /// Solid-angle density of [`AreaLight::sample`] from `p_ref` reaching
@@ -180,6 +168,7 @@ impl AreaLight {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::spherical_triangle::subdivide;
     use crate::stats::sidak;
 
     /// A downward-facing unit quad at z = 1 (two triangles), a tilted
@@ -230,22 +219,6 @@ mod tests {
             let t = e2.dot(qv) / det;
             if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 && t > 0.0 {
                 out.push((tri, b1 as f32, b2 as f32));
-            }
-        }
-        out
-    }
-
-    /// Sub-triangles of a triangle: `n` x `n` in barycentric space, each
-    /// as three barycentric (b1, b2) corners.
-    fn subdivide(n: usize) -> Vec<[(f32, f32); 3]> {
-        let v = |i: usize, j: usize| (i as f32 / n as f32, j as f32 / n as f32);
-        let mut out = Vec::new();
-        for i in 0..n {
-            for j in 0..n - i {
-                out.push([v(i, j), v(i + 1, j), v(i, j + 1)]);
-                if i + j + 1 < n {
-                    out.push([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
-                }
             }
         }
         out

@@ -75,6 +75,24 @@ pub fn sample(a: Vec3, b: Vec3, c: Vec3, u: crate::math::Vec2) -> Option<Vec3> {
     (d != DVec3::ZERO).then(|| d.as_vec3())
 }
 
+/// Sub-triangles of a triangle, `n` x `n` in barycentric space, each as
+/// its three (b1, b2) corners: the bins of the chi-square tests of
+/// triangle sampling.
+#[cfg(test)]
+pub(crate) fn subdivide(n: usize) -> Vec<[(f32, f32); 3]> {
+    let v = |i: usize, j: usize| (i as f32 / n as f32, j as f32 / n as f32);
+    let mut out = Vec::new();
+    for i in 0..n {
+        for j in 0..n - i {
+            out.push([v(i, j), v(i + 1, j), v(i, j + 1)]);
+            if i + j + 1 < n {
+                out.push([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,19 +163,12 @@ mod tests {
             // Split the triangle into a grid of sub-triangles by
             // subdividing its edges (n x n cells, n^2 triangles).
             let n = 6;
-            let vertex = |i: usize, j: usize| -> Vec3 {
-                let (fi, fj) = (i as f32 / n as f32, j as f32 / n as f32);
-                (t[0] * (1.0 - fi - fj) + t[1] * fi + t[2] * fj).normalize()
-            };
-            let mut subs = Vec::new();
-            for i in 0..n {
-                for j in 0..n - i {
-                    subs.push([vertex(i, j), vertex(i + 1, j), vertex(i, j + 1)]);
-                    if i + j + 1 < n {
-                        subs.push([vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)]);
-                    }
-                }
-            }
+            let subs: Vec<[Vec3; 3]> = subdivide(n)
+                .into_iter()
+                .map(|s| {
+                    s.map(|(b1, b2)| (t[0] * (1.0 - b1 - b2) + t[1] * b1 + t[2] * b2).normalize())
+                })
+                .collect();
             let expected_frac: Vec<f64> = subs
                 .iter()
                 .map(|s| (solid_angle(s[0], s[1], s[2]) / total) as f64)
