@@ -16,8 +16,11 @@ use crate::sampling::spherical_triangle::{self, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE
 /// there (see [`spherical_triangle::MIN_SOLID_ANGLE`]).
 fn spherical(m: &TriangleMesh, tri: usize, p_ref: Vec3) -> Option<([Vec3; 3], f32)> {
     let verts = m.vertices(tri);
-    // Cheap first: the projected area over the squared distance of the
-    // centroid, far below the threshold, settles it without trigonometry.
+    // Cheap first: where the projected area over the cubed centroid
+    // distance is far below the threshold, area sampling without any
+    // trigonometry. (It underestimates for points close to the plane near
+    // a vertex; those are then sampled by area: more variance, no bias,
+    // since sample and pdf decide alike.)
     let to_c = (verts[0] + verts[1] + verts[2]) / 3.0 - p_ref;
     let d2 = to_c.length_squared();
     let projected = 0.5

@@ -53,9 +53,9 @@ impl LightBounds {
         }
     }
 
-    /// Bounds of an emitter, `None` for lights at infinity.
-    pub fn of(emitter: &Emitter, ctx: &EmitterContext) -> Option<LightBounds> {
-        let power = emitter.power(ctx);
+    /// Bounds of an emitter of power `power`, `None` for lights at
+    /// infinity.
+    pub fn of(emitter: &Emitter, ctx: &EmitterContext, power: f32) -> Option<LightBounds> {
         match emitter {
             Emitter::Point(p) => Some(LightBounds::omni(p.position, 0.0, power)),
             Emitter::Area(a) => match &ctx.shapes[a.shape as usize] {
@@ -224,7 +224,7 @@ impl LightChoice {
             if !(power > 0.0 && power.is_finite()) {
                 continue;
             }
-            match LightBounds::of(e, ctx) {
+            match LightBounds::of(e, ctx, power) {
                 Some(b) => {
                     slot[i] = Some((true, bounded.len() as u32));
                     bounded.push((i as u32, b));
@@ -382,7 +382,7 @@ mod tests {
             scene_radius: 10.0,
         };
         let e = Emitter::Area(AreaLight::new(0, Rgb::ONE).unwrap());
-        let b = LightBounds::of(&e, &ctx).unwrap();
+        let b = LightBounds::of(&e, &ctx, e.power(&ctx)).unwrap();
         assert!((b.axis - Vec3::Z).length() < 1e-6 && b.cos_theta_o > 0.999);
         assert!(b.importance(Vec3::new(0.0, 0.0, 3.0), Vec3::Z) > 0.0);
         assert_eq!(b.importance(Vec3::new(0.0, 0.0, -3.0), Vec3::Z), 0.0);

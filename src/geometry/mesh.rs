@@ -1,7 +1,7 @@
 //! Indexed triangle meshes.
 
 use crate::math::{Aabb, Frame, Transform, Vec2, Vec3};
-use crate::sampling::{warp, Distribution1D};
+use crate::sampling::Distribution1D;
 
 use super::{BvhHit, Intersection, SurfaceSample};
 
@@ -309,13 +309,6 @@ impl TriangleMesh {
             shape: 0,
             prim: hit.index,
         }
-    }
-
-    /// Samples a point uniformly by area.
-    pub fn sample_area(&self, u_tri: f32, u: Vec2) -> SurfaceSample {
-        let (tri, _) = self.choose_triangle(u_tri);
-        let b = warp::square_to_uniform_triangle(u);
-        self.surface_point(tri, b.x, b.y)
     }
 
     /// A triangle chosen in proportion to its area, and the probability.

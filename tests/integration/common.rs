@@ -363,3 +363,20 @@ pub fn point_light(position: Vec3, power: Rgb) -> Emitter {
         intensity: power / (4.0 * std::f32::consts::PI),
     })
 }
+
+/// A square of half-width `half` centred at `c` in a plane y = const,
+/// facing +y if `y_normal_up`, else -y.
+pub fn quad(c: Vec3, half: f32, y_normal_up: bool) -> TriangleMesh {
+    let p = vec![
+        c + Vec3::new(-half, 0.0, -half),
+        c + Vec3::new(half, 0.0, -half),
+        c + Vec3::new(half, 0.0, half),
+        c + Vec3::new(-half, 0.0, half),
+    ];
+    let idx = if y_normal_up {
+        vec![[0, 2, 1], [0, 3, 2]]
+    } else {
+        vec![[0, 1, 2], [0, 2, 3]]
+    };
+    TriangleMesh::new(p, Vec::new(), Vec::new(), idx).unwrap()
+}

@@ -4,25 +4,10 @@
 use crate::common::*;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
-use lente::geometry::{Geometry, TriangleMesh};
+use lente::geometry::Geometry;
 use lente::integrator::{Integrator, PathParams, Strategy};
 use lente::math::Vec3;
 use lente::stats::{sidak, t_test, welch_t_test};
-
-fn quad(c: Vec3, half: f32, y_normal_up: bool) -> TriangleMesh {
-    let p = vec![
-        c + Vec3::new(-half, 0.0, -half),
-        c + Vec3::new(half, 0.0, -half),
-        c + Vec3::new(half, 0.0, half),
-        c + Vec3::new(-half, 0.0, half),
-    ];
-    let idx = if y_normal_up {
-        vec![[0, 2, 1], [0, 3, 2]]
-    } else {
-        vec![[0, 1, 2], [0, 2, 3]]
-    };
-    TriangleMesh::new(p, Vec::new(), Vec::new(), idx).unwrap()
-}
 
 /// A diffuse sphere lit by a quad light from above; a scene where direct
 /// lighting is all there is (a convex object cannot light itself).
@@ -242,54 +227,4 @@ fn directional_light_on_a_diffuse_plane() {
         "{} vs {expect}",
         mv.mean()
     );
-}
-
-/// A spherical light of radiance L and radius r at height h above a
-/// diffuse floor (albedo rho): directly below it the irradiance is
-/// pi L (r/h)^2, so the floor's radiance is rho L r^2 / h^2. All three
-/// direct strategies must agree with it (emitter sampling uses the cone the
-/// sphere subtends).
-#[test]
-fn spherical_light_over_a_floor() {
-    let (l, r, h, rho) = (5.0f32, 0.5f32, 3.0f32, 0.8f32);
-    let expect = (rho * l * r * r / (h * h)) as f64;
-    let alpha = sidak(0.01, 3);
-    for (i, s) in [Strategy::Ems, Strategy::Mats, Strategy::Mis]
-        .into_iter()
-        .enumerate()
-    {
-        let mut d = desc(
-            look_at(
-                Vec3::new(0.0, 1.0, 0.0),
-                Vec3::new(0.0, 0.0, 0.001),
-                0.5,
-                8,
-                8,
-            ),
-            Integrator::Direct { strategy: s },
-        );
-        d.shapes.push(shape(
-            Geometry::Mesh(quad(Vec3::ZERO, 50.0, true)),
-            diffuse(rho),
-            None,
-        ));
-        d.shapes.push(shape(
-            sphere(Vec3::new(0.0, h, 0.0), r),
-            diffuse(0.0),
-            Some(Rgb::splat(l)),
-        ));
-        let scene = d.build();
-        let n = if s == Strategy::Mats { 400_000 } else { 50_000 };
-        let mv = estimate(&scene, n, 70 + i as u64);
-        let t = t_test(&mv, expect);
-        assert!(t.passes(alpha), "{s:?}: {} vs {expect}", mv.mean());
-        if s == Strategy::Ems {
-            // Cone sampling sees the whole sphere: nearly noise-free here.
-            assert!(
-                mv.variance().sqrt() < 0.05 * expect,
-                "std {}",
-                mv.variance().sqrt()
-            );
-        }
-    }
 }

@@ -27,6 +27,11 @@ fn env_map(
     EnvMap::new(image, scale, to_world, filter, TexelRows::CellCentres)
 }
 
+/// A bilinear map of `image` at scale 1 (the usual test subject).
+fn bilinear(image: Bitmap, to_world: Transform) -> EnvMap {
+    env_map(image, 1.0, to_world, EnvFilter::Bilinear).unwrap()
+}
+
 fn alpha() -> f64 {
     sidak(0.01, N_CHI2_TESTS)
 }
@@ -287,8 +292,8 @@ fn lookup_filters_wrap_and_clamp() {
 fn to_world_rotates_the_map() {
     let b = gradient(32, 16);
     let r = Transform::new(Mat4::from_rotation_y(0.5 * PI)).unwrap();
-    let plain = env_map(b.clone(), 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap();
-    let rot = env_map(b, 1.0, r, EnvFilter::Bilinear).unwrap();
+    let plain = bilinear(b.clone(), Transform::IDENTITY);
+    let rot = bilinear(b, r);
     let mut s = Sampler::new(5, 5);
     for _ in 0..1000 {
         let d = crate::sampling::warp::square_to_uniform_sphere(s.next_2d());
@@ -303,13 +308,7 @@ fn to_world_rotates_the_map() {
 
 #[test]
 fn chi2_one_hot_bilinear() {
-    let env = env_map(
-        one_hot(24, 12, &[(7, 3)]),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let env = bilinear(one_hot(24, 12, &[(7, 3)]), Transform::IDENTITY);
     assert_passes(chi2_local(&env, 11), "one-hot bilinear");
 }
 
@@ -328,37 +327,25 @@ fn chi2_one_hot_nearest() {
 #[test]
 fn chi2_one_hot_at_seam_and_poles() {
     let img = one_hot(24, 12, &[(0, 0), (23, 11), (23, 4)]);
-    let env = env_map(img, 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap();
+    let env = bilinear(img, Transform::IDENTITY);
     assert_passes(chi2_local(&env, 13), "one-hot at seam and poles");
 }
 
 #[test]
 fn chi2_one_hot_rotated() {
-    let env = env_map(
-        one_hot(24, 12, &[(7, 3)]),
-        1.0,
-        rot_a(),
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let env = bilinear(one_hot(24, 12, &[(7, 3)]), rot_a());
     assert_passes(chi2_local(&env, 14), "one-hot rotated");
 }
 
 #[test]
 fn chi2_gradient() {
-    let env = env_map(
-        gradient(96, 48),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let env = bilinear(gradient(96, 48), Transform::IDENTITY);
     assert_passes(chi2_local(&env, 15), "gradient");
 }
 
 #[test]
 fn chi2_gradient_rotated_world_bins() {
-    let env = env_map(gradient(96, 48), 1.0, rot_a(), EnvFilter::Bilinear).unwrap();
+    let env = bilinear(gradient(96, 48), rot_a());
     let n = 300_000;
     let obs = histogram(&env, &Transform::IDENTITY, n, 16);
     let exp = expected_world_numeric(&env, n, 24);
@@ -369,19 +356,13 @@ fn chi2_gradient_rotated_world_bins() {
 
 #[test]
 fn chi2_sun() {
-    let env = env_map(
-        sun_map(128, 64),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let env = bilinear(sun_map(128, 64), Transform::IDENTITY);
     assert_passes(chi2_local(&env, 17), "sun");
 }
 
 #[test]
 fn chi2_sun_rotated_mirrored() {
-    let env = env_map(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear).unwrap();
+    let env = bilinear(sun_map(128, 64), rot_mirror());
     assert_passes(chi2_local(&env, 18), "sun rotated");
 }
 
@@ -393,26 +374,14 @@ fn chi2_baked_sky() {
         sun_azimuth_deg: 60.0,
         ..Default::default()
     };
-    let env = env_map(
-        crate::emitter::sky::bake_sky(&p),
-        1.0,
-        rot_a(),
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let env = bilinear(crate::emitter::sky::bake_sky(&p), rot_a());
     assert_passes(chi2_local(&env, 19), "baked sky");
 }
 
 /// The chi-square machinery must be able to fail.
 #[test]
 fn chi2_rejects_wrong_pdfs() {
-    let env = env_map(
-        sun_map(128, 64),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let env = bilinear(sun_map(128, 64), Transform::IDENTITY);
     let n = 100_000;
     let obs = histogram(&env, &env.to_world, n, 21);
     // Uniform sphere: each bin has the same solid angle.
@@ -420,13 +389,7 @@ fn chi2_rejects_wrong_pdfs() {
     let r = chi2_test(&obs, &uniform, 5.0);
     assert!(!r.passes(alpha()), "uniform pdf accepted: {r:?}");
     // The same pdf without the sin(theta) Jacobian.
-    let grad = env_map(
-        gradient(96, 48),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let grad = bilinear(gradient(96, 48), Transform::IDENTITY);
     let obs_g = histogram(&grad, &grad.to_world, n, 22);
     let r = chi2_test(&obs_g, &expected_local(&grad, n, false), 5.0);
     assert!(!r.passes(alpha()), "pdf without Jacobian accepted: {r:?}");
@@ -434,14 +397,14 @@ fn chi2_rejects_wrong_pdfs() {
     let mut shifted = sun_map(128, 64);
     shifted.set(128 / 3, 64 / 3, shifted.get(0, 0));
     shifted.set(128 / 3 + 2, 64 / 3, sun_map(128, 64).get(128 / 3, 64 / 3));
-    let shifted = env_map(shifted, 1.0, Transform::IDENTITY, EnvFilter::Bilinear).unwrap();
+    let shifted = bilinear(shifted, Transform::IDENTITY);
     let r = chi2_test(&obs, &expected_local(&shifted, n, true), 5.0);
     assert!(
         !r.passes(alpha()),
         "sun shifted by one texel accepted: {r:?}"
     );
     // Samples with the mirror the pdf does not know about.
-    let mirrored = env_map(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear).unwrap();
+    let mirrored = bilinear(sun_map(128, 64), rot_mirror());
     let unmirrored = EnvMap {
         to_world: Transform::new(Mat4::from_axis_angle(
             Vec3::new(-2.0, 0.5, 1.0).normalize(),
@@ -645,13 +608,7 @@ fn poles_and_degenerate_inputs_are_finite() {
         )
         .unwrap(),
         env_map(sun_map(32, 16), 1.0, rot_a(), EnvFilter::Nearest).unwrap(),
-        env_map(
-            constant(1, 1, Rgb::ONE),
-            1.0,
-            Transform::IDENTITY,
-            EnvFilter::Bilinear,
-        )
-        .unwrap(),
+        bilinear(constant(1, 1, Rgb::ONE), Transform::IDENTITY),
     ];
     let dirs = [
         Vec3::Y,
@@ -692,13 +649,7 @@ fn poles_and_degenerate_inputs_are_finite() {
 
 #[test]
 fn black_maps_emit_nothing_and_bad_maps_are_refused() {
-    let black = env_map(
-        Bitmap::new(16, 8),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let black = bilinear(Bitmap::new(16, 8), Transform::IDENTITY);
     assert!(black.sample(Vec2::splat(0.3), C).is_none());
     assert_eq!(black.pdf(Vec3::X, C), 0.0);
     assert_eq!(black.mean_luminance(), 0.0);
@@ -772,7 +723,7 @@ fn chi2_pole_to_pole_rows() {
 fn chi2_mis_compensated() {
     let m = LightPdf::MisCompensated;
     for (k, env) in [
-        env_map(sun_map(128, 64), 1.0, rot_mirror(), EnvFilter::Bilinear).unwrap(),
+        bilinear(sun_map(128, 64), rot_mirror()),
         env_map(gradient(96, 48), 1.0, rot_a(), EnvFilter::Nearest).unwrap(),
     ]
     .into_iter()
@@ -792,20 +743,14 @@ fn chi2_mis_compensated() {
 /// constant map it is the complete density.
 #[test]
 fn mis_compensation_leaves_the_dim_sky_to_bsdf_sampling() {
-    let env = env_map(
-        sun_map(64, 32),
-        1.0,
-        Transform::IDENTITY,
-        EnvFilter::Bilinear,
-    )
-    .unwrap();
+    let env = bilinear(sun_map(64, 32), Transform::IDENTITY);
     let (m, c) = (LightPdf::MisCompensated, C);
     let sky = EnvMap::uv_to_dir(Vec2::new(0.8, 0.8));
     assert!(env.pdf(sky, c) > 0.0);
     assert_eq!(env.pdf(sky, m), 0.0);
     let sun = EnvMap::uv_to_dir(Vec2::new(22.0 / 64.0, 10.5 / 32.0));
     assert!(env.pdf(sun, m) > env.pdf(sun, c));
-    let flat = env_map(constant(16, 8, Rgb::ONE), 1.0, rot_a(), EnvFilter::Bilinear).unwrap();
+    let flat = bilinear(constant(16, 8, Rgb::ONE), rot_a());
     for k in 0..100 {
         let d = crate::sampling::warp::square_to_uniform_sphere(Vec2::new(
             (k as f32 * 0.618_034).fract(),
@@ -836,7 +781,7 @@ fn weight_is_eval_over_pdf_for_every_density_and_row_convention() {
 fn mis_with_the_compensated_density_is_unbiased() {
     use crate::sampling::warp::{square_to_uniform_sphere, square_to_uniform_sphere_pdf};
     use crate::stats::{t_test, MeanVar};
-    let env = env_map(sun_map(128, 64), 1.0, rot_a(), EnvFilter::Bilinear).unwrap();
+    let env = bilinear(sun_map(128, 64), rot_a());
     let n = Vec3::new(0.2, 0.9, 0.3).normalize();
     let reference = irradiance_reference(&env, n, 16);
     let m = LightPdf::MisCompensated;
