@@ -72,6 +72,36 @@ enum Command {
         #[arg(long)]
         tonemap: Option<Tonemap>,
     },
+    /// Measure samples per second on the speed suite (bench/speed/), beside
+    /// Mitsuba 3 when its Python is at hand, and BVH rays per second.
+    ///
+    /// Run it from the repository root (or pass --root). Mitsuba 3 is timed
+    /// in the same run through scripts/mitsuba_bench.py with the Python
+    /// given by --mitsuba (default: target/mitsuba-venv/bin/python if it
+    /// exists, as .ci/run makes it).
+    Bench {
+        /// Samples per pixel of every render.
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        /// Thread counts to measure at, comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Timed renders per scene and thread count; the fastest counts.
+        #[arg(long, default_value_t = 3)]
+        repeat: u32,
+        /// Only these suite scenes (comma-separated names).
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// The repository root (where bench/speed/ is).
+        #[arg(long, default_value = ".")]
+        root: PathBuf,
+        /// A Python with the mitsuba wheel.
+        #[arg(long, value_name = "PYTHON", conflicts_with = "no_mitsuba")]
+        mitsuba: Option<PathBuf>,
+        /// Do not measure Mitsuba 3.
+        #[arg(long)]
+        no_mitsuba: bool,
+    },
     /// Run Nori test files (t-tests and chi-square tests).
     ///
     /// Runs the <test type="ttest"> and <test type="chi2test"> files with
@@ -209,6 +239,15 @@ fn main() -> ExitCode {
             tonemap,
         } => cmd_convert(&input, &output, exposure, tonemap),
         Command::Test { files, seed } => cmd_test(&files, seed),
+        Command::Bench {
+            spp,
+            threads,
+            repeat,
+            scenes,
+            root,
+            mitsuba,
+            no_mitsuba,
+        } => cmd_bench(spp, threads, repeat, scenes, root, mitsuba, no_mitsuba),
         Command::Warptest {
             name,
             params,
@@ -224,6 +263,41 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn cmd_bench(
+    spp: u32,
+    threads: Vec<usize>,
+    repeat: u32,
+    scenes: Vec<String>,
+    root: PathBuf,
+    mitsuba: Option<PathBuf>,
+    no_mitsuba: bool,
+) -> Result<()> {
+    if spp == 0 || repeat == 0 || threads.is_empty() || threads.contains(&0) {
+        bail!("--spp, --repeat and every --threads value must be at least 1");
+    }
+    if !root.join("bench/speed").is_dir() {
+        bail!(
+            "{} has no bench/speed/: run from the repository root or pass --root",
+            root.display()
+        );
+    }
+    let default_python = root.join("target/mitsuba-venv/bin/python");
+    let mitsuba_python = match (no_mitsuba, mitsuba) {
+        (true, _) => None,
+        (false, Some(p)) => Some(p),
+        (false, None) => default_python.is_file().then_some(default_python),
+    };
+    let opts = lente::bench::BenchOptions {
+        root,
+        spp,
+        threads,
+        repeat,
+        only: scenes,
+        mitsuba_python,
+    };
+    Ok(lente::bench::run(&opts)?)
 }
 
 /// Parses a scene file with `-D` parameters, printing its warnings.
