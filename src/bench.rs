@@ -250,6 +250,9 @@ pub fn ray_queries(root: &Path, threads: usize) -> Result<(f64, f64, usize), Ben
     Ok((closest, any, scene.bvh.primitive_count()))
 }
 
+/// Mitsuba's timings keyed by (scene name, variant, threads).
+pub type MitsubaTimings = HashMap<(String, String, usize), Timing>;
+
 /// Mitsuba's timings from scripts/mitsuba_bench.py, keyed by (scene name,
 /// variant, threads); errors (a variant that cannot start) come back as
 /// notes.
@@ -257,7 +260,7 @@ pub fn time_mitsuba(
     opts: &BenchOptions,
     python: &Path,
     scenes: &[SuiteScene],
-) -> (HashMap<(String, String, usize), Timing>, Vec<String>) {
+) -> (MitsubaTimings, Vec<String>) {
     let mut out = HashMap::new();
     let mut notes = Vec::new();
     let script = opts.root.join("scripts/mitsuba_bench.py");
