@@ -3,20 +3,59 @@
 
 use std::time::{Duration, Instant};
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
-use super::triangle::{intersect_triangle, RayShear};
+use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 use super::{Geometry, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
 
 /// A primitive with its data copied in BVH order, so traversal touches one
-/// contiguous array.
+/// contiguous array of 48-byte records: a triangle's vertices by
+/// coordinate in lanes 0-2 ([`PackedTriangle`]); lane 3 of `xs` holds, as
+/// bits, 0 for a triangle or 1 + the index of a sphere in `Bvh::spheres`.
 #[derive(Clone, Copy, Debug)]
-enum Prim {
-    Triangle { v: [Vec3; 3] },
-    Sphere(Sphere),
+struct Prim {
+    xs: Vec4,
+    ys: Vec4,
+    zs: Vec4,
+}
+
+impl Prim {
+    fn triangle(v: [Vec3; 3]) -> Prim {
+        Prim {
+            xs: Vec4::new(v[0].x, v[1].x, v[2].x, f32::from_bits(0)),
+            ys: Vec4::new(v[0].y, v[1].y, v[2].y, 0.0),
+            zs: Vec4::new(v[0].z, v[1].z, v[2].z, 0.0),
+        }
+    }
+
+    fn sphere(index: u32) -> Prim {
+        Prim {
+            xs: Vec4::new(0.0, 0.0, 0.0, f32::from_bits(index + 1)),
+            ys: Vec4::ZERO,
+            zs: Vec4::ZERO,
+        }
+    }
+
+    /// The sphere's index, or None for a triangle.
+    #[inline]
+    fn sphere_index(&self) -> Option<usize> {
+        match self.xs.w.to_bits() {
+            0 => None,
+            i => Some(i as usize - 1),
+        }
+    }
+
+    #[inline]
+    fn packed_triangle(&self) -> PackedTriangle {
+        PackedTriangle::from_lanes(
+            Vec3A::from_vec4(self.xs),
+            Vec3A::from_vec4(self.ys),
+            Vec3A::from_vec4(self.zs),
+        )
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -49,6 +88,8 @@ pub struct BvhHit {
 pub struct Bvh {
     bvh: Option<CwBvh>,
     prims: Vec<Prim>,
+    /// The spheres, in the order of their primitives' indices.
+    spheres: Vec<Sphere>,
     refs: Vec<PrimRef>,
     bounds: Aabb,
     /// Wall time spent building.
@@ -59,6 +100,7 @@ impl Bvh {
     pub fn build(shapes: &[Geometry]) -> Bvh {
         let start = Instant::now();
         let mut prims = Vec::new();
+        let mut spheres = Vec::new();
         let mut refs = Vec::new();
         let mut boxes = Vec::new();
         let mut bounds = Aabb::EMPTY;
@@ -66,8 +108,7 @@ impl Bvh {
             match g {
                 Geometry::Mesh(m) => {
                     for ti in 0..m.triangle_count() {
-                        let v = m.vertices(ti);
-                        prims.push(Prim::Triangle { v });
+                        prims.push(Prim::triangle(m.vertices(ti)));
                         refs.push(PrimRef {
                             shape: si as u32,
                             index: ti as u32,
@@ -76,7 +117,8 @@ impl Bvh {
                     }
                 }
                 Geometry::Sphere(s) => {
-                    prims.push(Prim::Sphere(*s));
+                    prims.push(Prim::sphere(spheres.len() as u32));
+                    spheres.push(*s);
                     refs.push(PrimRef {
                         shape: si as u32,
                         index: 0,
@@ -92,6 +134,7 @@ impl Bvh {
             return Bvh {
                 bvh: None,
                 prims,
+                spheres,
                 refs,
                 bounds,
                 build_time: start.elapsed(),
@@ -126,6 +169,7 @@ impl Bvh {
         Bvh {
             bvh: Some(bvh),
             prims,
+            spheres,
             refs,
             bounds,
             build_time: start.elapsed(),
@@ -147,7 +191,7 @@ impl Bvh {
     /// Closest hit along the ray within its range.
     pub fn intersect(&self, ray: &Ray) -> Option<BvhHit> {
         let bvh = self.bvh.as_ref()?;
-        let shear = RayShear::new(ray.d);
+        let shear = RayShear::new(ray.o, ray.d);
         let mut best = BvhHit {
             t: ray.tmax,
             shape: 0,
@@ -158,9 +202,10 @@ impl Bvh {
         let mut hit = obvhs::ray::RayHit::none();
         let o = ray.o;
         let d = ray.d;
-        let found = bvh.ray_traverse(Self::oray(ray), &mut hit, |r, id| match &self.prims[id] {
-            Prim::Triangle { v } => {
-                match intersect_triangle(o, &shear, v[0], v[1], v[2], r.tmin, r.tmax) {
+        let found = bvh.ray_traverse(Self::oray(ray), &mut hit, |r, id| {
+            let prim = &self.prims[id];
+            match prim.sphere_index() {
+                None => match intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax) {
                     Some((t, b1, b2)) => {
                         best = BvhHit {
                             t,
@@ -172,21 +217,21 @@ impl Bvh {
                         t
                     }
                     None => f32::INFINITY,
-                }
+                },
+                Some(si) => match self.spheres[si].intersect(o, d, r.tmin, r.tmax) {
+                    Some(t) => {
+                        best = BvhHit {
+                            t,
+                            shape: self.refs[id].shape,
+                            index: 0,
+                            b1: 0.0,
+                            b2: 0.0,
+                        };
+                        t
+                    }
+                    None => f32::INFINITY,
+                },
             }
-            Prim::Sphere(s) => match s.intersect(o, d, r.tmin, r.tmax) {
-                Some(t) => {
-                    best = BvhHit {
-                        t,
-                        shape: self.refs[id].shape,
-                        index: 0,
-                        b1: 0.0,
-                        b2: 0.0,
-                    };
-                    t
-                }
-                None => f32::INFINITY,
-            },
         });
         if found {
             Some(best)
@@ -200,17 +245,18 @@ impl Bvh {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
-        let shear = RayShear::new(ray.d);
+        let shear = RayShear::new(ray.o, ray.d);
         let o = ray.o;
         let d = ray.d;
-        !bvh.ray_traverse_miss(Self::oray(ray), |r, id| match &self.prims[id] {
-            Prim::Triangle { v } => {
-                match intersect_triangle(o, &shear, v[0], v[1], v[2], r.tmin, r.tmax) {
-                    Some((t, _, _)) => t,
-                    None => f32::INFINITY,
-                }
+        !bvh.ray_traverse_miss(Self::oray(ray), |r, id| {
+            let prim = &self.prims[id];
+            match prim.sphere_index() {
+                None => intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax)
+                    .map_or(f32::INFINITY, |(t, _, _)| t),
+                Some(si) => self.spheres[si]
+                    .intersect(o, d, r.tmin, r.tmax)
+                    .unwrap_or(f32::INFINITY),
             }
-            Prim::Sphere(s) => s.intersect(o, d, r.tmin, r.tmax).unwrap_or(f32::INFINITY),
         })
     }
 }

@@ -249,9 +249,14 @@ impl TriangleMesh {
 
     /// Shading normal and uv at barycentrics (b1, b2) of a triangle.
     pub fn shading(&self, tri: usize, b1: f32, b2: f32) -> (Vec3, Vec2) {
+        self.shading_with(tri, self.geometric_normal(tri), b1, b2)
+    }
+
+    /// [`TriangleMesh::shading`] given the triangle's geometric normal `ng`
+    /// (callers that have it already).
+    fn shading_with(&self, tri: usize, ng: Vec3, b1: f32, b2: f32) -> (Vec3, Vec2) {
         let [i0, i1, i2] = self.indices[tri].map(|i| i as usize);
         let b0 = 1.0 - b1 - b2;
-        let ng = self.geometric_normal(tri);
         let n = if self.normals.is_empty() {
             ng
         } else {
@@ -277,7 +282,11 @@ impl TriangleMesh {
     /// uvs are degenerate.
     pub fn dpdu(&self, tri: usize) -> Vec3 {
         let [a, b, c] = self.vertices(tri);
-        let (dp0, dp1) = (b - a, c - a);
+        self.dpdu_with(tri, b - a, c - a)
+    }
+
+    /// [`TriangleMesh::dpdu`] given the triangle's edges p1 - p0, p2 - p0.
+    fn dpdu_with(&self, tri: usize, dp0: Vec3, dp1: Vec3) -> Vec3 {
         if self.uvs.is_empty() {
             return dp0;
         }
@@ -295,16 +304,19 @@ impl TriangleMesh {
     /// (shape index left 0 for the caller).
     pub fn intersection(&self, hit: &BvhHit) -> Intersection {
         let tri = hit.index as usize;
-        let (ns, uv) = self.shading(tri, hit.b1, hit.b2);
-        // Recompute the point from barycentrics: more precise than o + t d.
+        // The vertices, edges and normal once, for every quantity below.
         let [a, b, c] = self.vertices(tri);
+        let (e1, e2) = (b - a, c - a);
+        let ng = e1.cross(e2).normalize_or_zero();
+        let (ns, uv) = self.shading_with(tri, ng, hit.b1, hit.b2);
+        // Recompute the point from barycentrics: more precise than o + t d.
         let b0 = 1.0 - hit.b1 - hit.b2;
         Intersection {
             t: hit.t,
             p: a * b0 + b * hit.b1 + c * hit.b2,
             err: crate::math::barycentric_error(b0, hit.b1, hit.b2, a, b, c),
-            ng: self.geometric_normal(tri),
-            shading: Frame::from_normal_tangent(ns, self.dpdu(tri)),
+            ng,
+            shading: Frame::from_normal_tangent(ns, self.dpdu_with(tri, e1, e2)),
             uv,
             shape: 0,
             prim: hit.index,

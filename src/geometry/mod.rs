@@ -16,7 +16,7 @@ pub use shapes::{
     cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
 };
 pub use sphere::{Sphere, SphereError};
-pub use triangle::{intersect_triangle, RayShear};
+pub use triangle::{intersect_triangle, PackedTriangle, RayShear};
 
 use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};
 

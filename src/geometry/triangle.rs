@@ -1,22 +1,52 @@
 //! Watertight ray/triangle intersection (Woop, Benthin and Wald, JCGT 2013):
 //! rays through shared edges or vertices hit exactly one of the triangles.
 
+use glam::Vec3A;
+
 use crate::math::{gamma, Vec3};
 
-/// Per-ray precomputation for the watertight test: the axis permutation and
-/// shear that map the ray direction onto +z.
+/// A triangle stored by coordinate: `xs` holds the three vertices' x, and
+/// so on, so that one SIMD operation moves all three vertices into the
+/// ray's frame (no per-coordinate permutation at run time).
+#[derive(Clone, Copy, Debug)]
+pub struct PackedTriangle {
+    xs: Vec3A,
+    ys: Vec3A,
+    zs: Vec3A,
+}
+
+impl PackedTriangle {
+    /// From the vertices' x, y and z coordinates, three to a vector.
+    #[inline]
+    pub fn from_lanes(xs: Vec3A, ys: Vec3A, zs: Vec3A) -> PackedTriangle {
+        PackedTriangle { xs, ys, zs }
+    }
+
+    pub fn new(p0: Vec3, p1: Vec3, p2: Vec3) -> PackedTriangle {
+        PackedTriangle {
+            xs: Vec3A::new(p0.x, p1.x, p2.x),
+            ys: Vec3A::new(p0.y, p1.y, p2.y),
+            zs: Vec3A::new(p0.z, p1.z, p2.z),
+        }
+    }
+}
+
+/// Per-ray precomputation for the watertight test: the ray origin and the
+/// axis permutation and shear that map the ray direction onto +z, written
+/// as a matrix (each row has one 1 or sz and at most one shear factor, so
+/// its products with vertex coordinates round exactly as Woop et al.'s
+/// permuted form does).
 #[derive(Clone, Copy, Debug)]
 pub struct RayShear {
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    o: Vec3,
+    /// Rows of the shear: x' = rx . p, y' = ry . p, z' = rz . p.
+    rx: Vec3,
+    ry: Vec3,
+    rz: Vec3,
 }
 
 impl RayShear {
-    pub fn new(d: Vec3) -> RayShear {
+    pub fn new(o: Vec3, d: Vec3) -> RayShear {
         let a = d.abs();
         let kz = if a.x > a.y {
             if a.x > a.z {
@@ -31,17 +61,19 @@ impl RayShear {
         };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
+        let d = d.to_array();
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        RayShear {
-            kx,
-            ky,
-            kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
-        }
+        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let (mut rx, mut ry, mut rz) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 3]);
+        rx[kx] = 1.0;
+        rx[kz] = -sx;
+        ry[ky] = 1.0;
+        ry[kz] = -sy;
+        rz[kz] = sz;
+        let (rx, ry, rz) = (Vec3::from(rx), Vec3::from(ry), Vec3::from(rz));
+        RayShear { o, rx, ry, rz }
     }
 }
 
@@ -49,39 +81,27 @@ impl RayShear {
 /// vertices 1 and 2.
 #[inline]
 pub fn intersect_triangle(
-    o: Vec3,
     shear: &RayShear,
-    p0: Vec3,
-    p1: Vec3,
-    p2: Vec3,
+    tri: &PackedTriangle,
     tmin: f32,
     tmax: f32,
 ) -> Option<(f32, f32, f32)> {
-    let RayShear {
-        kx,
-        ky,
-        kz,
-        sx,
-        sy,
-        sz,
-    } = *shear;
-    let a = p0 - o;
-    let b = p1 - o;
-    let c = p2 - o;
-    let ax = a[kx] - sx * a[kz];
-    let ay = a[ky] - sy * a[kz];
-    let bx = b[kx] - sx * b[kz];
-    let by = b[ky] - sy * b[kz];
-    let cx = c[kx] - sx * c[kz];
-    let cy = c[ky] - sy * c[kz];
-    let mut u = cx * by - cy * bx;
-    let mut v = ax * cy - ay * cx;
-    let mut w = bx * ay - by * ax;
+    let RayShear { o, rx, ry, rz } = *shear;
+    // The vertices relative to the origin, three at a time: (a, b, c).
+    let x = tri.xs - Vec3A::splat(o.x);
+    let y = tri.ys - Vec3A::splat(o.y);
+    let z = tri.zs - Vec3A::splat(o.z);
+    // Sheared: xt = (ax, bx, cx), yt = (ay, by, cy), zt = (az, bz, cz).
+    let xt = x * rx.x + y * rx.y + z * rx.z;
+    let yt = x * ry.x + y * ry.y + z * ry.z;
+    let zt = x * rz.x + y * rz.y + z * rz.z;
+    // Edge functions (u, v, w) = (cx by - cy bx, ax cy - ay cx, bx ay - by ax).
+    let e = yt.cross(xt);
+    let (mut u, mut v, mut w) = (e.x, e.y, e.z);
     if u == 0.0 || v == 0.0 || w == 0.0 {
         // Edge case: redo in double precision so shared edges stay watertight.
-        let (ax, ay, bx, by, cx, cy) = (
-            ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
-        );
+        let (ax, bx, cx) = (xt.x as f64, xt.y as f64, xt.z as f64);
+        let (ay, by, cy) = (yt.x as f64, yt.y as f64, yt.z as f64);
         u = (cx * by - cy * bx) as f32;
         v = (ax * cy - ay * cx) as f32;
         w = (bx * ay - by * ax) as f32;
@@ -93,9 +113,7 @@ pub fn intersect_triangle(
     if det == 0.0 {
         return None;
     }
-    let az = sz * a[kz];
-    let bz = sz * b[kz];
-    let cz = sz * c[kz];
+    let (az, bz, cz) = (zt.x, zt.y, zt.z);
     let t_scaled = u * az + v * bz + w * cz;
     let inv_det = 1.0 / det;
     let t = t_scaled * inv_det;
@@ -105,9 +123,9 @@ pub fn intersect_triangle(
     // Reject hits whose t is within its own rounding error of zero (pbrt's
     // conservative bound): a ray spawned on this very triangle.
     {
-        let max_zt = az.abs().max(bz.abs()).max(cz.abs());
-        let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
-        let max_yt = ay.abs().max(by.abs()).max(cy.abs());
+        let max_zt = zt.abs().max_element();
+        let max_xt = xt.abs().max_element();
+        let max_yt = yt.abs().max_element();
         let delta_z = gamma(3) * max_zt;
         let delta_x = gamma(5) * (max_xt + max_zt);
         let delta_y = gamma(5) * (max_yt + max_zt);
@@ -133,14 +151,15 @@ mod tests {
             Vec3::new(1.0, 0.0, 1.0),
             Vec3::new(0.0, 1.0, 1.0),
         );
+        let tri = PackedTriangle::new(p0, p1, p2);
         let o = Vec3::new(0.25, 0.25, 0.0);
         let d = Vec3::Z;
         let (t, b1, b2) =
-            intersect_triangle(o, &RayShear::new(d), p0, p1, p2, 0.0, f32::INFINITY).unwrap();
+            intersect_triangle(&RayShear::new(o, d), &tri, 0.0, f32::INFINITY).unwrap();
         assert!((t - 1.0).abs() < 1e-6);
         assert!((b1 - 0.25).abs() < 1e-6 && (b2 - 0.25).abs() < 1e-6);
         let miss = Vec3::new(0.8, 0.8, 0.0);
-        assert!(intersect_triangle(miss, &RayShear::new(d), p0, p1, p2, 0.0, 9.0).is_none());
+        assert!(intersect_triangle(&RayShear::new(miss, d), &tri, 0.0, 9.0).is_none());
     }
 
     #[test]
@@ -152,14 +171,16 @@ mod tests {
             Vec3::new(1.0, 1.0, 1.0),
             Vec3::new(0.0, 1.0, 1.0),
         ];
+        let t1 = PackedTriangle::new(q[0], q[1], q[2]);
+        let t2 = PackedTriangle::new(q[0], q[2], q[3]);
         for i in 0..1000 {
             let s = i as f32 / 999.0;
             let o = Vec3::new(s, s, -3.0);
             let d = Vec3::new(0.1 * s - 0.05, 0.013, 1.0).normalize();
             let o = o - d * (4.0 / d.z) + d * (4.0 / d.z); // keep on diagonal at z=1 approx
-            let sh = RayShear::new(d);
-            let h1 = intersect_triangle(o, &sh, q[0], q[1], q[2], 0.0, 1e9).is_some();
-            let h2 = intersect_triangle(o, &sh, q[0], q[2], q[3], 0.0, 1e9).is_some();
+            let sh = RayShear::new(o, d);
+            let h1 = intersect_triangle(&sh, &t1, 0.0, 1e9).is_some();
+            let h2 = intersect_triangle(&sh, &t2, 0.0, 1e9).is_some();
             let target = o + d * ((1.0 - o.z) / d.z);
             let inside = (0.0..=1.0).contains(&target.x) && (0.0..=1.0).contains(&target.y);
             if inside {

@@ -4,7 +4,7 @@
 //! as the filter). Blocks are merged in a fixed order, so the image is the
 //! same bit for bit whatever the thread count or completion order.
 
-use super::{Bitmap, Filter};
+use super::{Bitmap, Filter, MAX_FILTER_RADIUS};
 use crate::color::Rgb;
 use crate::math::Vec2;
 
@@ -53,14 +53,20 @@ impl FilmBlock {
         let xmax = ((px + self.radius).floor() as i32).min(self.x0 + self.width as i32 - 1);
         let ymin = ((py - self.radius).ceil() as i32).max(self.y0);
         let ymax = ((py + self.radius).floor() as i32).min(self.y0 + self.height as i32 - 1);
+        // The filter is separable: its weights along x are the same for
+        // every row, so they are evaluated once (at most 2 r + 1 of them).
+        let mut wx = [0.0f32; 2 * MAX_FILTER_RADIUS as usize + 2];
+        for (x, w) in (xmin..=xmax).zip(wx.iter_mut()) {
+            *w = self.filter.eval_1d(x as f32 - px);
+        }
         for y in ymin..=ymax {
             let wy = self.filter.eval_1d(y as f32 - py);
             if wy == 0.0 {
                 continue;
             }
             let row = (y - self.y0) as usize * self.width;
-            for x in xmin..=xmax {
-                let w = wy * self.filter.eval_1d(x as f32 - px);
+            for (x, &wxi) in (xmin..=xmax).zip(wx.iter()) {
+                let w = wy * wxi;
                 if w == 0.0 {
                     continue;
                 }
