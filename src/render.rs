@@ -1,12 +1,19 @@
 //! Progressive tile scheduler: renders the scene in passes over the whole
-//! image (each pass adds a few samples to every pixel), tiles of a pass on
-//! rayon's pool, with deterministic per-sample seeding, a progress bar, and
-//! cooperative cancellation.
+//! image (each pass adds a few samples to every pixel), work units of a
+//! pass on rayon's pool, with deterministic per-sample seeding, a progress
+//! bar, and cooperative cancellation.
+//!
+//! A work unit is a tile and a slice of the pass's samples: a small image
+//! has few tiles, so its passes are cut into sample slices until there are
+//! at least [`MIN_UNITS`] units, enough to keep 16 threads busy to the end
+//! of a pass. Big images keep one unit per tile (and the memory of one
+//! block per tile).
 //!
 //! Determinism: sample `s` of pixel `p` always draws from the generator
-//! seeded by (seed, p, s); within a pass each tile splats into its own block
-//! and blocks are merged into the film in tile order, passes in order. The
-//! pass schedule depends only on the sample count, so the image is the same
+//! seeded by (seed, p, s); each unit splats into its own block and blocks
+//! are merged into the film in unit order (tiles in order, slices in order
+//! within a tile), passes in order. The pass schedule and the units depend
+//! only on the image size and the sample count, so the image is the same
 //! bit for bit whatever the thread count, and whether or not anyone watches
 //! the passes (live preview, checkpoints).
 
@@ -28,6 +35,9 @@ pub const TILE_SIZE: u32 = 32;
 
 /// Largest number of samples per pixel in one pass.
 pub const MAX_PASS_SPP: u32 = 16;
+
+/// Work units a pass is cut into at least, where its samples allow.
+pub const MIN_UNITS: usize = 256;
 
 /// What to compute for a scene: the part of a scene file that is not the
 /// world (Mitsuba's integrator, sampler and film; Nori's integrator,
@@ -70,7 +80,7 @@ pub struct PassInfo<'a> {
 }
 
 /// A rectangle of pixels.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tile {
     pub x: u32,
     pub y: u32,
@@ -109,6 +119,31 @@ pub fn pass_schedule(spp: u32) -> Vec<(u32, u32)> {
         }
     }
     v
+}
+
+/// A tile and a slice of samples: what one worker renders into one block.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorkUnit {
+    pub tile: Tile,
+    pub s0: u32,
+    pub s1: u32,
+}
+
+/// The units of the pass over samples `s0..s1`, in merge order: every
+/// tile cut into the same number of equal sample slices, as many as make
+/// [`MIN_UNITS`] units (at most one slice per sample).
+pub fn work_units(tiles: &[Tile], s0: u32, s1: u32) -> Vec<WorkUnit> {
+    let n = (s1 - s0) as usize;
+    let slices = MIN_UNITS.div_ceil(tiles.len().max(1)).clamp(1, n.max(1));
+    let mut units = Vec::with_capacity(tiles.len() * slices);
+    for &tile in tiles {
+        for j in 0..slices {
+            let a = s0 + (n * j / slices) as u32;
+            let b = s0 + (n * (j + 1) / slices) as u32;
+            units.push(WorkUnit { tile, s0: a, s1: b });
+        }
+    }
+    units
 }
 
 /// Renders samples `s0..s1` of every pixel of one tile into a film block.
@@ -181,18 +216,20 @@ pub fn render_with_passes(
         if cancel.load(Ordering::Relaxed) {
             break;
         }
-        let blocks: Mutex<Vec<Option<FilmBlock>>> = Mutex::new(vec![None; tiles.len()]);
-        tiles.par_iter().enumerate().for_each(|(i, &tile)| {
+        let units = work_units(&tiles, s0, s1);
+        let blocks: Mutex<Vec<Option<FilmBlock>>> = Mutex::new(vec![None; units.len()]);
+        units.par_iter().enumerate().for_each(|(i, unit)| {
             if cancel.load(Ordering::Relaxed) {
                 return;
             }
+            let WorkUnit { tile, s0, s1 } = *unit;
             let block = render_tile(scene, job, tile, s0, s1, opts.seed);
             let n = (tile.w * tile.h) as u64 * (s1 - s0) as u64;
             samples.fetch_add(n, Ordering::Relaxed);
             blocks.lock().expect("no panics while holding the lock")[i] = Some(block);
             bar.inc(n);
         });
-        // Merge in tile order: the sum is then independent of scheduling.
+        // Merge in unit order: the sum is then independent of scheduling.
         for b in blocks
             .into_inner()
             .expect("lock not poisoned")
@@ -237,6 +274,39 @@ mod tests {
                 assert_eq!(w[0].1, w[1].0);
             }
             assert!(p.iter().all(|&(a, b)| b > a && b - a <= MAX_PASS_SPP));
+        }
+    }
+
+    #[test]
+    fn units_cover_every_pixel_sample_once_and_fill_small_images() {
+        for (w, h) in [(160, 120), (1, 1), (2400, 1800), (33, 700)] {
+            let t = tiles(w, h);
+            for (s0, s1) in pass_schedule(100) {
+                let units = work_units(&t, s0, s1);
+                // Per tile, the slices run s0..s1 in order without gaps.
+                for tile_units in units.chunks(units.len() / t.len()) {
+                    assert_eq!(tile_units[0].s0, s0);
+                    assert_eq!(tile_units.last().unwrap().s1, s1);
+                    assert!(tile_units.windows(2).all(|p| p[0].s1 == p[1].s0));
+                    assert!(tile_units
+                        .iter()
+                        .all(|u| u.s1 > u.s0 && u.tile == tile_units[0].tile));
+                }
+                let samples: u64 = units
+                    .iter()
+                    .map(|u| (u.tile.w * u.tile.h) as u64 * (u.s1 - u.s0) as u64)
+                    .sum();
+                assert_eq!(samples, w as u64 * h as u64 * (s1 - s0) as u64);
+                let n = (s1 - s0) as usize;
+                assert!(
+                    units.len() >= MIN_UNITS.min(t.len() * n),
+                    "{w}x{h} {s0}..{s1}"
+                );
+                // Big images keep one block per tile.
+                if t.len() >= MIN_UNITS {
+                    assert_eq!(units.len(), t.len());
+                }
+            }
         }
     }
 }
