@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use crate::load::{load_scene_with, SceneError};
 use crate::math::Ray;
-use crate::render::{render, RenderOptions};
+use crate::render::{render, RenderJob, RenderOptions};
 use crate::sampling::{warp, Sampler};
 use crate::scene::{BuildError, Scene};
 
@@ -146,16 +146,22 @@ pub fn selected(only: &[String]) -> Result<Vec<SuiteScene>, BenchError> {
         .collect()
 }
 
-fn load(root: &Path, file: &str, params: &[(&str, &str)]) -> Result<Scene, BenchError> {
+/// A suite file, built, with its render job.
+fn load(
+    root: &Path,
+    file: &str,
+    params: &[(&str, &str)],
+) -> Result<(Scene, RenderJob), BenchError> {
     let defines: Vec<(String, String)> = params
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
     let (loaded, _) = load_scene_with(&root.join(file), &defines)?;
-    Scene::new(loaded.scene).map_err(|source| BenchError::Build {
+    let scene = Scene::new(loaded.scene).map_err(|source| BenchError::Build {
         file: file.to_string(),
         source,
-    })
+    })?;
+    Ok((scene, loaded.job))
 }
 
 /// Times lente on one suite scene: the fastest of `repeat` renders at
@@ -167,20 +173,8 @@ pub fn time_lente(
     threads: usize,
     repeat: u32,
 ) -> Result<Timing, BenchError> {
-    let mut loaded = {
-        let defines: Vec<(String, String)> = scene
-            .params
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect();
-        load_scene_with(&root.join(scene.file), &defines)?.0
-    };
-    loaded.job.spp = spp;
-    let job = loaded.job;
-    let built = Scene::new(loaded.scene).map_err(|source| BenchError::Build {
-        file: scene.file.to_string(),
-        source,
-    })?;
+    let (built, mut job) = load(root, scene.file, scene.params)?;
+    job.spp = spp;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -215,7 +209,7 @@ pub fn time_lente(
 /// Closest-hit and any-hit rays per second on the suite's big mesh, on
 /// `threads` workers: (closest, any, triangles).
 pub fn ray_queries(root: &Path, threads: usize) -> Result<(f64, f64, usize), BenchError> {
-    let scene = load(root, RAY_SCENE, &[])?;
+    let (scene, _) = load(root, RAY_SCENE, &[])?;
     let centre = scene.bounds.center();
     let radius = 0.5 * scene.bounds.diagonal().length();
     // Rays from a sphere around the scene towards points near its centre:
