@@ -80,6 +80,11 @@ pub enum CameraError {
     Width(u32),
     #[error("must be between 1 and {MAX_RESOLUTION} pixels, found {0}")]
     Height(u32),
+    #[error(
+        "({height}) times the width ({width}) is {} pixels, more than the {} lente renders",
+        *width as u64 * *height as u64, crate::limits::MAX_IMAGE_PIXELS
+    )]
+    TooManyPixels { width: u32, height: u32 },
     #[error("must be between 0 and 180 degrees (exclusive), found {0}")]
     FieldOfView(f32),
     #[error("must not be negative, found {0}")]
@@ -118,7 +123,7 @@ impl CameraError {
     pub fn param(&self) -> CameraParam {
         match self {
             CameraError::Width(_) => CameraParam::Width,
-            CameraError::Height(_) => CameraParam::Height,
+            CameraError::Height(_) | CameraError::TooManyPixels { .. } => CameraParam::Height,
             CameraError::FieldOfView(_) => CameraParam::FieldOfView,
             CameraError::NearClip(_) => CameraParam::NearClip,
             CameraError::FarClip { .. } => CameraParam::FarClip,
@@ -132,7 +137,8 @@ impl CameraError {
 
 impl CameraParams {
     /// Checks that the parameters describe a camera: an image of 1 to
-    /// [`MAX_RESOLUTION`] pixels each way, a field of view strictly
+    /// [`MAX_RESOLUTION`] pixels each way and at most
+    /// [`crate::limits::MAX_IMAGE_PIXELS`] in all, a field of view strictly
     /// between 0 and 180 degrees, clip distances with 0 <= near < far, a
     /// finite non-negative lens radius, a positive finite focal distance
     /// (unless autofocus is to set it), an aperture polygon
@@ -144,6 +150,12 @@ impl CameraParams {
         }
         if !pixels.contains(&self.height) {
             return Err(CameraError::Height(self.height));
+        }
+        if self.width as u64 * self.height as u64 > crate::limits::MAX_IMAGE_PIXELS {
+            return Err(CameraError::TooManyPixels {
+                width: self.width,
+                height: self.height,
+            });
         }
         if !(self.fov_x_deg > 0.0 && self.fov_x_deg < 180.0) {
             return Err(CameraError::FieldOfView(self.fov_x_deg));

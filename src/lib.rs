@@ -10,6 +10,7 @@ pub mod emitter;
 pub mod geometry;
 pub mod image;
 pub mod integrator;
+pub mod limits;
 pub mod load;
 pub mod math;
 pub mod preview;

@@ -197,6 +197,13 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     if w == 0 || h == 0 || w > 65536 || h > 65536 {
         return Err(format!("resolution '{s}' out of range (1..65536)"));
     }
+    let pixels = w as u64 * h as u64;
+    if pixels > lente::limits::MAX_IMAGE_PIXELS {
+        return Err(format!(
+            "resolution '{s}' is {pixels} pixels, more than the {} lente renders",
+            lente::limits::MAX_IMAGE_PIXELS
+        ));
+    }
     Ok((w, h))
 }
 
@@ -369,6 +376,8 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let scene = Scene::new(desc)?;
     let base = output_base(&scene_path, output);
     let (width, height) = (scene.camera.width(), scene.camera.height());
+    lente::render::check_memory(width, height, lente::limits::available_memory())
+        .map_err(anyhow::Error::msg)?;
 
     let preview = match preview {
         Some(port) => {

@@ -39,8 +39,11 @@ pub enum MeshError {
     },
     #[error("has vertex {0} at a position that is not finite")]
     NotFinite(usize),
-    #[error("is too large: its bounds overflow the float range")]
-    TooLarge,
+    #[error(
+        "has vertex {index} at ({:e}, {:e}, {:e}), beyond +-{:e}, the coordinate range lente supports",
+        position.x, position.y, position.z, crate::limits::MAX_COORDINATE
+    )]
+    OutOfRange { index: usize, position: Vec3 },
     #[error("has no area")]
     NoArea,
 }
@@ -98,10 +101,17 @@ impl TriangleMesh {
             return Err(MeshError::NotFinite(i));
         }
         // Coordinates near f32::MAX are finite, but their differences (edge
-        // vectors, box extents) are not: the BVH and the triangle test
-        // need them finite.
-        if !self.bounds().diagonal().is_finite() {
-            return Err(MeshError::TooLarge);
+        // vectors, box extents) and the BVH's surface-area costs are not.
+        let max = crate::limits::MAX_COORDINATE;
+        if let Some(index) = self
+            .positions
+            .iter()
+            .position(|p| p.abs().max_element() > max)
+        {
+            return Err(MeshError::OutOfRange {
+                index,
+                position: self.positions[index],
+            });
         }
         let areas: Vec<f32> = (0..self.indices.len())
             .map(|i| self.triangle_area(i))

@@ -10,7 +10,7 @@ mod triangle;
 
 pub use bvh::{Bvh, BvhHit};
 pub use mesh::{MeshError, TriangleMesh};
-pub use obj::load_obj;
+pub use obj::{load_obj, parse_obj, ObjError};
 pub use ply::{load_ply, parse_ply};
 pub use shapes::{
     cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
@@ -104,7 +104,7 @@ pub enum MeshFileError {
     Read {
         path: std::path::PathBuf,
         #[source]
-        source: std::io::Error,
+        source: crate::limits::ReadError,
     },
     #[error("cannot read the OBJ file '{}'", path.display())]
     Obj {

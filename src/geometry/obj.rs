@@ -1,8 +1,9 @@
-//! Wavefront OBJ loading through tobj.
+//! Wavefront OBJ loading through tobj (from bytes read within the file
+//! size bound; materials are not read).
 
 use std::path::Path;
 
-use super::{MeshFileError, TriangleMesh};
+use super::{MeshError, MeshFileError, TriangleMesh};
 use crate::math::{Vec2, Vec3};
 
 /// Loads an OBJ file as one triangle mesh (all its objects merged).
@@ -10,16 +11,43 @@ use crate::math::{Vec2, Vec3};
 /// one index per vertex. Missing normals leave `normals` empty, so the
 /// geometric normal is used.
 pub fn load_obj(path: &Path) -> Result<TriangleMesh, MeshFileError> {
+    let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "mesh files")
+        .map_err(|source| MeshFileError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    parse_obj(&bytes).map_err(|e| match e {
+        ObjError::Syntax(source) => MeshFileError::Obj {
+            path: path.to_path_buf(),
+            source,
+        },
+        ObjError::Invalid(error) => MeshFileError::Invalid {
+            path: path.to_path_buf(),
+            error,
+        },
+    })
+}
+
+/// Why OBJ bytes are no mesh.
+#[derive(Debug, thiserror::Error)]
+pub enum ObjError {
+    #[error("{0}")]
+    Syntax(tobj::LoadError),
+    #[error("{0}")]
+    Invalid(MeshError),
+}
+
+/// Parses the text of an OBJ file as one triangle mesh (see [`load_obj`]).
+pub fn parse_obj(bytes: &[u8]) -> Result<TriangleMesh, ObjError> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _) = tobj::load_obj(path, &opts).map_err(|source| MeshFileError::Obj {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let no_materials = |_: &Path| Err(tobj::LoadError::OpenFileFailed);
+    let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, no_materials)
+        .map_err(ObjError::Syntax)?;
     let mut positions = Vec::new();
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
@@ -62,8 +90,5 @@ pub fn load_obj(path: &Path) -> Result<TriangleMesh, MeshFileError> {
             indices.push([t[0], t[1], t[2]].map(|i| base.saturating_add(i)));
         }
     }
-    TriangleMesh::new(positions, normals, uvs, indices).map_err(|error| MeshFileError::Invalid {
-        path: path.to_path_buf(),
-        error,
-    })
+    TriangleMesh::new(positions, normals, uvs, indices).map_err(ObjError::Invalid)
 }

@@ -38,6 +38,11 @@ pub enum SphereError {
     Radius(f32),
     #[error("must be finite, found {0}")]
     Center(Vec3),
+    #[error(
+        "puts the sphere (centre ({:e}, {:e}, {:e}), radius {radius:e}) beyond +-{:e}, the coordinate range lente supports",
+        center.x, center.y, center.z, crate::limits::MAX_COORDINATE
+    )]
+    OutOfRange { center: Vec3, radius: f32 },
     #[error("must be a similarity (rotations, translations and uniform scales only)")]
     NotSimilarity,
 }
@@ -47,7 +52,7 @@ impl SphereError {
     pub fn describe_param(&self) -> &'static str {
         match self {
             SphereError::Radius(_) => "radius",
-            SphereError::Center(_) => "centre",
+            SphereError::Center(_) | SphereError::OutOfRange { .. } => "centre",
             SphereError::NotSimilarity => "transform",
         }
     }
@@ -72,9 +77,14 @@ impl Sphere {
         if !self.center.is_finite() {
             return Err(SphereError::Center(self.center));
         }
-        // Bounds (centre +- radius) must stay finite for the BVH.
-        if !(self.center.abs() + Vec3::splat(self.radius)).is_finite() {
-            return Err(SphereError::Radius(self.radius));
+        // Bounds (centre +- radius) must stay in the range whose BVH
+        // arithmetic is finite.
+        let reach = (self.center.abs() + Vec3::splat(self.radius)).max_element();
+        if reach > crate::limits::MAX_COORDINATE {
+            return Err(SphereError::OutOfRange {
+                center: self.center,
+                radius: self.radius,
+            });
         }
         Ok(())
     }

@@ -48,9 +48,14 @@ pub fn load_scene_with(
 /// an unreadable file or invalid UTF-8 is an error, the latter at its
 /// position.
 pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| {
-        SceneError::new(path, xml::Pos::default(), format!("cannot read the {what}")).caused_by(e)
-    })?;
+    let bytes = crate::limits::read_file(path, crate::limits::MAX_SCENE_FILE_BYTES, "scene files")
+        .map_err(|e| {
+            let err = SceneError::new(path, xml::Pos::default(), format!("cannot read the {what}"));
+            match e {
+                crate::limits::ReadError::Io(io) => err.caused_by(io),
+                other => err.caused_by(other),
+            }
+        })?;
     decode_utf8(path, bytes, what)
 }
 

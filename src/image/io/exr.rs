@@ -78,7 +78,52 @@ fn channel_values(layer: &AnyLayer, index: usize, pixels: usize) -> Result<Vec<f
     Ok(values)
 }
 
+/// Checks every layer's header before the crate allocates its pixels: a
+/// data window that is empty or larger than the image bound, or channels
+/// that together need more than 16 bytes per pixel of the bound (RGBA in
+/// f32), is an error. The crate allocates all layers' samples at once, so
+/// their sum is bounded.
+fn check_headers(bytes: &[u8]) -> Result<(), Malformed> {
+    let meta = catch_unwind(AssertUnwindSafe(|| {
+        exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
+    }));
+    let meta = match meta {
+        Ok(Ok(meta)) => meta,
+        Ok(Err(e)) => return Err(Malformed::from(format!("cannot decode OpenEXR: {e}"))),
+        Err(_) => {
+            return Err(Malformed::from(
+                "cannot decode OpenEXR: the decoder failed on this file's header",
+            ))
+        }
+    };
+    let budget = crate::limits::max_image_pixels().saturating_mul(16);
+    let mut total: u64 = 0;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        super::check_size(size.width(), size.height())?;
+        let pixels = size.width() as u64 * size.height() as u64;
+        let bytes_per_pixel: u64 = header
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u64)
+            .sum();
+        total = total.saturating_add(pixels.saturating_mul(bytes_per_pixel));
+        if total > budget {
+            return Err(Malformed::from(format!(
+                "OpenEXR layers and channels need more than {budget} bytes of samples \
+                 (the last: {}x{} with {} channels)",
+                size.width(),
+                size.height(),
+                header.channels.list.len()
+            )));
+        }
+    }
+    Ok(())
+}
+
 pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
+    check_headers(bytes)?;
     // The exr crate reports bad files as errors; catching a panic as well
     // keeps any bug of its on hostile input from taking lente down.
     let read = catch_unwind(AssertUnwindSafe(|| {

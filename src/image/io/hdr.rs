@@ -264,14 +264,7 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
         scanline_len,
         ..
     } = layout;
-    if width == 0 || height == 0 {
-        return Ok(RawImage {
-            width,
-            height,
-            channels: 3,
-            data: Vec::new(),
-        });
-    }
+    super::check_size(width, height)?;
     // Allocate as we go (capped up front) so a lying header cannot make us
     // reserve gigabytes before the data runs out.
     let mut texels: Vec<[u8; 4]> = Vec::with_capacity((width * height).min(1 << 24));

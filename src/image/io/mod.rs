@@ -55,6 +55,15 @@ impl From<&str> for Malformed {
     }
 }
 
+/// Checks a decoder's header size before any pixel memory is allocated:
+/// neither empty nor above [`crate::limits::max_image_pixels`].
+pub(crate) fn check_size(width: usize, height: usize) -> Result<(), Malformed> {
+    match crate::limits::check_image_size(width as u64, height as u64) {
+        None => Ok(()),
+        Some(message) => Err(Malformed(message)),
+    }
+}
+
 /// The file formats lente reads and writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Format {
@@ -115,7 +124,7 @@ pub(crate) struct RawImage {
 /// NaN or infinite texels and empty images are errors.
 pub fn load_image(path: &Path) -> Result<(Bitmap, Vec<String>), ImageError> {
     let format = Format::from_path(path)?;
-    let bytes = fs::read(path)
+    let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "image files")
         .map_err(|e| ImageError::new(path, format!("cannot read image file: {e}")))?;
     let raw = match format {
         Format::Exr => exr::decode(&bytes),
@@ -249,6 +258,7 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
         COUNTER.fetch_add(1, Ordering::Relaxed)
     );
     let tmp = dir.join(tmp_name);
+    remove_stale_temporaries(dir, &name.to_string_lossy());
     let result = (|| -> Result<(), Malformed> {
         let mut file = fs::OpenOptions::new()
             .write(true)
@@ -266,6 +276,43 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
         let _ = fs::remove_file(&tmp);
         ImageError::new(path, message.0)
     })
+}
+
+/// Removes the temporary files a killed run left beside `dir/name`
+/// (`.NAME.tmp-PID-N`): those whose process is gone (where `/proc` tells)
+/// or, elsewhere, that are more than a day old. Others' files in flight
+/// are left alone; failures are ignored (this is tidying, not writing).
+fn remove_stale_temporaries(dir: &Path, name: &str) {
+    let prefix = format!(".{name}.tmp-");
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    let have_proc = Path::new("/proc/self").exists();
+    let me = std::process::id();
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        let stale = if pid == me {
+            false
+        } else if have_proc {
+            !Path::new(&format!("/proc/{pid}")).exists()
+        } else {
+            entry
+                .metadata()
+                .and_then(|m| m.modified())
+                .ok()
+                .and_then(|t| t.elapsed().ok())
+                .is_some_and(|age| age.as_secs() > 24 * 3600)
+        };
+        if stale && entry.file_type().is_ok_and(|t| t.is_file()) {
+            let _ = fs::remove_file(entry.path());
+        }
+    }
 }
 
 #[cfg(test)]
@@ -477,6 +524,26 @@ mod tests {
             .collect();
         names.sort();
         assert_eq!(names, ["a.exr", "a.hdr", "a.pfm", "a.png"]);
+    }
+
+    #[test]
+    fn a_killed_runs_temporary_files_are_removed_by_the_next_save() {
+        let dir = tempfile::tempdir().unwrap();
+        let me = std::process::id();
+        // A process id above Linux's largest (2^22) belongs to no process.
+        let dead = ".out.exr.tmp-999999999-0";
+        let mine = format!(".out.exr.tmp-{me}-77");
+        let other_output = ".other.exr.tmp-999999999-0";
+        for name in [dead, mine.as_str(), other_output] {
+            fs::write(dir.path().join(name), b"partial").unwrap();
+        }
+        save_image(&dir.path().join("out.exr"), &test_image(4, 3)).unwrap();
+        let left = leftover_temp_files(dir.path());
+        if Path::new("/proc/self").exists() {
+            assert!(!left.contains(&dead.to_string()), "{left:?}");
+        }
+        assert!(left.contains(&mine), "{left:?}");
+        assert!(left.contains(&other_output.to_string()), "{left:?}");
     }
 
     #[test]

@@ -43,6 +43,7 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
     };
     let width = parse_dim(token(bytes, &mut pos, "width")?, "width")?;
     let height = parse_dim(token(bytes, &mut pos, "height")?, "height")?;
+    super::check_size(width, height)?;
     let scale_text = token(bytes, &mut pos, "scale")?;
     let scale: f32 = scale_text
         .parse()

@@ -11,8 +11,16 @@ use crate::color::{srgb_decode, srgb_encode};
 use crate::image::Bitmap;
 
 pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
-    let decoder = image::codecs::png::PngDecoder::new(Cursor::new(bytes))
+    use image::ImageDecoder;
+    // The header's size is checked before the decoder allocates; the
+    // allocation cap (8 bytes per pixel: 16-bit RGBA) backs that up.
+    let max_pixels = crate::limits::max_image_pixels();
+    let mut limits = image::Limits::no_limits();
+    limits.max_alloc = Some(max_pixels.saturating_mul(8));
+    let decoder = image::codecs::png::PngDecoder::with_limits(Cursor::new(bytes), limits)
         .map_err(|e| format!("cannot decode PNG: {e}"))?;
+    let (w, h) = decoder.dimensions();
+    super::check_size(w as usize, h as usize)?;
     let img = DynamicImage::from_decoder(decoder).map_err(|e| format!("cannot decode PNG: {e}"))?;
     let (width, height) = (img.width() as usize, img.height() as usize);
     let sixteen_bit = matches!(

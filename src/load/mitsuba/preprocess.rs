@@ -258,13 +258,15 @@ impl Pre {
                 format!("'{}' includes itself", path.display()),
             ));
         }
-        let bytes = std::fs::read(&path).map_err(|e| {
-            self.err(
-                file,
-                node.pos,
-                format!("cannot read the included file '{}': {e}", path.display()),
-            )
-        })?;
+        let bytes =
+            crate::limits::read_file(&path, crate::limits::MAX_SCENE_FILE_BYTES, "scene files")
+                .map_err(|e| {
+                    self.err(
+                        file,
+                        node.pos,
+                        format!("cannot read the included file '{}': {e}", path.display()),
+                    )
+                })?;
         let text = crate::load::decode_utf8(&path, bytes, "scene file")?;
         let root = crate::load::parse_xml(&text, &path)?;
         self.files.push(path.clone());
