@@ -132,9 +132,9 @@ pub enum ReadError {
 pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
     let mut buf = Vec::with_capacity(1024);
     let mut chunk = [0u8; 2048];
-    let head_end = loop {
-        if let Some(i) = find(&buf, b"\r\n\r\n") {
-            break i;
+    let (head_end, blank_len) = loop {
+        if let Some(end) = head_end(&buf) {
+            break end;
         }
         if buf.len() > MAX_HEAD {
             return Err(ReadError::Bad(Response::text(
@@ -180,7 +180,7 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
             "request body too large",
         )));
     }
-    let mut have = buf.len() - (head_end + 4);
+    let mut have = buf.len() - (head_end + blank_len);
     while have < length {
         match stream.read(&mut chunk) {
             Ok(0) => break,
@@ -192,15 +192,33 @@ pub fn read_request(stream: &mut impl Read) -> Result<Request, ReadError> {
     Ok(request)
 }
 
-fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
-    haystack.windows(needle.len()).position(|w| w == needle)
+/// Where the head ends: at the first empty line, with lines ended by CRLF
+/// or (as RFC 9112 2.2 lets a server accept) a bare LF. Returns the end of
+/// the head and the length of the line breaks that follow it.
+fn head_end(buf: &[u8]) -> Option<(usize, usize)> {
+    (0..buf.len()).find_map(|i| {
+        if buf[i] != b'\n' {
+            return None;
+        }
+        let empty_line = match &buf[i + 1..] {
+            [b'\n', ..] => 1,
+            [b'\r', b'\n', ..] => 2,
+            _ => return None,
+        };
+        let start = if i > 0 && buf[i - 1] == b'\r' {
+            i - 1
+        } else {
+            i
+        };
+        Some((start, i + 1 + empty_line - start))
+    })
 }
 
 /// Parses the request line and headers (without the blank line).
 pub fn parse_head(head: &[u8]) -> Result<Request, Response> {
     let bad = |m: &str| Response::text(400, m);
     let text = std::str::from_utf8(head).map_err(|_| bad("request head is not UTF-8"))?;
-    let mut lines = text.split("\r\n");
+    let mut lines = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l));
     // Tolerate blank lines before the request line (RFC 9112, 2.2).
     let line = lines
         .by_ref()
@@ -325,6 +343,22 @@ mod tests {
             Err(ReadError::Bad(r)) => assert_eq!(r.status, 431),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn bare_lf_requests_are_read_like_crlf_ones() {
+        for raw in [
+            &b"GET /status?x=1 HTTP/1.1\nHost: 127.0.0.1:80\n\n"[..],
+            b"GET /status?x=1 HTTP/1.1\r\nHost: 127.0.0.1:80\n\r\n",
+            b"GET /status?x=1 HTTP/1.1\r\nHost: 127.0.0.1:80\r\n\r\n",
+        ] {
+            let req = read_request(&mut &raw[..]).unwrap();
+            assert_eq!(req.path, "/status");
+            assert_eq!(req.header("host"), Some("127.0.0.1:80"));
+        }
+        assert_eq!(head_end(b"A\r\n\r\nbody"), Some((1, 4)));
+        assert_eq!(head_end(b"A\n\nbody"), Some((1, 2)));
+        assert_eq!(head_end(b"A\r\nB\r\n"), None);
     }
 
     #[test]

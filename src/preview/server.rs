@@ -1,6 +1,13 @@
 //! The preview's HTTP server: one accept thread on 127.0.0.1 and a short
 //! thread per connection (at most [`MAX_CONNECTIONS`] at once).
 //!
+//! Nobody can lock the page out: a connection gets [`HEAD_DEADLINE`] in
+//! all to send its request head (a per-read timeout would let a client
+//! trickle one byte at a time), and when every slot is taken the
+//! connection that has waited longest for its head is closed to make room
+//! for the new one. A browser sends its request at once, so idle or slow
+//! sockets, however many, cannot keep it from being served.
+//!
 //! Routes:
 //! - `GET /`: the page;
 //! - `GET /status`: progress as JSON (see [`PreviewState::status_json`]);
@@ -14,10 +21,10 @@
 
 use std::io::{self, Write};
 use std::net::{Ipv4Addr, SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use super::http::{read_request, ReadError, Request, Response};
 use super::{PreviewState, SaveError};
@@ -25,8 +32,14 @@ use super::{PreviewState, SaveError};
 /// The port used when `--preview` is given without one.
 pub const DEFAULT_PORT: u16 = 8642;
 
-/// Connections served at once; more are closed at once.
-pub const MAX_CONNECTIONS: usize = 32;
+/// Connections served at once.
+pub const MAX_CONNECTIONS: usize = 64;
+
+/// Time a connection has to send its whole request head.
+pub const HEAD_DEADLINE: Duration = Duration::from_secs(2);
+
+/// Time to write a response (a slow reader of a big PNG).
+const WRITE_TIMEOUT: Duration = Duration::from_secs(10);
 
 const PAGE: &str = include_str!("page.html");
 
@@ -105,30 +118,86 @@ impl Drop for PreviewServer {
     }
 }
 
+/// A connection being served: a handle to close it with, and whether it is
+/// still waiting for its request head.
+struct Slot {
+    id: u64,
+    stream: TcpStream,
+    accepted: Instant,
+    waiting_for_head: Arc<AtomicBool>,
+}
+
+/// The connections being served.
+#[derive(Clone, Default)]
+struct Slots(Arc<Mutex<Vec<Slot>>>);
+
+impl Slots {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Slot>> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Makes room for one more: if all slots are taken, closes the
+    /// connection that has waited longest for its head. False if all are
+    /// busy answering (the new connection is then dropped).
+    fn make_room(&self) -> bool {
+        let slots = self.lock();
+        if slots.len() < MAX_CONNECTIONS {
+            return true;
+        }
+        let oldest_idle = slots
+            .iter()
+            .filter(|s| s.waiting_for_head.load(Ordering::SeqCst))
+            .min_by_key(|s| s.accepted);
+        match oldest_idle {
+            Some(slot) => {
+                // Its thread's read returns at once and frees the slot.
+                let _ = slot.stream.shutdown(std::net::Shutdown::Both);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn release(&self, id: u64) {
+        self.lock().retain(|s| s.id != id);
+    }
+}
+
 fn accept_loop(listener: TcpListener, state: PreviewState, stop: Arc<AtomicBool>) {
     let port = listener.local_addr().map(|a| a.port()).unwrap_or(0);
-    let active = Arc::new(AtomicUsize::new(0));
+    let slots = Slots::default();
+    let next_id = AtomicU64::new(0);
     while !stop.load(Ordering::SeqCst) {
         match listener.accept() {
             Ok((stream, _)) => {
-                if active.load(Ordering::SeqCst) >= MAX_CONNECTIONS {
+                if !slots.make_room() {
                     continue; // dropped: closed at once
                 }
-                active.fetch_add(1, Ordering::SeqCst);
+                let Ok(handle) = stream.try_clone() else {
+                    continue;
+                };
+                let id = next_id.fetch_add(1, Ordering::Relaxed);
+                let waiting_for_head = Arc::new(AtomicBool::new(true));
+                slots.lock().push(Slot {
+                    id,
+                    stream: handle,
+                    accepted: Instant::now(),
+                    waiting_for_head: waiting_for_head.clone(),
+                });
                 let state = state.clone();
-                let done = active.clone();
+                let done = slots.clone();
                 let spawned = std::thread::Builder::new()
                     .name("lente-preview-conn".into())
                     .spawn(move || {
-                        serve(stream, &state, port);
-                        done.fetch_sub(1, Ordering::SeqCst);
+                        serve(stream, &state, port, &waiting_for_head);
+                        done.release(id);
                     });
                 if spawned.is_err() {
-                    active.fetch_sub(1, Ordering::SeqCst);
+                    slots.release(id);
                 }
             }
             Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                std::thread::sleep(Duration::from_millis(20));
+                std::thread::sleep(Duration::from_millis(5));
             }
             Err(_) => {
                 // E.g. too many open files: back off rather than spin.
@@ -138,14 +207,37 @@ fn accept_loop(listener: TcpListener, state: PreviewState, stop: Arc<AtomicBool>
     }
 }
 
+/// A stream whose reads all end by one deadline: each read waits at most
+/// the time left, then fails with `TimedOut`.
+struct DeadlineReader<'a> {
+    stream: &'a TcpStream,
+    deadline: Instant,
+}
+
+impl io::Read for DeadlineReader<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let left = self.deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(io::ErrorKind::TimedOut.into());
+        }
+        self.stream.set_read_timeout(Some(left))?;
+        (&mut &*self.stream).read(buf)
+    }
+}
+
 /// Answers one request on `stream`, then closes it.
-fn serve(mut stream: TcpStream, state: &PreviewState, port: u16) {
+fn serve(mut stream: TcpStream, state: &PreviewState, port: u16, waiting_for_head: &AtomicBool) {
     // Accepted sockets may inherit the listener's non-blocking mode.
     let _ = stream.set_nonblocking(false);
-    let _ = stream.set_read_timeout(Some(Duration::from_secs(10)));
-    let _ = stream.set_write_timeout(Some(Duration::from_secs(10)));
+    let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
     let _ = stream.set_nodelay(true);
-    let (response, head_only) = match read_request(&mut stream) {
+    let mut reader = DeadlineReader {
+        stream: &stream,
+        deadline: Instant::now() + HEAD_DEADLINE,
+    };
+    let read = read_request(&mut reader);
+    waiting_for_head.store(false, Ordering::SeqCst);
+    let (response, head_only) = match read {
         Ok(req) => (route(&req, state, port), req.method == "HEAD"),
         Err(ReadError::Bad(r)) => (r, false),
         Err(ReadError::Closed) => return,
@@ -328,6 +420,85 @@ mod tests {
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("bound a busy port"),
         }
+        server.stop();
+    }
+
+    /// Sends `request` on a new connection and reads the whole answer.
+    fn fetch(port: u16, request: &[u8]) -> String {
+        let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        s.write_all(request).unwrap();
+        let mut out = String::new();
+        s.read_to_string(&mut out).unwrap();
+        out
+    }
+
+    #[test]
+    fn idle_sockets_cannot_lock_the_page_out() {
+        let state = PreviewState::new(2, 2, 4, Path::new("x"));
+        let server = PreviewServer::start(0, state).unwrap();
+        let port = server.port();
+        let idle: Vec<TcpStream> = (0..200)
+            .map(|_| TcpStream::connect(("127.0.0.1", port)).unwrap())
+            .collect();
+        // Slow ones too: a byte now and then, never a whole head.
+        let mut slow: Vec<TcpStream> = (0..20)
+            .map(|_| TcpStream::connect(("127.0.0.1", port)).unwrap())
+            .collect();
+        for s in &mut slow {
+            let _ = s.write_all(b"G");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+        for _ in 0..3 {
+            let start = Instant::now();
+            let request = format!("GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n");
+            let out = fetch(port, request.as_bytes());
+            let took = start.elapsed();
+            assert!(out.starts_with("HTTP/1.1 200 OK"), "{out}");
+            assert!(took < Duration::from_secs(1), "page took {took:?}");
+        }
+        drop((idle, slow));
+        server.stop();
+    }
+
+    #[test]
+    fn a_head_must_arrive_within_the_deadline() {
+        let state = PreviewState::new(2, 2, 4, Path::new("x"));
+        let server = PreviewServer::start(0, state).unwrap();
+        let mut s = TcpStream::connect(("127.0.0.1", server.port())).unwrap();
+        s.set_read_timeout(Some(HEAD_DEADLINE * 3)).unwrap();
+        let start = Instant::now();
+        // Trickle bytes more often than any per-read timeout would allow.
+        let mut closed = false;
+        for _ in 0..40 {
+            if s.write_all(b"X").is_err() {
+                closed = true;
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(100));
+            if start.elapsed() > HEAD_DEADLINE + Duration::from_millis(500) {
+                break;
+            }
+        }
+        let mut out = String::new();
+        let _ = s.read_to_string(&mut out);
+        assert!(
+            closed || start.elapsed() < HEAD_DEADLINE * 2,
+            "{:?}",
+            start.elapsed()
+        );
+        assert!(!out.contains("200 OK"), "{out}");
+        server.stop();
+    }
+
+    #[test]
+    fn bare_lf_requests_get_an_answer() {
+        let state = PreviewState::new(2, 2, 4, Path::new("x"));
+        let server = PreviewServer::start(0, state).unwrap();
+        let start = Instant::now();
+        let out = fetch(server.port(), b"GET /status HTTP/1.1\n\n");
+        assert!(out.starts_with("HTTP/1.1 200 OK"), "{out}");
+        assert!(start.elapsed() < Duration::from_secs(1));
         server.stop();
     }
 }
