@@ -7,6 +7,7 @@ pub mod bsdf;
 pub mod camera;
 pub mod color;
 pub mod emitter;
+pub mod fuzz;
 pub mod geometry;
 pub mod image;
 pub mod integrator;

@@ -880,6 +880,12 @@ impl<'a> Ctx<'a> {
                 let azimuth = p.get_float("sunAzimuth", 0.0)?;
                 let scale = non_negative(&mut p, "scale", 1.0)?;
                 let resolution = int_in(&mut p, "resolution", 1024, 4, 16384)? as usize;
+                if let Some(message) = crate::limits::check_image_size(
+                    resolution as u64,
+                    (resolution as u64 / 2).max(1),
+                ) {
+                    return Err(p.error("resolution", format!("the sky's table: {message}")));
+                }
                 let visible = p.get_bool("visible", true)?;
                 let image = bake_sky(&SkyParams {
                     turbidity,

@@ -126,14 +126,25 @@ pub fn load_image(path: &Path) -> Result<(Bitmap, Vec<String>), ImageError> {
     let format = Format::from_path(path)?;
     let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "image files")
         .map_err(|e| ImageError::new(path, format!("cannot read image file: {e}")))?;
+    decode(&bytes, format).map_err(|m| ImageError::new(path, m.0))
+}
+
+/// Decodes an image file's bytes as [`load_image`] does, the format named
+/// by its extension (`"exr"`, `"hdr"`, `"pfm"`, `"png"`, any case).
+pub fn decode_image(bytes: &[u8], extension: &str) -> Result<(Bitmap, Vec<String>), Malformed> {
+    let format = Format::from_path(Path::new(&format!("image.{extension}")))
+        .map_err(|e| Malformed(e.message))?;
+    decode(bytes, format)
+}
+
+fn decode(bytes: &[u8], format: Format) -> Result<(Bitmap, Vec<String>), Malformed> {
     let raw = match format {
-        Format::Exr => exr::decode(&bytes),
-        Format::Hdr => hdr::decode(&bytes),
-        Format::Pfm => pfm::decode(&bytes),
-        Format::Png => png::decode(&bytes),
-    }
-    .map_err(|m| ImageError::new(path, m.0))?;
-    finish(raw).map_err(|m| ImageError::new(path, m.0))
+        Format::Exr => exr::decode(bytes),
+        Format::Hdr => hdr::decode(bytes),
+        Format::Pfm => pfm::decode(bytes),
+        Format::Png => png::decode(bytes),
+    }?;
+    finish(raw)
 }
 
 /// Checks decoded texels and turns them into a bitmap: rejects empty images

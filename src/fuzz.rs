@@ -1,0 +1,153 @@
+//! The loaders as fuzz targets: one entry per kind of input file, taking
+//! the bytes a fuzzer makes and going through the same functions the CLI
+//! calls. The cargo-fuzz targets in `fuzz/` call [`run`], and so do the
+//! stable regression tests that replay the stored crash inputs
+//! (`fuzz/regressions/<target>/`): a fixed crash stays fixed.
+//!
+//! Whole-scene targets build the [`Scene`] too (BVH, light tables), with
+//! relative file names resolved against the repository's example folders,
+//! so seeds that reference meshes and probes load them.
+
+use std::path::{Path, PathBuf};
+
+use crate::scene::Scene;
+
+/// What a fuzz target feeds its bytes to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// A Nori scene file, loaded and built.
+    NoriScene,
+    /// A Mitsuba 3 scene file, loaded and built.
+    MitsubaScene,
+    /// A Nori `<test>` file.
+    NoriTest,
+    Obj,
+    Ply,
+    Hdr,
+    Pfm,
+    Exr,
+    Png,
+}
+
+impl Target {
+    pub const ALL: [Target; 9] = [
+        Target::NoriScene,
+        Target::MitsubaScene,
+        Target::NoriTest,
+        Target::Obj,
+        Target::Ply,
+        Target::Hdr,
+        Target::Pfm,
+        Target::Exr,
+        Target::Png,
+    ];
+
+    /// The cargo-fuzz target's name (and its folders' names).
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::NoriScene => "nori_scene",
+            Target::MitsubaScene => "mitsuba_scene",
+            Target::NoriTest => "nori_test",
+            Target::Obj => "obj",
+            Target::Ply => "ply",
+            Target::Hdr => "hdr",
+            Target::Pfm => "pfm",
+            Target::Exr => "exr",
+            Target::Png => "png",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Target> {
+        Target::ALL.into_iter().find(|t| t.name() == name)
+    }
+}
+
+/// Pixels an image may have while fuzzing: 2^20 (the default bound,
+/// [`crate::limits::MAX_IMAGE_PIXELS`], lets a 1 KB file ask for 3 GiB
+/// legitimately, which would make every such input a slow run).
+pub const FUZZ_IMAGE_PIXELS: u64 = 1 << 20;
+
+/// Sets the process-wide bounds for fuzzing; call once before [`run`].
+pub fn configure() {
+    crate::limits::set_max_image_pixels(FUZZ_IMAGE_PIXELS);
+}
+
+/// The repository root (scene targets resolve file names below it).
+fn repo_root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Where a fuzzed scene file pretends to live: beside the example scenes
+/// whose seeds reference meshes and probes.
+fn scene_path(target: Target) -> PathBuf {
+    match target {
+        Target::MitsubaScene => repo_root().join("scenes/mitsuba/fuzzed.xml"),
+        _ => repo_root().join("scenes/cbox/fuzzed.xml"),
+    }
+}
+
+/// Feeds `bytes` to `target`'s loader. `Ok` or `Err` (the one-line
+/// message) are both fine outcomes; a panic, an abort, a hang or a huge
+/// allocation is a bug.
+pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
+    use crate::image::io::decode_image;
+    match target {
+        Target::NoriScene | Target::MitsubaScene => {
+            let path = scene_path(target);
+            let text = crate::load::decode_utf8(&path, bytes.to_vec(), "scene file")
+                .map_err(|e| e.to_string())?;
+            let (file, _) = crate::load::load_scene_str(&text, &path).map_err(|e| e.to_string())?;
+            Scene::new(file.scene).map_err(|e| e.to_string())?;
+            Ok(())
+        }
+        Target::NoriTest => {
+            let path = scene_path(target);
+            let text = crate::load::decode_utf8(&path, bytes.to_vec(), "test file")
+                .map_err(|e| e.to_string())?;
+            crate::load::nori_testfile::load_test_str(&text, &path).map_err(|e| e.to_string())?;
+            Ok(())
+        }
+        Target::Obj => crate::geometry::parse_obj(bytes)
+            .map(drop)
+            .map_err(|e| e.to_string()),
+        Target::Ply => crate::geometry::parse_ply(bytes)
+            .map(drop)
+            .map_err(|e| e.to_string()),
+        Target::Hdr => decode_image(bytes, "hdr").map(drop).map_err(|e| e.0),
+        Target::Pfm => decode_image(bytes, "pfm").map(drop).map_err(|e| e.0),
+        Target::Exr => decode_image(bytes, "exr").map(drop).map_err(|e| e.0),
+        Target::Png => decode_image(bytes, "png").map(drop).map_err(|e| e.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_target_has_a_name_that_finds_it() {
+        for t in Target::ALL {
+            assert_eq!(Target::from_name(t.name()), Some(t));
+        }
+        assert_eq!(Target::from_name("jpeg"), None);
+    }
+
+    #[test]
+    fn repository_files_load_through_their_targets() {
+        let root = repo_root();
+        let cases = [
+            (Target::MitsubaScene, "scenes/mitsuba/cbox.xml"),
+            (Target::NoriScene, "scenes/cbox/cbox.xml"),
+            (Target::NoriTest, "tests/scenes/chi2test-diffuse.xml"),
+            (Target::Obj, "scenes/cbox/floor.obj"),
+            (Target::Ply, "scenes/mitsuba/gem.ply"),
+            (Target::Pfm, "scenes/mitsuba/sky.pfm"),
+        ];
+        for (target, file) in cases {
+            let bytes = std::fs::read(root.join(file)).unwrap();
+            run(target, &bytes).unwrap_or_else(|e| panic!("{file}: {e}"));
+        }
+        assert!(run(Target::Exr, b"not an exr").is_err());
+        assert!(run(Target::NoriScene, b"<scene>\xff</scene>").is_err());
+    }
+}
