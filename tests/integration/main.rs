@@ -20,6 +20,7 @@ mod determinism;
 mod envmap_integrators;
 mod furnace;
 mod geometry;
+mod hostile_inputs;
 mod lights;
 mod microfacet;
 mod mitsuba_conformance;
