@@ -137,3 +137,20 @@ fn the_next_render_removes_a_killed_runs_temporary_files() {
     }
     assert!(dir.path().join("out.exr").exists() && dir.path().join("out.png").exists());
 }
+
+#[test]
+fn an_include_bomb_is_stopped_by_the_include_count() {
+    // Seven files, each including the next ten times: 10^6 includes.
+    let dir = tempfile::tempdir().unwrap();
+    for level in 0..7 {
+        let body = if level < 6 {
+            format!("<include filename=\"l{}.xml\"/>\n", level + 1).repeat(10)
+        } else {
+            "<shape type=\"sphere\"/>\n".to_string()
+        };
+        let xml = format!("<scene version=\"3.0.0\">\n{body}</scene>\n");
+        std::fs::write(dir.path().join(format!("l{level}.xml")), xml).unwrap();
+    }
+    let (code, err) = run_bounded(&["info", dir.path().join("l0.xml").to_str().unwrap()]);
+    assert_one_line_error(code, &err, &["l5.xml:", "<include> files in all"]);
+}

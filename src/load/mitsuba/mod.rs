@@ -95,6 +95,10 @@ static MITSUBA: Dialect = Dialect {
 /// Deepest nesting of `<include>` files (Mitsuba's limit is 15).
 const MAX_INCLUDE_DEPTH: usize = 15;
 
+/// Most `<include>`s one scene may read in all: ten files that each include
+/// the next level ten times would otherwise expand to 10^15 reads.
+const MAX_INCLUDES: usize = 4096;
+
 /// How far from orthonormal a sensor rotation may be (Mitsuba's `has_scale`
 /// tolerance on M M^T).
 const ROTATION_TOLERANCE: f32 = 1e-3;

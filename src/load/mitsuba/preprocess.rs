@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use super::{parent_dir, MAX_INCLUDE_DEPTH};
+use super::{parent_dir, MAX_INCLUDES, MAX_INCLUDE_DEPTH};
 use crate::load::props::shorten;
 use crate::load::reader::{check_attributes, no_content};
 use crate::load::xml::{Pos, SceneNode};
@@ -239,6 +239,14 @@ impl Pre {
         let name = node.attr_value("filename").unwrap_or_default();
         let dir = parent_dir(&self.files[file]);
         let path = dir.join(name);
+        // `files` holds the scene file and every include read so far.
+        if self.files.len() > MAX_INCLUDES {
+            return Err(self.err(
+                file,
+                node.pos,
+                format!("the scene reads more than {MAX_INCLUDES} <include> files in all"),
+            ));
+        }
         if self.include_stack.len() > MAX_INCLUDE_DEPTH {
             return Err(self.err(
                 file,
