@@ -155,9 +155,11 @@ impl TriangleMesh {
         ]
     }
 
+    /// In f64: the squared length of the cross product overflows f32 for
+    /// edges beyond ~4e9, well inside the accepted coordinate range.
     pub fn triangle_area(&self, tri: usize) -> f32 {
         let [a, b, c] = self.vertices(tri);
-        0.5 * (b - a).cross(c - a).length()
+        (0.5 * (b - a).as_dvec3().cross((c - a).as_dvec3()).length()) as f32
     }
 
     pub fn area(&self) -> f32 {

@@ -171,3 +171,56 @@ fn huge_triangles_do_not_shadow_themselves() {
     }
     assert_eq!(self_hits, 0, "{self_hits} rays re-hit the ground they left");
 }
+
+/// Geometry filling the whole coordinate range the loaders accept
+/// (±1e12): the BVH builds (its surface-area costs stay finite) and
+/// answers rays; a vertex or sphere beyond the range is refused with an
+/// error, not handed to the builder.
+#[test]
+fn the_bvh_builds_over_the_whole_accepted_coordinate_range() {
+    use lente::geometry::{MeshError, Sphere, SphereError, TriangleMesh};
+    let max = lente::limits::MAX_COORDINATE;
+    let mut s = Sampler::new(11, 0);
+    let mut point = |scale: f32| {
+        Vec3::new(
+            (s.next_1d() * 2.0 - 1.0) * scale,
+            (s.next_1d() * 2.0 - 1.0) * scale,
+            (s.next_1d() * 2.0 - 1.0) * scale,
+        )
+    };
+    let mut positions = Vec::new();
+    for i in 0..30_000 {
+        // Tiny triangles anywhere, and some spanning the whole range.
+        let c = point(max * 0.999);
+        let size = if i % 100 == 0 { max } else { 1.0 };
+        positions.push(c);
+        positions.push((c + Vec3::new(size, 0.0, 0.0)).clamp(Vec3::splat(-max), Vec3::splat(max)));
+        positions.push((c + Vec3::new(0.0, size, 0.0)).clamp(Vec3::splat(-max), Vec3::splat(max)));
+    }
+    let indices = (0..30_000u32)
+        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+        .collect();
+    let mesh = TriangleMesh::new(positions, Vec::new(), Vec::new(), indices).unwrap();
+    let mut shapes = vec![Geometry::Mesh(mesh)];
+    for corner in [Vec3::splat(max * 0.5), Vec3::splat(-max * 0.5)] {
+        shapes.push(Geometry::Sphere(Sphere::new(corner, max * 0.5).unwrap()));
+    }
+    let bvh = Bvh::build(&shapes);
+    let mut hits = 0;
+    for _ in 0..10_000 {
+        let o = point(max * 0.9);
+        let d = (point(1.0)).normalize();
+        hits += usize::from(bvh.intersect(&Ray::new(o, d)).is_some());
+    }
+    assert!(hits > 0);
+
+    let far = vec![Vec3::new(max * 2.0, 0.0, 0.0), Vec3::X, Vec3::Y];
+    assert!(matches!(
+        TriangleMesh::new(far, Vec::new(), Vec::new(), vec![[0, 1, 2]]),
+        Err(MeshError::OutOfRange { index: 0, .. })
+    ));
+    assert!(matches!(
+        Sphere::new(Vec3::new(max, 0.0, 0.0), 1e6),
+        Err(SphereError::OutOfRange { .. })
+    ));
+}
