@@ -21,7 +21,7 @@ SECONDS_EACH="${1:-60}"
 shift || true
 TARGETS=("$@")
 if [ ${#TARGETS[@]} -eq 0 ]; then
-    TARGETS=(nori_scene mitsuba_scene nori_test obj ply hdr pfm exr png)
+    TARGETS=(nori_scene mitsuba_scene nori_test obj ply serialized hdr pfm exr png)
 fi
 SANITIZER="${FUZZ_SANITIZER:-none}"
 
@@ -53,6 +53,7 @@ seed_target() {
     nori_test) seed "$1" $(xml_with_root test tests/scenes/*.xml) ;;
     obj) seed "$1" $(git ls-files '*.obj') ;;
     ply) seed "$1" $(git ls-files '*.ply') ;;
+    serialized) seed "$1" $(git ls-files '*.serialized') ;;
     pfm) seed "$1" $(git ls-files '*.pfm') ;;
     hdr | exr | png) seed "$1" fuzz/seeds/"$1"/* ;;
     *)

@@ -23,6 +23,9 @@ pub enum Target {
     NoriTest,
     Obj,
     Ply,
+    /// Mitsuba's `.serialized` meshes: shape 0, then shape 1 (the
+    /// end-of-file dictionary).
+    Serialized,
     Hdr,
     Pfm,
     Exr,
@@ -30,12 +33,13 @@ pub enum Target {
 }
 
 impl Target {
-    pub const ALL: [Target; 9] = [
+    pub const ALL: [Target; 10] = [
         Target::NoriScene,
         Target::MitsubaScene,
         Target::NoriTest,
         Target::Obj,
         Target::Ply,
+        Target::Serialized,
         Target::Hdr,
         Target::Pfm,
         Target::Exr,
@@ -50,6 +54,7 @@ impl Target {
             Target::NoriTest => "nori_test",
             Target::Obj => "obj",
             Target::Ply => "ply",
+            Target::Serialized => "serialized",
             Target::Hdr => "hdr",
             Target::Pfm => "pfm",
             Target::Exr => "exr",
@@ -113,6 +118,11 @@ pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
         Target::Ply => crate::geometry::parse_ply(bytes)
             .map(drop)
             .map_err(|e| e.to_string()),
+        Target::Serialized => {
+            let first = crate::geometry::parse_serialized(bytes, 0).map(drop);
+            let second = crate::geometry::parse_serialized(bytes, 1).map(drop);
+            first.and(second).map_err(|e| e.to_string())
+        }
         Target::Hdr => decode_image(bytes, "hdr").map(drop).map_err(|e| e.0),
         Target::Pfm => decode_image(bytes, "pfm").map(drop).map_err(|e| e.0),
         Target::Exr => decode_image(bytes, "exr").map(drop).map_err(|e| e.0),
@@ -141,6 +151,7 @@ mod tests {
             (Target::NoriTest, "tests/scenes/chi2test-diffuse.xml"),
             (Target::Obj, "scenes/cbox/floor.obj"),
             (Target::Ply, "scenes/mitsuba/gem.ply"),
+            (Target::Serialized, "tests/conformance/gems.serialized"),
             (Target::Pfm, "scenes/mitsuba/sky.pfm"),
         ];
         for (target, file) in cases {

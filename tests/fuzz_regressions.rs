@@ -54,6 +54,11 @@ fn the_known_attacks_fail_for_the_right_reason() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/regressions");
     let cases = [
         (Target::Obj, "obj/far_coordinates.obj", "coordinate range"),
+        (
+            Target::Obj,
+            "obj/relative_uv_index_before_the_first.obj",
+            "refers to none",
+        ),
         (Target::Ply, "ply/far_coordinates.ply", "coordinate range"),
         (
             Target::NoriScene,

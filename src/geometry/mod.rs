@@ -4,6 +4,7 @@ mod bvh;
 mod mesh;
 mod obj;
 mod ply;
+mod serialized;
 mod shapes;
 mod sphere;
 mod triangle;
@@ -12,6 +13,7 @@ pub use bvh::{Bvh, BvhHit};
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
 pub use ply::{load_ply, parse_ply};
+pub use serialized::{load_serialized, parse_serialized, SerializedError};
 pub use shapes::{
     cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
 };
@@ -112,8 +114,19 @@ pub enum MeshFileError {
         #[source]
         source: tobj::LoadError,
     },
+    #[error("the OBJ file '{}' is malformed at line {line}: {message}", path.display())]
+    ObjFace {
+        path: std::path::PathBuf,
+        line: usize,
+        message: String,
+    },
     #[error("the PLY file '{}' is malformed: {message}", path.display())]
     Ply {
+        path: std::path::PathBuf,
+        message: String,
+    },
+    #[error("the Mitsuba .serialized file '{}' is malformed: {message}", path.display())]
+    Serialized {
         path: std::path::PathBuf,
         message: String,
     },

@@ -9,6 +9,10 @@ folder; files go next to this script). Plain Python, no packages:
 - stripes.pfm: a 32 x 16 lat-long map whose rows are all equal (it varies
   with the azimuth only; see tests/integration/mitsuba_conformance.rs for why), with a
   bright sector and a colour ramp;
+- gems.serialized: Mitsuba's compressed mesh format (version 4), two
+  shapes: 0 a flat triangle in single precision; 1 an octahedron in double
+  precision with normals (pointing along the position: it shades smooth),
+  uvs and vertex colours (read past), the one the scene uses;
 - sky_rows.pfm: a 32 x 12 lat-long sky that varies with the elevation
   (zenith blue to a pale horizon, a dark ground, a bright soft sun of 2 x 2
   texels 30-45 degrees up): it shows where each renderer puts texel rows.
@@ -17,6 +21,7 @@ folder; files go next to this script). Plain Python, no packages:
 import math
 import os
 import struct
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -138,8 +143,30 @@ def sky_rows():
                 f.write(struct.pack("<3f", *px))
 
 
+def serialized():
+    def shape(flags, fmt, positions, extra, tris, name):
+        raw = struct.pack("<I", flags) + name + b"\0"
+        raw += struct.pack("<QQ", len(positions) // 3, len(tris) // 3)
+        raw += struct.pack("<%d%s" % (len(positions) + len(extra), fmt), *(positions + extra))
+        raw += struct.pack("<%dI" % len(tris), *tris)
+        return struct.pack("<HH", 0x041C, 4) + zlib.compress(raw)
+
+    tri = shape(0x1000, "f", [0, 0, 0, 1, 0, 0, 0, 1, 0], [], [0, 1, 2], b"triangle")
+    octa = [1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1]
+    faces = [0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5]
+    normals = list(octa)
+    uvs = [0.5, 0.5, 0, 0.5, 0.5, 1, 0.5, 0, 1, 1, 0, 0]
+    colors = [0.25] * 18
+    # has normals, texcoords, colours; double precision
+    gem = shape(0x2000 | 0x1 | 0x2 | 0x8, "d", octa, normals + uvs + colors, faces, b"gem")
+    with open(os.path.join(HERE, "gems.serialized"), "wb") as f:
+        f.write(tri + gem)
+        f.write(struct.pack("<QQI", 0, len(tri), 2))
+
+
 if __name__ == "__main__":
     icosphere()
     prism()
     stripes()
     sky_rows()
+    serialized()

@@ -136,7 +136,7 @@ const CASES: &[Case] = &[
     },
     Case {
         file: "delta_lights.xml",
-        covers: "perspective; point, directional; obj, ply, cylinder, rectangle; roughplastic, plastic, twosided (1 and 2 BSDFs)",
+        covers: "perspective; point, directional; obj, ply, serialized, cylinder, rectangle; roughplastic, plastic, twosided (1 and 2 BSDFs)",
         spp: 192,
         renders: 16,
     },

@@ -126,10 +126,17 @@ fn shape_errors() {
         &["nope.obj"],
     );
     assert_err(
-        &scene("<shape type=\"serialized\"/>"),
+        &scene("<shape type=\"shapegroup\"/>"),
         4,
         14,
-        &["serialized", "not supported", "ply"],
+        &["shapegroup", "not supported", "ply"],
+    );
+    assert_err(&scene("<shape type=\"serialized\"/>"), 4, 1, &["filename"]);
+    assert_err(
+        &scene("<shape type=\"serialized\">\n  <string name=\"filename\" value=\"a.serialized\"/>\n  <integer name=\"shape_index\" value=\"-1\"/></shape>"),
+        6,
+        38,
+        &["shape_index", "negative"],
     );
     assert_err(
         &scene("<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"2\"/></transform></shape>"),

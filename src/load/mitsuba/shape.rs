@@ -1,4 +1,4 @@
-//! Shapes: obj, ply, sphere, rectangle, cube, disk and cylinder, with
+//! Shapes: obj, ply, serialized, sphere, rectangle, cube, disk and cylinder, with
 //! their BSDF and area emitter.
 
 use super::emitter::EmitterDesc;
@@ -16,14 +16,16 @@ use crate::scene::ShapeDesc;
 type Result<T> = std::result::Result<T, SceneError>;
 
 impl<'d> Ctx<'d> {
-    /// Shapes (Mitsuba's `shapes/`): obj, ply, sphere, rectangle, cube,
-    /// disk, cylinder; `to_world`, `flip_normals`, `face_normals` (meshes).
+    /// Shapes (Mitsuba's `shapes/`): obj, ply, serialized (`shape_index`),
+    /// sphere, rectangle, cube, disk, cylinder; `to_world`, `flip_normals`,
+    /// `face_normals` (meshes).
     pub(super) fn shape(&mut self, node: &'d SceneNode) -> Result<ShapeDesc> {
         let ty = self.object_type(
             node,
             &[
                 "obj",
                 "ply",
+                "serialized",
                 "sphere",
                 "rectangle",
                 "cube",
@@ -31,7 +33,6 @@ impl<'d> Ctx<'d> {
                 "cylinder",
             ],
             &[
-                "serialized",
                 "shapegroup",
                 "instance",
                 "bsplinecurve",
@@ -58,7 +59,7 @@ impl<'d> Ctx<'d> {
             Sphere(Sphere),
         }
         let source = match ty {
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
                 let name = p.require_string("filename")?;
                 if name.trim().is_empty() {
                     return Err(p.error("filename", "'filename' is empty"));
@@ -66,10 +67,19 @@ impl<'d> Ctx<'d> {
                 let face_normals = p.get_bool("face_normals", false)?;
                 let flip_tex = ty == "obj" && p.get_bool("flip_tex_coords", true)?;
                 let path = self.resolve(&name);
-                let mut mesh = if ty == "obj" {
-                    geometry::load_obj(&path)
-                } else {
-                    geometry::load_ply(&path)
+                let mut mesh = match ty {
+                    "obj" => geometry::load_obj(&path),
+                    "ply" => geometry::load_ply(&path),
+                    _ => {
+                        let index = p.get_int("shape_index", 0)?;
+                        let index = u32::try_from(index).map_err(|_| {
+                            p.error(
+                                "shape_index",
+                                format!("'shape_index' must not be negative, found {index}"),
+                            )
+                        })?;
+                        geometry::load_serialized(&path, index)
+                    }
                 }
                 .map_err(|e| p.error("filename", "cannot load the mesh").caused_by(e))?;
                 if flip_tex {
