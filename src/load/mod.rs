@@ -86,6 +86,20 @@ pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>, what: &str) -> Result<Str
     }
 }
 
+/// True if a `<scene version="0...">` is written in Nori's syntax: Nori
+/// forks' files carry `version="0.5.0"` (Nori's own template had it), but
+/// only Nori names its objects `<mesh>` and `<camera>` (Mitsuba 0.x writes
+/// `<shape>` and `<sensor>`). A Mitsuba 2 or 3 version with Nori's tags is
+/// left to the Mitsuba reader, which says which tag to use instead.
+fn is_nori_syntax(root: &xml::SceneNode) -> bool {
+    root.attr_value("version")
+        .is_some_and(|v| v.trim().starts_with("0."))
+        && root
+            .children
+            .iter()
+            .any(|c| matches!(c.tag.as_str(), "mesh" | "camera"))
+}
+
 /// Reads a scene from text; `path` names it in messages and is the base of
 /// relative file names inside it.
 pub fn load_scene_str(text: &str, path: &Path) -> Result<(SceneFile, Vec<Warning>), SceneError> {
@@ -100,9 +114,21 @@ pub fn load_scene_str_with(
 ) -> Result<(SceneFile, Vec<Warning>), SceneError> {
     let root = parse_xml(text, path)?;
     match root.tag.as_str() {
-        "scene" if root.attr("version").is_some() => mitsuba::load(&root, path, defines),
+        "scene" if root.attr("version").is_some() && !is_nori_syntax(&root) => {
+            mitsuba::load(&root, path, defines)
+        }
         "scene" => {
+            let version = root.attr("version").is_some();
+            let mut root = root;
+            root.attributes.retain(|a| a.name != "version");
             let (desc, mut warnings) = nori::load(&root, path)?;
+            if version {
+                warnings.push(Warning::new(
+                    path,
+                    root.pos,
+                    "the version attribute is ignored: this is a Nori scene (it has <mesh> or <camera>, which Mitsuba does not write)",
+                ));
+            }
             if let Some((name, _)) = defines.first() {
                 warnings.push(Warning::new(
                     path,

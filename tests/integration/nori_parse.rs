@@ -548,3 +548,26 @@ fn comments_declarations_and_whitespace_are_ignored() {
     );
     assert_eq!(desc.scene.camera.width, 64);
 }
+
+/// Nori forks' files often carry `version="0.5.0"`: their `<mesh>` and
+/// `<camera>` say they are Nori scenes, read as such with one warning;
+/// a Mitsuba 0.5 file (`<shape>`, `<sensor>`) still gets the upgrade hint.
+#[test]
+fn a_nori_scene_with_a_version_attribute_is_read_as_nori() {
+    let path = std::path::Path::new("fork.xml");
+    let nori = r#"<scene version="0.5.0">
+  <integrator type="normals"/>
+  <camera type="perspective"><integer name="width" value="4"/><integer name="height" value="3"/></camera>
+  <mesh type="sphere"><point name="center" value="0, 0, -5"/><float name="radius" value="1"/></mesh>
+</scene>"#;
+    let (file, warnings) = load_scene_str(nori, path).unwrap();
+    assert_eq!(file.scene.shapes.len(), 1);
+    assert_eq!(file.scene.camera.width, 4);
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0].message.contains("version attribute is ignored"));
+    let mitsuba = r#"<scene version="0.5.0">
+  <shape type="sphere"/>
+</scene>"#;
+    let err = load_scene_str(mitsuba, path).unwrap_err();
+    assert!(err.message.contains("Mitsuba 0.5.0 scene"), "{err}");
+}
