@@ -34,6 +34,15 @@ const NORI_SPHERES: &str = r#"<scene>
 </scene>
 "#;
 
+const ONE_SPHERE: &str = r#"<mesh type="sphere"><point name="center" value="0, 0, 5"/><float name="radius" value="1"/></mesh>"#;
+
+/// Writes `NORI_SPHERES` with `meshes` as `dir/name`; returns its path.
+fn write_scene(dir: &tempfile::TempDir, name: &str, meshes: &str) -> std::path::PathBuf {
+    let path = dir.path().join(name);
+    std::fs::write(&path, NORI_SPHERES.replace("MESHES", meshes)).unwrap();
+    path
+}
+
 #[cfg(unix)]
 #[test]
 fn device_files_are_refused_as_scenes_and_meshes() {
@@ -45,9 +54,8 @@ fn device_files_are_refused_as_scenes_and_meshes() {
 
     let mesh_link = dir.path().join("zero.obj");
     std::os::unix::fs::symlink("/dev/zero", &mesh_link).unwrap();
-    let scene = dir.path().join("scene.xml");
     let mesh = r#"<mesh type="obj"><string name="filename" value="zero.obj"/></mesh>"#;
-    std::fs::write(&scene, NORI_SPHERES.replace("MESHES", mesh)).unwrap();
+    let scene = write_scene(&dir, "scene.xml", mesh);
     let (code, err) = run_bounded(&["render", scene.to_str().unwrap(), "-q"]);
     assert_one_line_error(
         code,
@@ -61,8 +69,7 @@ fn shapes_beyond_the_coordinate_range_are_refused_at_their_line() {
     let dir = tempfile::tempdir().unwrap();
     let spheres = r#"<mesh type="sphere"><point name="center" value="3e38, 0, 0"/><float name="radius" value="1"/></mesh>
   <mesh type="sphere"><point name="center" value="-3e38, 0, 0"/><float name="radius" value="1"/></mesh>"#;
-    let scene = dir.path().join("far.xml");
-    std::fs::write(&scene, NORI_SPHERES.replace("MESHES", spheres)).unwrap();
+    let scene = write_scene(&dir, "far.xml", spheres);
     let (code, err) = run_bounded(&["render", scene.to_str().unwrap(), "-q"]);
     assert_one_line_error(code, &err, &["far.xml:4:", "coordinate range"]);
 }
@@ -70,15 +77,13 @@ fn shapes_beyond_the_coordinate_range_are_refused_at_their_line() {
 #[test]
 fn resolutions_beyond_the_pixel_bound_are_refused_before_rendering() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("s.xml");
-    let sphere = r#"<mesh type="sphere"><point name="center" value="0, 0, 5"/><float name="radius" value="1"/></mesh>"#;
-    std::fs::write(&scene, NORI_SPHERES.replace("MESHES", sphere)).unwrap();
+    let scene = write_scene(&dir, "s.xml", ONE_SPHERE);
     let s = scene.to_str().unwrap();
     let (code, err) = run_bounded(&["render", s, "-q", "--resolution", "65536x65536"]);
     assert_one_line_error(code, &err, &["65536x65536", "pixels"]);
     let big = NORI_SPHERES
         .replace("value=\"8\"", "value=\"60000\"")
-        .replace("MESHES", sphere);
+        .replace("MESHES", ONE_SPHERE);
     std::fs::write(&scene, big).unwrap();
     let (code, err) = run_bounded(&["render", s, "-q"]);
     assert_one_line_error(code, &err, &["s.xml:3:", "60000", "pixels"]);
@@ -107,9 +112,7 @@ fn hostile_image_headers_fail_at_once() {
 #[test]
 fn the_next_render_removes_a_killed_runs_temporary_files() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("s.xml");
-    let sphere = r#"<mesh type="sphere"><point name="center" value="0, 0, 5"/><float name="radius" value="1"/></mesh>"#;
-    std::fs::write(&scene, NORI_SPHERES.replace("MESHES", sphere)).unwrap();
+    let scene = write_scene(&dir, "s.xml", ONE_SPHERE);
     // What a run killed during its final write leaves: its process is gone.
     let mut killed = std::process::Command::new("true").spawn().unwrap();
     let dead_pid = killed.id();

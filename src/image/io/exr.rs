@@ -84,18 +84,9 @@ fn channel_values(layer: &AnyLayer, index: usize, pixels: usize) -> Result<Vec<f
 /// f32), is an error. The crate allocates all layers' samples at once, so
 /// their sum is bounded.
 fn check_headers(bytes: &[u8]) -> Result<(), Malformed> {
-    let meta = catch_unwind(AssertUnwindSafe(|| {
+    let meta = guarded("header", || {
         exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
-    }));
-    let meta = match meta {
-        Ok(Ok(meta)) => meta,
-        Ok(Err(e)) => return Err(Malformed::from(format!("cannot decode OpenEXR: {e}"))),
-        Err(_) => {
-            return Err(Malformed::from(
-                "cannot decode OpenEXR: the decoder failed on this file's header",
-            ))
-        }
-    };
+    })?;
     let budget = crate::limits::max_image_pixels().saturating_mul(16);
     let mut total: u64 = 0;
     for header in &meta.headers {
@@ -122,11 +113,21 @@ fn check_headers(bytes: &[u8]) -> Result<(), Malformed> {
     Ok(())
 }
 
+/// Runs one call into the exr crate: its errors, and any panic of its on
+/// hostile input (caught so it cannot take lente down), become messages.
+fn guarded<T>(part: &str, f: impl FnOnce() -> exr::error::Result<T>) -> Result<T, Malformed> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(Ok(value)) => Ok(value),
+        Ok(Err(e)) => Err(Malformed::from(format!("cannot decode OpenEXR: {e}"))),
+        Err(_) => Err(Malformed::from(format!(
+            "cannot decode OpenEXR: the decoder failed on this file's {part}"
+        ))),
+    }
+}
+
 pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
     check_headers(bytes)?;
-    // The exr crate reports bad files as errors; catching a panic as well
-    // keeps any bug of its on hostile input from taking lente down.
-    let read = catch_unwind(AssertUnwindSafe(|| {
+    let image = guarded("pixels", || {
         exr::prelude::read()
             .no_deep_data()
             .largest_resolution_level()
@@ -134,16 +135,7 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
             .all_layers()
             .all_attributes()
             .from_buffered(Cursor::new(bytes))
-    }));
-    let image = match read {
-        Ok(Ok(image)) => image,
-        Ok(Err(e)) => return Err(Malformed::from(format!("cannot decode OpenEXR: {e}"))),
-        Err(_) => {
-            return Err(Malformed::from(
-                "cannot decode OpenEXR: the decoder failed on this file",
-            ))
-        }
-    };
+    })?;
     for layer in &image.layer_data {
         let Some(pick) = pick_channels(layer) else {
             continue;
