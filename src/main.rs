@@ -197,12 +197,8 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     if w == 0 || h == 0 || w > 65536 || h > 65536 {
         return Err(format!("resolution '{s}' out of range (1..65536)"));
     }
-    let pixels = w as u64 * h as u64;
-    if pixels > lente::limits::MAX_IMAGE_PIXELS {
-        return Err(format!(
-            "resolution '{s}' is {pixels} pixels, more than the {} lente renders",
-            lente::limits::MAX_IMAGE_PIXELS
-        ));
+    if let Some(message) = lente::limits::check_image_size(w.into(), h.into()) {
+        return Err(format!("resolution '{s}': {message}"));
     }
     Ok((w, h))
 }

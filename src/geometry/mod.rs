@@ -99,6 +99,17 @@ impl From<SphereError> for ShapeError {
     }
 }
 
+/// The bytes of a mesh file, read within [`crate::limits::MAX_DATA_FILE_BYTES`]
+/// (the OBJ, PLY and serialized loaders share it).
+fn read_mesh_file(path: &std::path::Path) -> Result<Vec<u8>, MeshFileError> {
+    crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "mesh files").map_err(
+        |source| MeshFileError::Read {
+            path: path.to_path_buf(),
+            source,
+        },
+    )
+}
+
 /// A mesh file that cannot be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshFileError {

@@ -11,11 +11,7 @@ use crate::math::{Vec2, Vec3};
 /// one index per vertex. Missing normals leave `normals` empty, so the
 /// geometric normal is used.
 pub fn load_obj(path: &Path) -> Result<TriangleMesh, MeshFileError> {
-    let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "mesh files")
-        .map_err(|source| MeshFileError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let bytes = super::read_mesh_file(path)?;
     parse_obj(&bytes).map_err(|e| match e {
         ObjError::Syntax(source) => MeshFileError::Obj {
             path: path.to_path_buf(),

@@ -16,11 +16,7 @@ use crate::math::{Vec2, Vec3};
 
 /// Loads a PLY file as a triangle mesh.
 pub fn load_ply(path: &Path) -> Result<TriangleMesh, MeshFileError> {
-    let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "mesh files")
-        .map_err(|source| MeshFileError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let bytes = super::read_mesh_file(path)?;
     match parse_ply(&bytes) {
         Ok(mesh) => Ok(mesh),
         Err(PlyError::Malformed(message)) => Err(MeshFileError::Ply {

@@ -45,11 +45,7 @@ fn malformed(message: impl Into<String>) -> SerializedError {
 
 /// Loads shape `shape_index` of a `.serialized` file.
 pub fn load_serialized(path: &Path, shape_index: u32) -> Result<TriangleMesh, MeshFileError> {
-    let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "mesh files")
-        .map_err(|source| MeshFileError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let bytes = super::read_mesh_file(path)?;
     parse_serialized(&bytes, shape_index).map_err(|e| match e {
         SerializedError::Malformed(message) => MeshFileError::Serialized {
             path: path.to_path_buf(),

@@ -156,11 +156,7 @@ fn finish(raw: RawImage) -> Result<(Bitmap, Vec<String>), Malformed> {
         channels,
         mut data,
     } = raw;
-    if width == 0 || height == 0 {
-        return Err(Malformed::from(format!(
-            "image is empty ({width}x{height} pixels)"
-        )));
-    }
+    check_size(width, height)?;
     let n = width * height;
     if data.len() != n * channels || !(channels == 1 || channels == 3) {
         return Err(Malformed::from(format!(
