@@ -93,6 +93,7 @@ const INTEGRATOR_TYPES: &[&str] = &[
     "av",
     "simple",
     "whitted",
+    "direct",
     "direct_ems",
     "direct_mats",
     "direct_mis",
@@ -517,7 +518,9 @@ impl<'a> Ctx<'a> {
             ("direct_mats", _) => Integrator::Direct {
                 strategy: Strategy::Mats,
             },
-            ("direct_mis", _) => Integrator::Direct {
+            // Forks name their direct-lighting integrator plainly `direct`;
+            // every strategy has the same expectation, MIS the least noise.
+            ("direct_mis", _) | ("direct", _) => Integrator::Direct {
                 strategy: Strategy::Mis,
             },
             (_, Some(strategy)) => {

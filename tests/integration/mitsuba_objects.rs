@@ -480,6 +480,28 @@ fn integrators() {
     let (i, w) = integ("<integrator type=\"volpath\"/>");
     assert_eq!(w.len(), 1);
     assert!(matches!(i, Integrator::Path { .. }));
+    let (i, w) = integ(
+        "<integrator type=\"moment\"><integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/></integrator><integrator type=\"direct\"/></integrator>",
+    );
+    assert_eq!(w.len(), 2, "{w:?}");
+    assert!(w.iter().any(|w| w.message.contains("no moment channels")));
+    assert!(w.iter().any(|w| w.message.contains("only the first")));
+    assert!(matches!(
+        i,
+        Integrator::Path {
+            params: PathParams {
+                max_depth: Some(3),
+                ..
+            },
+            ..
+        }
+    ));
+    assert_err(
+        "<scene version=\"3.0.0\">\n<integrator type=\"moment\"/>\n</scene>",
+        2,
+        1,
+        &["moment", "nested <integrator>"],
+    );
     assert_err(
         "<scene version=\"3.0.0\">\n<integrator type=\"aov\"/>\n</scene>",
         2,

@@ -694,3 +694,15 @@ fn fork_lights_test_file_references_are_the_closed_forms() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn a_plain_direct_integrator_is_direct_lighting_with_mis() {
+    let desc =
+        load_clean(r#"<scene><integrator type="direct"/><camera type="perspective"/></scene>"#);
+    assert_eq!(
+        desc.job.integrator,
+        Integrator::Direct {
+            strategy: Strategy::Mis
+        }
+    );
+}

@@ -1,9 +1,10 @@
 //! Integrators: Mitsuba's `path` and `direct` (and the volumetric and
 //! differentiable path tracers, rendered with `path`).
 
-use super::Ctx;
+use super::{Child, Ctx};
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::load::props::int_in;
+use crate::load::props::Props;
 use crate::load::xml::SceneNode;
 use crate::load::SceneError;
 
@@ -22,11 +23,11 @@ impl<'d> Ctx<'d> {
                 "volpathmis",
                 "prb",
                 "prb_basic",
+                "moment",
             ],
             &[
                 "aov",
                 "depth",
-                "moment",
                 "stokes",
                 "ptracer",
                 "prbvolpath",
@@ -36,6 +37,9 @@ impl<'d> Ctx<'d> {
         )?;
         let owner = format!("<integrator type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
+        if ty == "moment" {
+            return self.moment(node, &owner, p, &children);
+        }
         self.no_children(&children, &owner)?;
         let hide_emitters = p.get_bool("hide_emitters", false)?;
         let integrator = if ty == "direct" {
@@ -108,6 +112,48 @@ impl<'d> Ctx<'d> {
             }
         };
         p.finish(&mut self.warnings);
+        Ok(integrator)
+    }
+
+    /// Mitsuba's `moment` wraps integrators and writes each one's image
+    /// with its second moment as extra channels. lente renders the first
+    /// nested integrator and says that the moments are not written.
+    fn moment(
+        &mut self,
+        node: &'d SceneNode,
+        owner: &str,
+        p: Props<'d>,
+        children: &[Child<'d>],
+    ) -> Result<Integrator> {
+        p.finish(&mut self.warnings);
+        let mut nested = children.iter();
+        let Some(first) = nested.next() else {
+            return Err(self.err(
+                node.pos,
+                format!("{owner} needs a nested <integrator> (the one whose moments it records)"),
+            ));
+        };
+        if first.node.tag != "integrator" {
+            return Err(self.misplaced(first, owner));
+        }
+        let integrator = self.enter(first, |c| c.integrator(first.node))?;
+        for other in nested {
+            if other.node.tag != "integrator" {
+                return Err(self.misplaced(other, owner));
+            }
+            self.warn(
+                other.at,
+                "only the first integrator inside <integrator type=\"moment\"> is rendered; \
+                 this one is ignored"
+                    .to_string(),
+            );
+        }
+        self.warn(
+            node.pos,
+            "<integrator type=\"moment\"> renders its nested integrator; lente writes no \
+             moment channels"
+                .to_string(),
+        );
         Ok(integrator)
     }
 }
