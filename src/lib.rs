@@ -19,4 +19,5 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod stats;
+pub mod texture;
 pub mod verify;

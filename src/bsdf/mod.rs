@@ -16,6 +16,7 @@ pub mod presets;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
+mod textured;
 mod thin_dielectric;
 mod two_sided;
 
@@ -37,6 +38,7 @@ pub use presets::{conductor_preset, ior_preset};
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
+pub use textured::Textured;
 pub use thin_dielectric::ThinDielectric;
 pub use two_sided::TwoSided;
 
@@ -58,6 +60,8 @@ pub enum Bsdf {
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
     TwoSided(TwoSided),
+    /// A model with textured parameters (boxed: rare, and large).
+    Textured(Box<Textured>),
 }
 
 /// Result of sampling a BSDF.
@@ -218,11 +222,24 @@ impl Bsdf {
         Ok(Bsdf::TwoSided(TwoSided::new(front, back)?))
     }
 
+    /// `base` with textured parameters (see [`Textured::new`]); no
+    /// textures gives `base` itself.
+    pub fn textured(
+        base: Bsdf,
+        textures: Vec<(BsdfParam, crate::texture::Texture)>,
+    ) -> Result<Bsdf, BsdfError> {
+        if textures.is_empty() {
+            return Ok(base);
+        }
+        Ok(Bsdf::Textured(Box::new(Textured::new(base, textures)?)))
+    }
+
     /// True if some lobe scatters light through the surface.
     pub fn has_transmission(&self) -> bool {
         match self {
             Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::RoughDielectric(_) => true,
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
+            Bsdf::Textured(b) => b.base().has_transmission(),
             _ => false,
         }
     }
@@ -237,11 +254,13 @@ impl Bsdf {
             | Bsdf::Conductor(_)
             | Bsdf::ThinDielectric(_) => true,
             Bsdf::TwoSided(b) => b.front.is_specular() && b.back.is_specular(),
+            Bsdf::Textured(b) => b.base().is_specular(),
             _ => false,
         }
     }
 
-    /// Diffuse albedo for the `ao`/visualisation paths, if any.
+    /// Diffuse albedo for the `ao`/visualisation paths, if any (a
+    /// texture's mean).
     pub fn albedo(&self) -> Option<Rgb> {
         match self {
             Bsdf::Diffuse(b) => Some(b.albedo),
@@ -249,12 +268,14 @@ impl Bsdf {
             Bsdf::Plastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughPlastic(b) => Some(b.diffuse_reflectance),
             Bsdf::TwoSided(b) => b.front.albedo(),
+            Bsdf::Textured(b) => b.base().albedo(),
             _ => None,
         }
     }
 
-    /// BSDF value f(wi, wo) (without the cosine). Zero for delta lobes.
-    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
+    /// BSDF value f(wi, wo) (without the cosine) at surface coordinates
+    /// `uv` (what textured parameters are read at). Zero for delta lobes.
+    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
         match self {
             Bsdf::Diffuse(b) => b.eval(wi, wo),
             Bsdf::Microfacet(b) => b.eval(wi, wo),
@@ -262,7 +283,8 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.eval(wi, wo),
             Bsdf::Plastic(b) => b.eval(wi, wo),
             Bsdf::RoughPlastic(b) => b.eval(wi, wo),
-            Bsdf::TwoSided(b) => b.eval(wi, wo),
+            Bsdf::TwoSided(b) => b.eval(uv, wi, wo),
+            Bsdf::Textured(b) => b.eval(uv, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
@@ -271,7 +293,7 @@ impl Bsdf {
     }
 
     /// Solid-angle density of `sample` producing `wo`. Zero for delta lobes.
-    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
         match self {
             Bsdf::Diffuse(b) => b.pdf(wi, wo),
             Bsdf::Microfacet(b) => b.pdf(wi, wo),
@@ -279,7 +301,8 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.pdf(wi, wo),
             Bsdf::Plastic(b) => b.pdf(wi, wo),
             Bsdf::RoughPlastic(b) => b.pdf(wi, wo),
-            Bsdf::TwoSided(b) => b.pdf(wi, wo),
+            Bsdf::TwoSided(b) => b.pdf(uv, wi, wo),
+            Bsdf::Textured(b) => b.pdf(uv, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
@@ -288,7 +311,7 @@ impl Bsdf {
     }
 
     /// Samples `wo` given `wi`; `u` drives the direction, `u_lobe` the lobe choice.
-    pub fn sample(&self, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         match self {
             Bsdf::Diffuse(b) => b.sample(wi, u),
             Bsdf::Mirror(b) => b.sample(wi),
@@ -300,7 +323,8 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.sample(wi, u, u_lobe),
             Bsdf::Plastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
-            Bsdf::TwoSided(b) => b.sample(wi, u, u_lobe),
+            Bsdf::TwoSided(b) => b.sample(uv, wi, u, u_lobe),
+            Bsdf::Textured(b) => b.sample(uv, wi, u, u_lobe),
         }
     }
 }

@@ -38,6 +38,8 @@ pub enum BsdfError {
     Negative { param: BsdfParam, value: f32 },
     #[error("transmits light, and a two-sided BSDF can only hold BSDFs without transmission")]
     NestedTransmission,
+    #[error("cannot be a texture for this BSDF; give a constant value")]
+    NotTexturable { param: BsdfParam },
 }
 
 impl BsdfError {
@@ -47,7 +49,8 @@ impl BsdfError {
             BsdfError::NegativeColor { param, .. }
             | BsdfError::AboveOne { param, .. }
             | BsdfError::NotPositive { param, .. }
-            | BsdfError::Negative { param, .. } => *param,
+            | BsdfError::Negative { param, .. }
+            | BsdfError::NotTexturable { param } => *param,
             BsdfError::NestedTransmission => BsdfParam::Nested,
         }
     }

@@ -188,20 +188,25 @@ impl RoughPlastic {
     }
 
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
+        self.eval_tinted(self.diffuse_reflectance, self.specular_reflectance, wi, wo)
+    }
+
+    /// `eval` with the two reflectances given (a texture's values at the
+    /// hit); the tables and the lobe choice do not depend on them.
+    pub fn eval_tinted(&self, kd: Rgb, ks: Rgb, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
         let h = (wi + wo).normalize();
         let (f, _, _) = fresnel_dielectric(wi.dot(h), self.eta);
         let spec = self.distr.d(h) * self.distr.g(wi, wo, h) * f / (4.0 * wi.z * wo.z);
-        let kd = self.diffuse_reflectance;
         let diff = if self.nonlinear {
             kd / (Rgb::ONE - kd * self.internal_reflectance)
         } else {
             kd / (1.0 - self.internal_reflectance)
         };
         let t = self.transmittance(wi.z) * self.transmittance(wo.z);
-        self.specular_reflectance * spec + diff * (INV_PI / (self.eta * self.eta) * t)
+        ks * spec + diff * (INV_PI / (self.eta * self.eta) * t)
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
@@ -219,6 +224,19 @@ impl RoughPlastic {
     }
 
     pub fn sample(&self, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        let (kd, ks) = (self.diffuse_reflectance, self.specular_reflectance);
+        self.sample_tinted(kd, ks, wi, u, u_lobe)
+    }
+
+    /// `sample` with the two reflectances given (see `eval_tinted`).
+    pub fn sample_tinted(
+        &self,
+        kd: Rgb,
+        ks: Rgb,
+        wi: Vec3,
+        u: Vec2,
+        u_lobe: f32,
+    ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
@@ -237,7 +255,7 @@ impl RoughPlastic {
         }
         Some(BsdfSample {
             wo,
-            weight: self.eval(wi, wo) * (wo.z / pdf),
+            weight: self.eval_tinted(kd, ks, wi, wo) * (wo.z / pdf),
             pdf,
             specular: false,
             eta: 1.0,

@@ -34,31 +34,31 @@ impl TwoSided {
         })
     }
 
-    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
+    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z > 0.0 {
-            self.front.eval(wi, wo)
+            self.front.eval(uv, wi, wo)
         } else if wi.z < 0.0 {
-            self.back.eval(flip_z(wi), flip_z(wo))
+            self.back.eval(uv, flip_z(wi), flip_z(wo))
         } else {
             Rgb::ZERO
         }
     }
 
-    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
         if wi.z > 0.0 {
-            self.front.pdf(wi, wo)
+            self.front.pdf(uv, wi, wo)
         } else if wi.z < 0.0 {
-            self.back.pdf(flip_z(wi), flip_z(wo))
+            self.back.pdf(uv, flip_z(wi), flip_z(wo))
         } else {
             0.0
         }
     }
 
-    pub fn sample(&self, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         if wi.z > 0.0 {
-            self.front.sample(wi, u, u_lobe)
+            self.front.sample(uv, wi, u, u_lobe)
         } else if wi.z < 0.0 {
-            self.back.sample(flip_z(wi), u, u_lobe).map(|mut s| {
+            self.back.sample(uv, flip_z(wi), u, u_lobe).map(|mut s| {
                 s.wo = flip_z(s.wo);
                 s
             })

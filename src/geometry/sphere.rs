@@ -28,6 +28,10 @@ pub struct Sphere {
     /// carried by the transform, as in Mitsuba. Shading frames follow
     /// dp/du, the azimuthal direction around it.
     pub axis: Vec3,
+    /// Object-space +x and +y carried by the transform (unit): where the
+    /// azimuth u starts and turns to.
+    pub x_axis: Vec3,
+    pub y_axis: Vec3,
 }
 
 /// A sphere that cannot be. Each message completes a sentence that starts
@@ -65,6 +69,8 @@ impl Sphere {
             center,
             radius,
             axis: Vec3::Z,
+            x_axis: Vec3::X,
+            y_axis: Vec3::Y,
         };
         s.check()?;
         Ok(s)
@@ -116,6 +122,8 @@ impl Sphere {
             center: t.point(self.center),
             radius: self.radius * t.vector(Vec3::X).length(),
             axis: t.vector(self.axis).normalize(),
+            x_axis: t.vector(self.x_axis).normalize(),
+            y_axis: t.vector(self.y_axis).normalize(),
         };
         moved.check()?;
         *self = moved;
@@ -151,11 +159,14 @@ impl Sphere {
         }
     }
 
-    /// Outward normal and spherical (u, v) at a surface point.
+    /// Outward normal and Mitsuba's spherical (u, v) at a surface point:
+    /// in object space, u = atan2(y, x) / 2pi in [0, 1), v = acos(z) / pi.
     pub fn normal_uv(&self, p: Vec3) -> (Vec3, Vec2) {
         let n = ((p - self.center) / self.radius).normalize();
-        let phi = n.x.atan2(-n.z).rem_euclid(2.0 * PI);
-        let theta = n.y.clamp(-1.0, 1.0).acos();
+        let (x, y, z) = (n.dot(self.x_axis), n.dot(self.y_axis), n.dot(self.axis));
+        let phi = y.atan2(x);
+        let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
+        let theta = z.clamp(-1.0, 1.0).acos();
         (n, Vec2::new(phi / (2.0 * PI), theta / PI))
     }
 

@@ -991,6 +991,9 @@ fn fork_hint(p: &mut Props, name: &str, message: &str) -> Result<()> {
         Kind::Transform => {
             let _ = p.opt_transform(name)?;
         }
+        Kind::Texture => {
+            let _ = p.opt_texture(name)?;
+        }
     }
     p.warn(name, message);
     Ok(())

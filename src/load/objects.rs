@@ -3,15 +3,19 @@
 //! checks the map), spheres, and the names of filter parameters. Errors point at the property that names
 //! the wrong value.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use super::props::Props;
 use super::{SceneError, Warning};
 use crate::color::Rgb;
 use crate::emitter::{EnvFilter, EnvMap, EnvMapParam, TexelRows};
 use crate::geometry::{Sphere, SphereError};
+use crate::image::io::Transfer;
 use crate::image::{Bitmap, FilterParam};
 use crate::math::{Transform, Vec3};
+use crate::texture::TextureImage;
 
 /// Where a map's texels come from.
 pub(crate) enum Texels {
@@ -93,5 +97,36 @@ pub(crate) fn filter_name(param: FilterParam) -> &'static str {
         FilterParam::Stddev => "stddev",
         FilterParam::B => "B",
         FilterParam::C => "C",
+    }
+}
+
+/// Images read for textures, by file and transfer: textures that name one
+/// file share its texels.
+#[derive(Default)]
+pub(crate) struct TextureImages(HashMap<(PathBuf, Transfer), Arc<TextureImage>>);
+
+impl TextureImages {
+    /// The texels of `path` (read once per file and transfer); errors and
+    /// the image's warnings point at property `filename` of `p`.
+    pub(crate) fn load(
+        &mut self,
+        p: &Props,
+        filename: &str,
+        path: PathBuf,
+        transfer: Transfer,
+        warnings: &mut Vec<Warning>,
+    ) -> Result<Arc<TextureImage>, SceneError> {
+        let key = (std::fs::canonicalize(&path).unwrap_or(path), transfer);
+        if let Some(image) = self.0.get(&key) {
+            return Ok(image.clone());
+        }
+        let (image, image_warnings) = crate::image::io::load_image_as(&key.0, transfer)
+            .map_err(|e| p.error(filename, "cannot load the texture").caused_by(e))?;
+        for w in image_warnings {
+            warnings.push(p.object_warning(format!("{}: {w}", key.0.display())));
+        }
+        let image = Arc::new(TextureImage::new(image));
+        self.0.insert(key, image.clone());
+        Ok(image)
     }
 }

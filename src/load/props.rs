@@ -12,6 +12,7 @@ use super::xml::{Attribute, Pos};
 use super::{SceneError, Warning};
 use crate::color::Rgb;
 use crate::math::{Transform, Vec3};
+use crate::texture::Texture;
 
 /// The type of a property, named as the scene file spells it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,6 +25,7 @@ pub enum Kind {
     Vector,
     Color,
     Transform,
+    Texture,
 }
 
 impl Kind {
@@ -37,6 +39,7 @@ impl Kind {
             Kind::Vector => "vector",
             Kind::Color => "color",
             Kind::Transform => "transform",
+            Kind::Texture => "texture",
         }
     }
 }
@@ -52,6 +55,9 @@ pub enum Value {
     Vector(Vec3),
     Color(Rgb),
     Transform(Transform),
+    /// A varying texture (`bitmap`, `checkerboard`); constant ones are
+    /// `Color` or `Float`.
+    Texture(Texture),
 }
 
 impl Value {
@@ -65,6 +71,7 @@ impl Value {
             Value::Vector(_) => Kind::Vector,
             Value::Color(_) => Kind::Color,
             Value::Transform(_) => Kind::Transform,
+            Value::Texture(_) => Kind::Texture,
         }
     }
 }
@@ -394,6 +401,24 @@ impl<'a> Props<'a> {
 
     pub fn get_rgb_or_float(&mut self, name: &str, default: Rgb) -> Result<Rgb> {
         Ok(self.opt_rgb_or_float(name)?.unwrap_or(default))
+    }
+
+    /// A property that may vary over a surface: a texture, or a constant
+    /// colour or number (checked as [`Props::opt_rgb_or_float`]).
+    pub fn opt_texture(&mut self, name: &str) -> Result<Option<Texture>> {
+        if self.kind_of(name) == Some(Kind::Texture) {
+            return match self.lookup(name, Kind::Texture)? {
+                Some(Value::Texture(t)) => Ok(Some(t)),
+                _ => unreachable!("lookup checked the type"),
+            };
+        }
+        Ok(self.opt_rgb_or_float(name)?.map(Texture::Constant))
+    }
+
+    pub fn get_texture(&mut self, name: &str, default: Rgb) -> Result<Texture> {
+        Ok(self
+            .opt_texture(name)?
+            .unwrap_or(Texture::Constant(default)))
     }
 
     /// A warning about property `name` (at its value, or at the object).

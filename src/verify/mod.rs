@@ -124,7 +124,7 @@ pub fn incident_direction(angle_deg: f32) -> Vec3 {
 pub fn bsdf_weight_mean(bsdf: &Bsdf, wi: Vec3, n: u64, seed: u64) -> MeanVar {
     parallel_mean(n, seed, |s| {
         let u = s.next_2d();
-        match bsdf.sample(wi, u, s.next_1d()) {
+        match bsdf.sample(Vec2::ZERO, wi, u, s.next_1d()) {
             Some(b) => luminance(b.weight) as f64,
             None => 0.0,
         }
@@ -164,9 +164,9 @@ pub fn bsdf_chi2_table(
         wi,
         |wi, s| {
             let u = s.next_2d();
-            bsdf.sample(wi, u, s.next_1d()).map(|b| b.wo)
+            bsdf.sample(Vec2::ZERO, wi, u, s.next_1d()).map(|b| b.wo)
         },
-        |wi, wo| bsdf.pdf(wi, wo) as f64,
+        |wi, wo| bsdf.pdf(Vec2::ZERO, wi, wo) as f64,
         resolution,
         sample_count,
         seed,
@@ -376,9 +376,9 @@ mod tests {
             wi,
             |wi, s| {
                 let u = s.next_2d();
-                bsdf.sample(wi, u, s.next_1d()).map(|b| b.wo)
+                bsdf.sample(Vec2::ZERO, wi, u, s.next_1d()).map(|b| b.wo)
             },
-            |wi, wo| wider.pdf(wi, wo) as f64,
+            |wi, wo| wider.pdf(Vec2::ZERO, wi, wo) as f64,
             10,
             n,
             11,
@@ -392,7 +392,7 @@ mod tests {
             wi,
             |wi, s| {
                 let u = s.next_2d();
-                diffuse.sample(wi, u, s.next_1d()).map(|b| b.wo)
+                diffuse.sample(Vec2::ZERO, wi, u, s.next_1d()).map(|b| b.wo)
             },
             |_, wo| warp::square_to_uniform_hemisphere_pdf(wo) as f64,
             10,

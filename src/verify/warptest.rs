@@ -245,9 +245,9 @@ pub fn run_warp_test(w: &Warp, seed: u64) -> WarpOutcome {
                     seed,
                     |s| {
                         let u = s.next_2d();
-                        bsdf.sample(wi, u, s.next_1d()).map(|b| b.wo)
+                        bsdf.sample(Vec2::ZERO, wi, u, s.next_1d()).map(|b| b.wo)
                     },
-                    |wo| bsdf.pdf(wi, wo) as f64,
+                    |wo| bsdf.pdf(Vec2::ZERO, wi, wo) as f64,
                 )
             }
             ref other => {

@@ -15,7 +15,11 @@ folder; files go next to this script). Plain Python, no packages:
   uvs and vertex colours (read past), the one the scene uses;
 - sky_rows.pfm: a 32 x 12 lat-long sky that varies with the elevation
   (zenith blue to a pale horizon, a dark ground, a bright soft sun of 2 x 2
-  texels 30-45 degrees up): it shows where each renderer puts texel rows.
+  texels 30-45 degrees up): it shows where each renderer puts texel rows;
+- tiles.png: a 16 x 8 8-bit sRGB RGB image (colour tiles and a gradient),
+  the colour texture of textures.xml;
+- roughness.png: an 8 x 8 8-bit greyscale image, read raw as a
+  roughness (0.05 to 0.6 in bands).
 """
 
 import math
@@ -164,7 +168,42 @@ def serialized():
         f.write(struct.pack("<QQI", 0, len(tri), 2))
 
 
+def png(name, width, height, channels, rows):
+    """An 8-bit PNG (grey or RGB) from rows of byte values."""
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+    raw = b"".join(b"\x00" + bytes(r) for r in rows)
+    colour_type = 2 if channels == 3 else 0
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)
+    with open(os.path.join(HERE, name), "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw))
+                + chunk(b"IEND", b""))
+
+
+def tiles():
+    palette = [(230, 60, 40), (40, 150, 220), (250, 210, 60), (60, 180, 90)]
+    rows = []
+    for y in range(8):
+        row = []
+        for x in range(16):
+            if y < 4:
+                row += palette[(x // 4 + y // 2) % 4]
+            else:
+                g = 20 + x * 14
+                row += [g, 255 - g, 128]
+        rows.append(row)
+    png("tiles.png", 16, 8, 3, rows)
+
+
+def roughness():
+    rows = [[int(255 * (0.05 + 0.55 * (x // 2) / 3))] * 1 for x in range(8)]
+    png("roughness.png", 8, 8, 1, [[r[0] for r in rows] for _ in range(8)])
+
+
 if __name__ == "__main__":
+    tiles()
+    roughness()
     icosphere()
     prism()
     stripes()

@@ -1,5 +1,6 @@
 //! Specular BSDFs: energy conservation and the laws of reflection/refraction.
 
+use crate::common::UV0;
 use lente::bsdf::{fresnel_dielectric, Bsdf};
 use lente::math::Vec3;
 use lente::sampling::Sampler;
@@ -29,7 +30,7 @@ fn dielectric_conserves_energy_and_obeys_snell() {
             let mut refl = MeanVar::default();
             let mut energy = MeanVar::default();
             for _ in 0..20_000 {
-                let b = bsdf.sample(wi, s.next_2d(), s.next_1d()).unwrap();
+                let b = bsdf.sample(UV0, wi, s.next_2d(), s.next_1d()).unwrap();
                 assert!(b.specular);
                 let reflected = b.wo.z * wi.z > 0.0;
                 refl.push(if reflected { 1.0 } else { 0.0 });
@@ -73,7 +74,7 @@ fn total_internal_reflection_from_inside() {
     let mut s = Sampler::new(12, 0);
     let wi = dir(60.0, 0.0, true); // beyond the critical angle of 41.8 deg
     for _ in 0..1000 {
-        let b = bsdf.sample(wi, s.next_2d(), s.next_1d()).unwrap();
+        let b = bsdf.sample(UV0, wi, s.next_2d(), s.next_1d()).unwrap();
         assert!(b.wo.z < 0.0, "escaped despite TIR");
     }
 }
@@ -81,9 +82,11 @@ fn total_internal_reflection_from_inside() {
 #[test]
 fn mirror_reflects_with_unit_weight() {
     let wi = dir(35.0, 1.2, false);
-    let b = Bsdf::mirror().sample(wi, Default::default(), 0.5).unwrap();
+    let b = Bsdf::mirror()
+        .sample(UV0, wi, Default::default(), 0.5)
+        .unwrap();
     assert!((b.wo - Vec3::new(-wi.x, -wi.y, wi.z)).length() < 1e-6);
     assert_eq!(b.weight, lente::color::Rgb::ONE);
-    assert_eq!(Bsdf::mirror().eval(wi, b.wo), lente::color::Rgb::ZERO);
-    assert_eq!(Bsdf::mirror().pdf(wi, b.wo), 0.0);
+    assert_eq!(Bsdf::mirror().eval(UV0, wi, b.wo), lente::color::Rgb::ZERO);
+    assert_eq!(Bsdf::mirror().pdf(UV0, wi, b.wo), 0.0);
 }

@@ -7,6 +7,7 @@
 //! Fresnel term has its closed forms; and the sampling estimator of
 //! integral f |cos| agrees with a uniform-direction estimator (Welch).
 
+use crate::common::UV0;
 use lente::bsdf::{
     conductor_preset, fresnel_conductor, fresnel_conductor_1, fresnel_dielectric,
     fresnel_diffuse_reflectance, Bsdf, MicrofacetType,
@@ -134,15 +135,15 @@ fn weight_is_eval_cos_over_pdf() {
         for wi in wis {
             let mut n = 0;
             for _ in 0..4000 {
-                let Some(x) = b.sample(wi, s.next_2d(), s.next_1d()) else {
+                let Some(x) = b.sample(UV0, wi, s.next_2d(), s.next_1d()) else {
                     continue;
                 };
                 if x.specular {
                     continue;
                 }
                 n += 1;
-                let pdf = b.pdf(wi, x.wo);
-                let expect = b.eval(wi, x.wo) * x.wo.z.abs() / pdf;
+                let pdf = b.pdf(UV0, wi, x.wo);
+                let expect = b.eval(UV0, wi, x.wo) * x.wo.z.abs() / pdf;
                 assert!(
                     (x.pdf - pdf).abs() <= 1e-3 * pdf,
                     "{name} wi {wi}: sample pdf {} vs pdf() {pdf}",
@@ -188,7 +189,7 @@ fn albedo_never_exceeds_one() {
             let mut mv = MeanVar::default();
             for _ in 0..50_000 {
                 let e = b
-                    .sample(wi, s.next_2d(), s.next_1d())
+                    .sample(UV0, wi, s.next_2d(), s.next_1d())
                     .map_or(0.0, |x| x.weight.max_element() * x.eta * x.eta);
                 mv.push(e as f64);
             }
@@ -209,21 +210,21 @@ fn conductor_none_reflects_exactly_one() {
     let b = Bsdf::conductor(e, k, Rgb::ONE).unwrap();
     for t in [0.0f32, 10.0, 45.0, 80.0, 89.9] {
         let wi = dir(t, 33.0, false);
-        let x = b.sample(wi, Default::default(), 0.5).unwrap();
+        let x = b.sample(UV0, wi, Default::default(), 0.5).unwrap();
         assert_eq!(x.weight, Rgb::ONE, "theta {t}");
         assert!(x.specular);
         assert!((x.wo - Vec3::new(-wi.x, -wi.y, wi.z)).length() < 1e-6);
-        assert_eq!(b.eval(wi, x.wo), Rgb::ZERO);
-        assert_eq!(b.pdf(wi, x.wo), 0.0);
+        assert_eq!(b.eval(UV0, wi, x.wo), Rgb::ZERO);
+        assert_eq!(b.pdf(UV0, wi, x.wo), 0.0);
     }
     // One-sided: nothing from below.
     assert!(b
-        .sample(dir(30.0, 0.0, true), Default::default(), 0.5)
+        .sample(UV0, dir(30.0, 0.0, true), Default::default(), 0.5)
         .is_none());
     // specular_reflectance scales it.
     let tinted = Bsdf::conductor(e, k, Rgb::new(0.5, 0.25, 1.0)).unwrap();
     let x = tinted
-        .sample(dir(20.0, 0.0, false), Default::default(), 0.5)
+        .sample(UV0, dir(20.0, 0.0, false), Default::default(), 0.5)
         .unwrap();
     assert_eq!(x.weight, Rgb::new(0.5, 0.25, 1.0));
 }
@@ -239,7 +240,10 @@ fn conductor_fresnel_closed_forms() {
         assert!((r - e).abs().max_element() < 1e-5, "{name}: {r} vs {e}");
         // The smooth conductor's sample weight is that Fresnel term.
         let b = Bsdf::conductor(eta, k, Rgb::ONE).unwrap();
-        let w = b.sample(Vec3::Z, Default::default(), 0.5).unwrap().weight;
+        let w = b
+            .sample(UV0, Vec3::Z, Default::default(), 0.5)
+            .unwrap()
+            .weight;
         assert!((w - e).abs().max_element() < 1e-5);
         // Grazing incidence reflects everything (metals dip a little before,
         // near their pseudo-Brewster angle, so no monotonicity).
@@ -281,7 +285,7 @@ fn thin_dielectric_reflects_r_prime_and_transmits_the_rest() {
             let r_prime = r + tr * tr * r / (1.0 - r * r);
             let mut refl = MeanVar::default();
             for _ in 0..40_000 {
-                let x = b.sample(wi, s.next_2d(), s.next_1d()).unwrap();
+                let x = b.sample(UV0, wi, s.next_2d(), s.next_1d()).unwrap();
                 assert!(x.specular);
                 assert_eq!(x.weight, Rgb::ONE);
                 assert_eq!(x.eta, 1.0);
@@ -326,7 +330,7 @@ fn white_plastic_albedo() {
             let mut mv = MeanVar::default();
             for _ in 0..100_000 {
                 let w = b
-                    .sample(wi, s.next_2d(), s.next_1d())
+                    .sample(UV0, wi, s.next_2d(), s.next_1d())
                     .map_or(0.0, |x| x.weight.x);
                 mv.push(w as f64);
             }
@@ -360,7 +364,7 @@ fn smooth_rough_dielectric_conserves_energy() {
             let mut mv = MeanVar::default();
             for _ in 0..40_000 {
                 let e = b
-                    .sample(wi, s.next_2d(), s.next_1d())
+                    .sample(UV0, wi, s.next_2d(), s.next_1d())
                     .map_or(0.0, |x| x.weight.x * x.eta * x.eta);
                 mv.push(e as f64);
             }
@@ -392,11 +396,11 @@ fn sampling_and_uniform_estimators_agree() {
         let (mut a, mut u) = ([MeanVar::default(); 3], [MeanVar::default(); 3]);
         for _ in 0..200_000 {
             let w = b
-                .sample(*wi, s.next_2d(), s.next_1d())
+                .sample(UV0, *wi, s.next_2d(), s.next_1d())
                 .filter(|x| !x.specular)
                 .map_or(Rgb::ZERO, |x| x.weight);
             let wo = warp::square_to_uniform_sphere(s.next_2d());
-            let f = b.eval(*wi, wo) * wo.z.abs() / warp::square_to_uniform_sphere_pdf(wo);
+            let f = b.eval(UV0, *wi, wo) * wo.z.abs() / warp::square_to_uniform_sphere_pdf(wo);
             for c in 0..3 {
                 a[c].push(w[c] as f64);
                 u[c].push(f[c] as f64);
@@ -428,11 +432,11 @@ fn estimator_comparison_detects_a_three_percent_error() {
     let (mut a, mut u) = (MeanVar::default(), MeanVar::default());
     for _ in 0..200_000 {
         let w = b
-            .sample(wi, s.next_2d(), s.next_1d())
+            .sample(UV0, wi, s.next_2d(), s.next_1d())
             .map_or(0.0, |x| x.weight.x);
         a.push(1.03 * w as f64);
         let wo = warp::square_to_uniform_hemisphere(s.next_2d());
-        u.push((b.eval(wi, wo).x * wo.z / warp::square_to_uniform_hemisphere_pdf(wo)) as f64);
+        u.push((b.eval(UV0, wi, wo).x * wo.z / warp::square_to_uniform_hemisphere_pdf(wo)) as f64);
     }
     assert!(!welch_t_test(&a, &u).passes(0.01));
 }
@@ -445,15 +449,15 @@ fn twosided_mirrors_the_back_and_refuses_transmitters() {
     let flip = |v: Vec3| Vec3::new(v.x, v.y, -v.z);
     let wi = dir(40.0, 10.0, false);
     let wo = dir(30.0, 200.0, false);
-    assert_eq!(two.eval(wi, wo), front.eval(wi, wo));
-    assert_eq!(two.eval(flip(wi), flip(wo)), front.eval(wi, wo));
-    assert_eq!(two.pdf(flip(wi), flip(wo)), front.pdf(wi, wo));
-    assert_eq!(two.eval(flip(wi), wo), Rgb::ZERO);
+    assert_eq!(two.eval(UV0, wi, wo), front.eval(UV0, wi, wo));
+    assert_eq!(two.eval(UV0, flip(wi), flip(wo)), front.eval(UV0, wi, wo));
+    assert_eq!(two.pdf(UV0, flip(wi), flip(wo)), front.pdf(UV0, wi, wo));
+    assert_eq!(two.eval(UV0, flip(wi), wo), Rgb::ZERO);
     let mut s = Sampler::new(8, 8);
     for _ in 0..100 {
         let (u, ul) = (s.next_2d(), s.next_1d());
-        let a = front.sample(wi, u, ul);
-        let b = two.sample(flip(wi), u, ul);
+        let a = front.sample(UV0, wi, u, ul);
+        let b = two.sample(UV0, flip(wi), u, ul);
         assert_eq!(a.map(|x| flip(x.wo)), b.map(|x| x.wo));
     }
     assert!(!two.is_specular());

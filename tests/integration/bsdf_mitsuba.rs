@@ -7,6 +7,7 @@
 //! (zero weight), which lente must reject too (None or zero weight). One
 //! documented deviation: see [`mitsuba_bias`].
 
+use crate::common::UV0;
 use lente::bsdf::{conductor_preset, Bsdf, MicrofacetType};
 use lente::color::Rgb;
 use lente::math::{Vec2, Vec3};
@@ -255,8 +256,8 @@ fn matches_mitsuba_3() {
                 let (f_cos, pdf) = (*f_cos, *pdf);
                 let b = bsdf(name);
                 let (wi, wo) = (Vec3::from_array(*wi), Vec3::from_array(*wo));
-                let f = b.eval(wi, wo) * wo.z.abs();
-                let p = b.pdf(wi, wo);
+                let f = b.eval(UV0, wi, wo) * wo.z.abs();
+                let p = b.pdf(UV0, wi, wo);
                 if !close3(f, f_cos, 2e-4) || !close(p, pdf, 2e-4) {
                     failures.push(format!(
                         "{name} eval wi {wi} wo {wo}: f|cos| {f} vs {f_cos:?}, pdf {p} vs {pdf}"
@@ -278,7 +279,7 @@ fn matches_mitsuba_3() {
                 let (u, u_lobe) = (*u, *u_lobe);
                 let b = bsdf(name);
                 let wi = Vec3::from_array(*wi);
-                let s = b.sample(wi, Vec2::from_array(u), u_lobe);
+                let s = b.sample(UV0, wi, Vec2::from_array(u), u_lobe);
                 let ok = s.is_some_and(|s| {
                     close3(s.wo, wo, 1e-3)
                         && close3(s.weight * mitsuba_bias(&b, wi, s.wo), weight, 2e-3)
@@ -300,7 +301,7 @@ fn matches_mitsuba_3() {
                 u,
             } => {
                 let b = bsdf(name);
-                let s = b.sample(Vec3::from_array(*wi), Vec2::from_array(*u), *u_lobe);
+                let s = b.sample(UV0, Vec3::from_array(*wi), Vec2::from_array(*u), *u_lobe);
                 if let Some(s) = s {
                     if s.weight.max_element() > 0.0 {
                         failures.push(format!(

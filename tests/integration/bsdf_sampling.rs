@@ -7,6 +7,7 @@
 //! below. Plus the
 //! tests that this test rejects wrong pdfs.
 
+use crate::common::UV0;
 use lente::bsdf::{conductor_preset, Bsdf, MicrofacetDistribution, MicrofacetType};
 use lente::color::Rgb;
 use lente::math::Vec3;
@@ -63,11 +64,11 @@ fn histogram(c: &Case, seed: u64) -> Histogram {
         seed,
         |s| {
             c.bsdf
-                .sample(c.wi, s.next_2d(), s.next_1d())
+                .sample(UV0, c.wi, s.next_2d(), s.next_1d())
                 .filter(|b| !b.specular)
                 .map(|b| b.wo)
         },
-        |wo| c.bsdf.pdf(c.wi, wo) as f64,
+        |wo| c.bsdf.pdf(UV0, c.wi, wo) as f64,
     )
 }
 
@@ -385,7 +386,7 @@ fn plastics_and_twosided_sampling_match_pdf() {
     let mut s = lente::sampling::Sampler::new(9, 9);
     let wi = dir(70.0, 0.0, false);
     let spec = (0..10_000)
-        .filter_map(|_| p.sample(wi, s.next_2d(), s.next_1d()))
+        .filter_map(|_| p.sample(UV0, wi, s.next_2d(), s.next_1d()))
         .filter(|b| b.specular)
         .count();
     assert!(spec > 500, "delta lobe sampled {spec} times");
@@ -425,8 +426,9 @@ fn chi2_rejects_wrong_pdfs() {
     let wi = dir(60.0, 30.0, false);
     let d = MicrofacetDistribution::new(Ggx, 0.3, 0.3, true);
     let b = rc(Ggx, 0.3, 0.3, true);
-    let sample =
-        |s: &mut lente::sampling::Sampler| b.sample(wi, s.next_2d(), s.next_1d()).map(|x| x.wo);
+    let sample = |s: &mut lente::sampling::Sampler| {
+        b.sample(UV0, wi, s.next_2d(), s.next_1d()).map(|x| x.wo)
+    };
     let half = |wo: Vec3| (wi + wo).normalize();
     let wrong: [(&str, Pdf); 4] = [
         (
@@ -443,7 +445,7 @@ fn chi2_rejects_wrong_pdfs() {
         ),
         (
             "alpha 5% too large",
-            Box::new(|wo: Vec3| rc(Ggx, 0.315, 0.315, true).pdf(wi, wo) as f64),
+            Box::new(|wo: Vec3| rc(Ggx, 0.315, 0.315, true).pdf(UV0, wi, wo) as f64),
         ),
         (
             "visible pdf without G1(wi)",
@@ -458,7 +460,7 @@ fn chi2_rejects_wrong_pdfs() {
         ),
         (
             "Beckmann pdf for GGX samples",
-            Box::new(|wo: Vec3| rc(Beckmann, 0.3, 0.3, true).pdf(wi, wo) as f64),
+            Box::new(|wo: Vec3| rc(Beckmann, 0.3, 0.3, true).pdf(UV0, wi, wo) as f64),
         ),
     ];
     for (i, (name, pdf)) in wrong.iter().enumerate() {
@@ -472,6 +474,6 @@ fn chi2_rejects_wrong_pdfs() {
         );
     }
     // ... while the right one passes with the same samples.
-    let h = sphere_histogram(30, 60, N, 5000, sample, |wo| b.pdf(wi, wo) as f64);
+    let h = sphere_histogram(30, 60, N, 5000, sample, |wo| b.pdf(UV0, wi, wo) as f64);
     assert!(h.test(5.0).passes(0.01));
 }

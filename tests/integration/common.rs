@@ -380,3 +380,7 @@ pub fn quad(c: Vec3, half: f32, y_normal_up: bool) -> TriangleMesh {
     };
     TriangleMesh::new(p, Vec::new(), Vec::new(), idx).unwrap()
 }
+
+/// The surface coordinates a BSDF tested on its own is read at (constant
+/// parameters do not depend on them).
+pub const UV0: lente::math::Vec2 = lente::math::Vec2::ZERO;

@@ -2,6 +2,7 @@
 //! sampling estimator of its albedo agrees with an independent
 //! uniform-hemisphere estimator (Welch t-test), including near-mirror cases.
 
+use crate::common::UV0;
 use lente::bsdf::Bsdf;
 use lente::color::Rgb;
 use lente::math::Vec3;
@@ -33,8 +34,8 @@ fn microfacet_sampling_matches_pdf() {
             40,
             1_000_000,
             i as u64,
-            |s| bsdf.sample(wi, s.next_2d(), s.next_1d()).map(|b| b.wo),
-            |wo| bsdf.pdf(wi, wo) as f64,
+            |s| bsdf.sample(UV0, wi, s.next_2d(), s.next_1d()).map(|b| b.wo),
+            |wo| bsdf.pdf(UV0, wi, wo) as f64,
         );
         let r = h.test(5.0);
         assert!(
@@ -61,11 +62,11 @@ fn microfacet_weights_agree_with_uniform_estimator() {
         let (mut a, mut b) = (MeanVar::default(), MeanVar::default());
         for _ in 0..400_000 {
             let w = bsdf
-                .sample(wi, s.next_2d(), s.next_1d())
+                .sample(UV0, wi, s.next_2d(), s.next_1d())
                 .map_or(0.0, |x| x.weight.x);
             a.push(w as f64);
             let wo = warp::square_to_uniform_hemisphere(s.next_2d());
-            let f = bsdf.eval(wi, wo).x * wo.z / warp::square_to_uniform_hemisphere_pdf(wo);
+            let f = bsdf.eval(UV0, wi, wo).x * wo.z / warp::square_to_uniform_hemisphere_pdf(wo);
             b.push(f as f64);
         }
         let r = welch_t_test(&a, &b);
@@ -87,10 +88,10 @@ fn microfacet_sample_weight_is_eval_cos_over_pdf() {
     let wi = incident(40.0);
     let mut s = Sampler::new(5, 5);
     for _ in 0..10_000 {
-        if let Some(b) = bsdf.sample(wi, s.next_2d(), s.next_1d()) {
-            let expect = bsdf.eval(wi, b.wo) * b.wo.z / bsdf.pdf(wi, b.wo);
+        if let Some(b) = bsdf.sample(UV0, wi, s.next_2d(), s.next_1d()) {
+            let expect = bsdf.eval(UV0, wi, b.wo) * b.wo.z / bsdf.pdf(UV0, wi, b.wo);
             assert!((b.weight - expect).abs().max_element() < 1e-3 * expect.max_element().max(1.0));
-            assert!((b.pdf - bsdf.pdf(wi, b.wo)).abs() < 1e-3 * b.pdf);
+            assert!((b.pdf - bsdf.pdf(UV0, wi, b.wo)).abs() < 1e-3 * b.pdf);
         }
     }
 }

@@ -5,8 +5,9 @@
 //! (obj, ply, sphere, rectangle, cube, disk, cylinder), BSDF (diffuse,
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
-//! roughplastic, twosided with one and two BSDFs) and emitter (envmap,
-//! constant, area, point, directional) that lente reads from Mitsuba files.
+//! roughplastic, twosided with one and two BSDFs), texture (checkerboard,
+//! bitmap) and emitter (envmap, constant, area, point, directional) that
+//! lente reads from Mitsuba files.
 //!
 //! # The statistic
 //!
@@ -55,8 +56,8 @@
 //!   what 256 spp x 16 renders resolve (max |z| 2.6 with alpha 0.6), but it
 //!   is not Mitsuba's reference behaviour, so only visible-normal sampling
 //!   (the default) is compared.
-//! - **Spectral data, textures, media**: lente reads neither; RGB values
-//!   and `scalar_rgb` only.
+//! - **Spectral data, media**: lente reads neither; RGB values and
+//!   `scalar_rgb` only.
 //! - **Caustics of small lights**: a unidirectional path tracer finds them
 //!   by BSDF sampling alone, so their estimates are heavy-tailed and the
 //!   normal approximation of z fails; the glass here is lit by a constant
@@ -143,6 +144,12 @@ const CASES: &[Case] = &[
     Case {
         file: "env_elevation.xml",
         covers: "envmap varying with the elevation (Mitsuba's pole-to-pole rows), seen directly; sphere, rectangle; diffuse, roughconductor GGX (Al)",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "textures.xml",
+        covers: "textures: checkerboard (to_uv; reflectance, specular_reflectance, inside twosided), bitmap (sRGB PNG, bilinear/nearest, repeat/mirror, to_uv, raw roughness); sphere and PLY uvs",
         spp: 192,
         renders: 16,
     },

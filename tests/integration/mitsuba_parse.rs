@@ -453,10 +453,10 @@ fn reference_errors() {
         &["reference to itself"],
     );
     assert_err(
-        &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\"/></bsdf></shape>"),
+        &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"mesh_attribute\" name=\"reflectance\"/></bsdf></shape>"),
         4,
         58,
-        &["bitmap", "constant textures"],
+        &["mesh_attribute", "lente's textures: bitmap, checkerboard"],
     );
     assert_err(
         &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\">\n<texture type=\"uniform\"/></bsdf></shape>"),

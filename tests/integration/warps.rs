@@ -1,6 +1,7 @@
 //! Chi-square tests of every warp, the aperture samplers and the diffuse
 //! BSDF against their pdfs; plus the tests that the tests can fail.
 
+use crate::common::UV0;
 use lente::bsdf::Bsdf;
 use lente::camera::{regular_polygon_area, sample_regular_polygon};
 use lente::color::Rgb;
@@ -182,16 +183,16 @@ fn diffuse_bsdf_sampling_matches_pdf() {
         |s| {
             let u = s.next_2d();
             let ul = s.next_1d();
-            bsdf.sample(wi, u, ul).map(|b| b.wo)
+            bsdf.sample(UV0, wi, u, ul).map(|b| b.wo)
         },
-        |wo| bsdf.pdf(wi, wo) as f64,
+        |wo| bsdf.pdf(UV0, wi, wo) as f64,
     );
     assert_passes("diffuse", h);
     // Weight must equal eval * cos / pdf.
     let mut s = lente::sampling::Sampler::new(5, 5);
     for _ in 0..1000 {
-        let b = bsdf.sample(wi, s.next_2d(), s.next_1d()).unwrap();
-        let expect = bsdf.eval(wi, b.wo) * b.wo.z / bsdf.pdf(wi, b.wo);
+        let b = bsdf.sample(UV0, wi, s.next_2d(), s.next_1d()).unwrap();
+        let expect = bsdf.eval(UV0, wi, b.wo) * b.wo.z / bsdf.pdf(UV0, wi, b.wo);
         assert!((b.weight - expect).abs().max_element() < 1e-4);
     }
 }

@@ -19,6 +19,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::Bitmap;
 use crate::color::Rgb;
+pub use png::Transfer;
 
 /// An image file that could not be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -71,9 +72,10 @@ enum Format {
     Hdr,
     Pfm,
     Png,
+    Jpeg,
 }
 
-const SUPPORTED: &str = ".exr, .hdr, .pfm, .png";
+const SUPPORTED: &str = ".exr, .hdr, .pfm, .png (.jpg/.jpeg to read)";
 
 impl Format {
     fn from_path(path: &Path) -> Result<Format, ImageError> {
@@ -91,6 +93,7 @@ impl Format {
             "hdr" => Ok(Format::Hdr),
             "pfm" => Ok(Format::Pfm),
             "png" => Ok(Format::Png),
+            "jpg" | "jpeg" => Ok(Format::Jpeg),
             _ => Err(ImageError::new(
                 path,
                 format!("unsupported image extension '.{ext}' (supported: {SUPPORTED})"),
@@ -119,14 +122,22 @@ pub(crate) struct RawImage {
 ///   eight orientations of the resolution line.
 /// - PFM: colour (`PF`) or greyscale (`Pf`), either byte order.
 /// - PNG: 8 or 16 bit, any colour type; decoded from sRGB to linear.
+/// - JPEG: baseline or progressive; decoded from sRGB to linear.
 ///
 /// Negative texels are clamped to zero with one warning that counts them;
 /// NaN or infinite texels and empty images are errors.
 pub fn load_image(path: &Path) -> Result<(Bitmap, Vec<String>), ImageError> {
+    load_image_as(path, Transfer::Srgb)
+}
+
+/// [`load_image`], with the 8- and 16-bit formats' (PNG, JPEG) values
+/// either decoded from sRGB or kept as they are ([`Transfer::Raw`]: data
+/// such as normal maps and roughness). Float formats are always linear.
+pub fn load_image_as(path: &Path, transfer: Transfer) -> Result<(Bitmap, Vec<String>), ImageError> {
     let format = Format::from_path(path)?;
     let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "image files")
         .map_err(|e| ImageError::new(path, format!("cannot read image file: {e}")))?;
-    decode(&bytes, format).map_err(|m| ImageError::new(path, m.0))
+    decode(&bytes, format, transfer).map_err(|m| ImageError::new(path, m.0))
 }
 
 /// Decodes an image file's bytes as [`load_image`] does, the format named
@@ -134,15 +145,20 @@ pub fn load_image(path: &Path) -> Result<(Bitmap, Vec<String>), ImageError> {
 pub fn decode_image(bytes: &[u8], extension: &str) -> Result<(Bitmap, Vec<String>), Malformed> {
     let format = Format::from_path(Path::new(&format!("image.{extension}")))
         .map_err(|e| Malformed(e.message))?;
-    decode(bytes, format)
+    decode(bytes, format, Transfer::Srgb)
 }
 
-fn decode(bytes: &[u8], format: Format) -> Result<(Bitmap, Vec<String>), Malformed> {
+fn decode(
+    bytes: &[u8],
+    format: Format,
+    transfer: Transfer,
+) -> Result<(Bitmap, Vec<String>), Malformed> {
     let raw = match format {
         Format::Exr => exr::decode(bytes),
         Format::Hdr => hdr::decode(bytes),
         Format::Pfm => pfm::decode(bytes),
-        Format::Png => png::decode(bytes),
+        Format::Png => png::decode(bytes, transfer),
+        Format::Jpeg => png::decode_jpeg(bytes, transfer),
     }?;
     finish(raw)
 }
@@ -242,6 +258,9 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
         Format::Hdr => hdr::encode(image),
         Format::Pfm => Ok(pfm::encode(image)),
         Format::Png => png::encode(image),
+        Format::Jpeg => Err(Malformed::from(
+            "lente writes no JPEG (lossy); use .png, .exr, .hdr or .pfm",
+        )),
     }
     .map_err(|m| ImageError::new(path, m.0))?;
     write_atomically(path, &bytes)
@@ -356,18 +375,41 @@ mod tests {
     use super::*;
 
     #[test]
+    fn jpeg_is_decoded_from_srgb_or_raw() {
+        // A flat grey JPEG: lossy, but a flat image keeps its value.
+        let mut bytes = Vec::new();
+        let grey = image::RgbImage::from_pixel(16, 8, image::Rgb([128, 128, 128]));
+        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, 95)
+            .encode_image(&grey)
+            .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("grey.jpeg");
+        fs::write(&path, &bytes).unwrap();
+        let (srgb, _) = load_image(&path).unwrap();
+        let (raw, _) = load_image_as(&path, Transfer::Raw).unwrap();
+        assert_eq!((srgb.width, srgb.height), (16, 8));
+        let v = raw.pixels[40].x;
+        assert!((v - 128.0 / 255.0).abs() < 2.0 / 255.0, "{v}");
+        let lin = srgb.pixels[40].x;
+        assert!((lin - crate::color::srgb_decode(v)).abs() < 1e-6, "{lin}");
+    }
+
+    #[test]
     fn unknown_extension_is_an_error_listing_formats() {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("picture.jpg");
+        let path = dir.path().join("picture.tga");
         fs::write(&path, b"whatever").unwrap();
         let err = load_image(&path).unwrap_err();
         let msg = err.to_string();
-        assert!(msg.contains("picture.jpg"), "{msg}");
-        for ext in [".exr", ".hdr", ".pfm", ".png"] {
+        assert!(msg.contains("picture.tga"), "{msg}");
+        for ext in [".exr", ".hdr", ".pfm", ".png", ".jpg"] {
             assert!(msg.contains(ext), "{msg}");
         }
         let err = save_image(&path, &test_image(2, 2)).unwrap_err();
         assert!(err.to_string().contains(".pfm"), "{err}");
+        // JPEG is read, never written (lossy).
+        let err = save_image(&dir.path().join("out.jpg"), &test_image(2, 2)).unwrap_err();
+        assert!(err.to_string().contains("no JPEG"), "{err}");
         let err = load_image(&dir.path().join("noext")).unwrap_err();
         assert!(err.to_string().contains("extension"), "{err}");
     }

@@ -1,27 +1,58 @@
-//! PNG through the `image` crate: any bit depth and colour type in, decoded
-//! from sRGB to linear (alpha ignored); 8-bit sRGB RGB out.
+//! PNG and JPEG through the `image` crate: any bit depth and colour type
+//! in, decoded from sRGB to linear unless the caller asks for the raw
+//! values (Mitsuba's `raw` textures); alpha ignored. 8-bit sRGB RGB PNG out.
 
 use super::Malformed;
 use std::io::Cursor;
 
-use image::{DynamicImage, ImageEncoder};
+use image::{DynamicImage, ImageDecoder, ImageEncoder};
 
 use super::RawImage;
 use crate::color::{srgb_decode, srgb_encode};
 use crate::image::Bitmap;
 
-pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
-    use image::ImageDecoder;
-    // The header's size is checked before the decoder allocates; the
-    // allocation cap (8 bytes per pixel: 16-bit RGBA) backs that up.
-    let max_pixels = crate::limits::max_image_pixels();
+/// How 8- and 16-bit values become floats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Transfer {
+    /// The file's values are sRGB-encoded: decode to linear (the default).
+    Srgb,
+    /// Use the values as they are, scaled to [0, 1] (data, not colour).
+    Raw,
+}
+
+/// The decoder's allocation cap: 8 bytes per pixel (16-bit RGBA) of the
+/// pixel bound, backing up the header check.
+fn limits() -> image::Limits {
     let mut limits = image::Limits::no_limits();
-    limits.max_alloc = Some(max_pixels.saturating_mul(8));
-    let decoder = image::codecs::png::PngDecoder::with_limits(Cursor::new(bytes), limits)
+    limits.max_alloc = Some(crate::limits::max_image_pixels().saturating_mul(8));
+    limits
+}
+
+pub(super) fn decode(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
+    let decoder = image::codecs::png::PngDecoder::with_limits(Cursor::new(bytes), limits())
         .map_err(|e| format!("cannot decode PNG: {e}"))?;
+    finish_ldr(decoder, "PNG", transfer)
+}
+
+pub(super) fn decode_jpeg(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
+    let mut decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes))
+        .map_err(|e| format!("cannot decode JPEG: {e}"))?;
+    decoder
+        .set_limits(limits())
+        .map_err(|e| format!("cannot decode JPEG: {e}"))?;
+    finish_ldr(decoder, "JPEG", transfer)
+}
+
+/// Checks the header's size before the pixels are decoded, then converts.
+fn finish_ldr(
+    decoder: impl ImageDecoder,
+    format: &str,
+    transfer: Transfer,
+) -> Result<RawImage, Malformed> {
     let (w, h) = decoder.dimensions();
     super::check_size(w as usize, h as usize)?;
-    let img = DynamicImage::from_decoder(decoder).map_err(|e| format!("cannot decode PNG: {e}"))?;
+    let img =
+        DynamicImage::from_decoder(decoder).map_err(|e| format!("cannot decode {format}: {e}"))?;
     let (width, height) = (img.width() as usize, img.height() as usize);
     let sixteen_bit = matches!(
         img,
@@ -30,15 +61,19 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
             | DynamicImage::ImageRgb16(_)
             | DynamicImage::ImageRgba16(_)
     );
+    let to_float = |v: f32| match transfer {
+        Transfer::Srgb => srgb_decode(v),
+        Transfer::Raw => v,
+    };
     let data: Vec<f32> = if sixteen_bit {
         img.into_rgb16()
             .into_raw()
             .into_iter()
-            .map(|v| srgb_decode(f32::from(v) / 65535.0))
+            .map(|v| to_float(f32::from(v) / 65535.0))
             .collect()
     } else {
         let lut: Vec<f32> = (0..=255u8)
-            .map(|v| srgb_decode(f32::from(v) / 255.0))
+            .map(|v| to_float(f32::from(v) / 255.0))
             .collect();
         img.into_rgb8()
             .into_raw()

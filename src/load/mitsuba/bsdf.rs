@@ -12,6 +12,7 @@ use crate::color::Rgb;
 use crate::load::props::{Kind, Props};
 use crate::load::xml::{describe, SceneNode};
 use crate::load::SceneError;
+use crate::texture::Texture;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -81,16 +82,29 @@ impl<'d> Ctx<'d> {
         )?;
         let owner = format!("<bsdf type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
+        let mut tex = Textures::default();
         let built: std::result::Result<Bsdf, BsdfError> = match ty {
-            "diffuse" => Bsdf::diffuse(p.get_rgb_or_float("reflectance", Rgb::splat(0.5))?),
+            "diffuse" => Bsdf::diffuse(tex.rgb(&mut p, "reflectance", 0.5, BsdfParam::Diffuse)?),
             "dielectric" | "thindielectric" | "roughdielectric" => {
                 let int_ior = ior(&mut p, "int_ior", 1.5046)?;
                 let ext_ior = ior(&mut p, "ext_ior", 1.000277)?;
-                let reflectance = p.get_rgb_or_float("specular_reflectance", Rgb::ONE)?;
-                let transmittance = p.get_rgb_or_float("specular_transmittance", Rgb::ONE)?;
+                let reflectance = tex.rgb(
+                    &mut p,
+                    "specular_reflectance",
+                    1.0,
+                    BsdfParam::SpecularReflectance,
+                )?;
+                let transmittance = tex.rgb(
+                    &mut p,
+                    "specular_transmittance",
+                    1.0,
+                    BsdfParam::SpecularTransmittance,
+                )?;
                 match ty {
                     "dielectric" => {
-                        if reflectance != Rgb::ONE || transmittance != Rgb::ONE {
+                        if reflectance != Rgb::ONE || transmittance != Rgb::ONE || !tex.0.is_empty()
+                        {
+                            tex.0.clear();
                             self.warn(
                                 node.pos,
                                 format!(
@@ -106,7 +120,7 @@ impl<'d> Ctx<'d> {
                         Bsdf::thin_dielectric(int_ior, ext_ior, reflectance, transmittance)
                     }
                     _ => {
-                        let r = roughness(&mut p)?;
+                        let r = roughness(&mut p, &mut tex)?;
                         Bsdf::rough_dielectric(
                             r.distribution,
                             r.alpha_u,
@@ -121,12 +135,17 @@ impl<'d> Ctx<'d> {
                 }
             }
             "conductor" | "roughconductor" => {
-                let (eta, k) = conductor_ior(&mut p)?;
-                let reflectance = p.get_rgb_or_float("specular_reflectance", Rgb::ONE)?;
+                let (eta, k) = conductor_ior(&mut p, &mut tex)?;
+                let reflectance = tex.rgb(
+                    &mut p,
+                    "specular_reflectance",
+                    1.0,
+                    BsdfParam::SpecularReflectance,
+                )?;
                 if ty == "conductor" {
                     Bsdf::conductor(eta, k, reflectance)
                 } else {
-                    let r = roughness(&mut p)?;
+                    let r = roughness(&mut p, &mut tex)?;
                     Bsdf::rough_conductor(
                         r.distribution,
                         r.alpha_u,
@@ -139,15 +158,20 @@ impl<'d> Ctx<'d> {
                 }
             }
             "plastic" | "roughplastic" => {
-                let diffuse = p.get_rgb_or_float("diffuse_reflectance", Rgb::splat(0.5))?;
-                let specular = p.get_rgb_or_float("specular_reflectance", Rgb::ONE)?;
+                let diffuse = tex.rgb(&mut p, "diffuse_reflectance", 0.5, BsdfParam::Diffuse)?;
+                let specular = tex.rgb(
+                    &mut p,
+                    "specular_reflectance",
+                    1.0,
+                    BsdfParam::SpecularReflectance,
+                )?;
                 let int_ior = ior(&mut p, "int_ior", 1.49)?;
                 let ext_ior = ior(&mut p, "ext_ior", 1.000277)?;
                 let nonlinear = p.get_bool("nonlinear", false)?;
                 if ty == "plastic" {
                     Bsdf::plastic(int_ior, ext_ior, diffuse, specular, nonlinear)
                 } else {
-                    let r = roughness(&mut p)?;
+                    let r = roughness(&mut p, &mut tex)?;
                     if r.alpha_u != r.alpha_v {
                         return Err(p.error(
                             "alpha_u",
@@ -169,7 +193,7 @@ impl<'d> Ctx<'d> {
             }
             _ => self.two_sided(node, &owner, &children)?,
         };
-        let bsdf = built.map_err(|e| {
+        let bsdf = built.and_then(|b| Bsdf::textured(b, tex.0)).map_err(|e| {
             let name = match e.param() {
                 BsdfParam::Alpha if p.has("alpha_u") => "alpha_u",
                 param => param_name(ty, param),
@@ -219,10 +243,48 @@ impl<'d> Ctx<'d> {
     }
 }
 
+/// The textured parameters of the BSDF being read.
+#[derive(Default)]
+struct Textures(Vec<(BsdfParam, Texture)>);
+
+impl Textures {
+    /// A colour parameter that may be a texture: the constant to build the
+    /// model with (a varying texture's mean, which Mitsuba's lobe weights
+    /// use too); a varying texture is recorded for `param`.
+    fn rgb(&mut self, p: &mut Props, name: &str, default: f32, param: BsdfParam) -> Result<Rgb> {
+        let t = p.get_texture(name, Rgb::splat(default))?;
+        let mean = t.mean();
+        if t.is_varying() {
+            self.0.push((param, t));
+        }
+        Ok(mean)
+    }
+
+    /// A number that may be a texture (a roughness, read as its luminance
+    /// where it is a colour, as Mitsuba's `eval_1`); recorded for every
+    /// one of `params`.
+    fn float(
+        &mut self,
+        p: &mut Props,
+        name: &str,
+        default: f32,
+        params: &[BsdfParam],
+    ) -> Result<f32> {
+        if p.kind_of(name) != Some(Kind::Texture) {
+            return p.get_float(name, default);
+        }
+        let t = p.get_texture(name, Rgb::splat(default))?;
+        for &param in params {
+            self.0.push((param, t.clone()));
+        }
+        Ok(crate::color::luminance(t.mean()))
+    }
+}
+
 /// A conductor's complex index of refraction: `eta` and `k`, or one of
 /// Mitsuba's measured `material`s (`none`, the default, gives 0 and 1: a
 /// perfect mirror).
-fn conductor_ior(p: &mut Props) -> Result<(Rgb, Rgb)> {
+fn conductor_ior(p: &mut Props, tex: &mut Textures) -> Result<(Rgb, Rgb)> {
     let material = p.get_string("material", "none".into())?;
     if p.has("eta") || p.has("k") || material == "none" {
         if material != "none" {
@@ -232,8 +294,8 @@ fn conductor_ior(p: &mut Props) -> Result<(Rgb, Rgb)> {
             ));
         }
         return Ok((
-            p.get_rgb_or_float("eta", Rgb::ZERO)?,
-            p.get_rgb_or_float("k", Rgb::ONE)?,
+            tex.rgb(p, "eta", 0.0, BsdfParam::Eta)?,
+            tex.rgb(p, "k", 1.0, BsdfParam::K)?,
         ));
     }
     conductor_preset(&material).ok_or_else(|| {
@@ -268,7 +330,7 @@ fn ior(p: &mut Props, name: &str, default: f32) -> Result<f32> {
 
 /// `distribution` (beckmann or ggx, default beckmann), `alpha` (0.1) or
 /// both `alpha_u` and `alpha_v`, `sample_visible` (true).
-fn roughness(p: &mut Props) -> Result<Roughness> {
+fn roughness(p: &mut Props, tex: &mut Textures) -> Result<Roughness> {
     let dist = p.get_string("distribution", "beckmann".into())?;
     let Some(distribution) = MicrofacetType::from_name(dist.trim()) else {
         return Err(p.error(
@@ -280,9 +342,18 @@ fn roughness(p: &mut Props) -> Result<Roughness> {
         if p.has("alpha") {
             return Err(p.error("alpha", "give either 'alpha' or 'alpha_u' and 'alpha_v'"));
         }
-        (p.require_float("alpha_u")?, p.require_float("alpha_v")?)
+        if !p.has("alpha_u") {
+            p.require_float("alpha_u")?;
+        }
+        if !p.has("alpha_v") {
+            p.require_float("alpha_v")?;
+        }
+        (
+            tex.float(p, "alpha_u", 0.1, &[BsdfParam::Alpha])?,
+            tex.float(p, "alpha_v", 0.1, &[BsdfParam::AlphaV])?,
+        )
     } else {
-        let a = p.get_float("alpha", 0.1)?;
+        let a = tex.float(p, "alpha", 0.1, &[BsdfParam::Alpha, BsdfParam::AlphaV])?;
         (a, a)
     };
     Ok(Roughness {

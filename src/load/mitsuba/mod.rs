@@ -210,6 +210,8 @@ struct Ctx<'d> {
     depth: usize,
     /// BSDFs built so far.
     built: bsdf::BuiltBsdfs,
+    /// Images read for textures, shared between textures naming one file.
+    texture_images: crate::load::objects::TextureImages,
 }
 
 impl<'d> Ctx<'d> {
@@ -225,6 +227,7 @@ impl<'d> Ctx<'d> {
             objects: 0,
             depth: 0,
             built: bsdf::BuiltBsdfs::default(),
+            texture_images: Default::default(),
         };
         for item in items {
             ctx.cur = item.file;

@@ -1,24 +1,27 @@
 //! Textures: Mitsuba's constant `uniform` and `srgb` textures, which
-//! become property values of the object they stand in.
+//! become property values of the object they stand in, and the varying
+//! `bitmap` and `checkerboard` (`textures/*.cpp`: names, defaults).
 
 use super::Ctx;
-use crate::load::props::Value;
+use crate::image::io::Transfer;
+use crate::load::props::{Props, Value};
 use crate::load::xml::{describe, SceneNode};
 use crate::load::SceneError;
+use crate::math::Transform;
+use crate::texture::{BitmapTexture, Checkerboard, FilterType, Texture, UvTransform, WrapMode};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 impl<'d> Ctx<'d> {
-    /// A constant texture as a property value: `uniform` (a float `value`)
-    /// or `srgb` (an rgb `color`).
+    /// A texture as a property value: `uniform` (a float `value`) and
+    /// `srgb` (an rgb `color`) as constants, `bitmap` and `checkerboard`
+    /// as textures.
     pub(super) fn texture(&mut self, node: &'d SceneNode) -> Result<Value> {
         let ty = self
             .object_type(
                 node,
-                &["uniform", "srgb"],
+                &["uniform", "srgb", "bitmap", "checkerboard"],
                 &[
-                    "bitmap",
-                    "checkerboard",
                     "mesh_attribute",
                     "volume",
                     "d65",
@@ -29,7 +32,7 @@ impl<'d> Ctx<'d> {
             )
             .map_err(|mut e| {
                 e.message
-                    .push_str(" (lente supports only constant textures)");
+                    .push_str(" (lente's textures: bitmap, checkerboard, uniform, srgb)");
                 e
             })?;
         let owner = describe(node);
@@ -41,15 +44,85 @@ impl<'d> Ctx<'d> {
                 p.get_float("wavelength_max", 830.0)?;
                 Value::Float(p.require_float("value")?)
             }
-            _ => {
+            "srgb" => {
                 let c = p.require_rgb("color")?;
                 p.get_bool("unbounded", false)?;
                 Value::Color(c)
             }
+            "checkerboard" => Value::Texture(Texture::Checkerboard(Checkerboard {
+                color0: constant(&mut p, "color0", 0.4)?,
+                color1: constant(&mut p, "color1", 0.2)?,
+                to_uv: to_uv(&mut p)?,
+            })),
+            _ => Value::Texture(Texture::Bitmap(self.bitmap(&mut p)?)),
         };
         p.finish(&mut self.warnings);
         Ok(value)
     }
+
+    /// `bitmap`: `filename`, `filter_type` (bilinear), `wrap_mode`
+    /// (repeat), `raw` (false: 8- and 16-bit files are sRGB-decoded),
+    /// `to_uv`. Texels are shared between textures naming one file.
+    fn bitmap(&mut self, p: &mut Props<'d>) -> Result<BitmapTexture> {
+        let name = p.require_string("filename")?;
+        if name.trim().is_empty() {
+            return Err(p.error("filename", "'filename' is empty"));
+        }
+        let filter = match p.get_string("filter_type", "bilinear".into())?.as_str() {
+            "bilinear" => FilterType::Bilinear,
+            "nearest" => FilterType::Nearest,
+            other => {
+                return Err(p.error(
+                    "filter_type",
+                    format!("unknown filter_type '{other}'; use bilinear or nearest"),
+                ))
+            }
+        };
+        let wrap = match p.get_string("wrap_mode", "repeat".into())?.as_str() {
+            "repeat" => WrapMode::Repeat,
+            "mirror" => WrapMode::Mirror,
+            "clamp" => WrapMode::Clamp,
+            other => {
+                return Err(p.error(
+                    "wrap_mode",
+                    format!("unknown wrap_mode '{other}'; use repeat, mirror or clamp"),
+                ))
+            }
+        };
+        let transfer = if p.get_bool("raw", false)? {
+            Transfer::Raw
+        } else {
+            Transfer::Srgb
+        };
+        // Storage hints with no effect on the image.
+        p.get_bool("accel", true)?;
+        p.get_string("format", "variant".into())?;
+        let to_uv = to_uv(p)?;
+        let path = self.resolve(&name);
+        let image = self
+            .texture_images
+            .load(p, "filename", path, transfer, &mut self.warnings)?;
+        Ok(BitmapTexture::new(image, filter, wrap, to_uv))
+    }
+}
+
+/// A constant colour or number (a checkerboard's colours).
+fn constant(p: &mut Props, name: &str, default: f32) -> Result<crate::color::Rgb> {
+    match p.get_texture(name, crate::color::Rgb::splat(default))? {
+        Texture::Constant(c) => Ok(c),
+        _ => Err(p.error(
+            name,
+            format!(
+                "'{name}' must be a constant colour or number (nested textures are not supported)"
+            ),
+        )),
+    }
+}
+
+/// `to_uv` (identity): the 2D part of the transform.
+fn to_uv(p: &mut Props) -> Result<UvTransform> {
+    let t = p.get_transform("to_uv", Transform::IDENTITY)?;
+    Ok(UvTransform::from_mat4(&t.m))
 }
 
 /// True for an element that is a texture (or a spectrum given as an object).

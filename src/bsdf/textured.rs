@@ -1,0 +1,181 @@
+//! A BSDF whose parameters vary over the surface: a base model built with
+//! constants (each texture's mean, so lobe-selection weights are computed
+//! from means as Mitsuba does) and the textures of its varying parameters.
+//! At a hit the textures are read at its uv into a copy of the base model
+//! (the models are plain values: nothing is allocated per ray).
+
+use super::params::{BsdfError, BsdfParam};
+use super::{
+    Bsdf, BsdfSample, Conductor, Diffuse, Microfacet, Plastic, RoughConductor, RoughDielectric,
+    RoughPlastic, ThinDielectric,
+};
+use crate::color::Rgb;
+use crate::math::{Vec2, Vec3};
+use crate::texture::Texture;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Textured {
+    base: Bsdf,
+    textures: Vec<(BsdfParam, Texture)>,
+}
+
+/// The base model with the textures' values at one hit.
+enum Local<'a> {
+    Diffuse(Diffuse),
+    Plastic(Plastic),
+    RoughPlastic(&'a RoughPlastic, Rgb, Rgb),
+    Conductor(Conductor),
+    RoughConductor(RoughConductor),
+    ThinDielectric(ThinDielectric),
+    RoughDielectric(RoughDielectric),
+    Microfacet(Microfacet),
+}
+
+/// The parameters a model takes from textures.
+fn texturable(base: &Bsdf) -> &'static [BsdfParam] {
+    use BsdfParam::*;
+    match base {
+        Bsdf::Diffuse(_) | Bsdf::Microfacet(_) => &[Diffuse],
+        Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => &[Diffuse, SpecularReflectance],
+        Bsdf::Conductor(_) => &[SpecularReflectance, Eta, K],
+        Bsdf::RoughConductor(_) => &[SpecularReflectance, Eta, K, Alpha, AlphaV],
+        Bsdf::ThinDielectric(_) => &[SpecularReflectance, SpecularTransmittance],
+        Bsdf::RoughDielectric(_) => &[SpecularReflectance, SpecularTransmittance, Alpha, AlphaV],
+        _ => &[],
+    }
+}
+
+impl Textured {
+    /// `base` with `textures` for some of its parameters; a parameter the
+    /// model does not take from a texture is an error naming it.
+    pub fn new(base: Bsdf, textures: Vec<(BsdfParam, Texture)>) -> Result<Textured, BsdfError> {
+        let allowed = texturable(&base);
+        for (param, texture) in &textures {
+            if !allowed.contains(param) || texture.max_value().is_nan() {
+                return Err(BsdfError::NotTexturable { param: *param });
+            }
+        }
+        Ok(Textured { base, textures })
+    }
+
+    /// The model the constants describe (means where textures vary).
+    pub fn base(&self) -> &Bsdf {
+        &self.base
+    }
+
+    /// The textured parameters.
+    pub fn textures(&self) -> &[(BsdfParam, Texture)] {
+        &self.textures
+    }
+
+    #[inline]
+    fn at(&self, uv: Vec2) -> Local<'_> {
+        use BsdfParam as P;
+        let rgb = |p: BsdfParam, c: &mut Rgb| {
+            for (q, t) in &self.textures {
+                if *q == p {
+                    *c = t.eval(uv);
+                }
+            }
+        };
+        let alpha = |p: BsdfParam, a: &mut f32| {
+            for (q, t) in &self.textures {
+                if *q == p {
+                    *a = t.eval_1(uv).max(super::distribution::MIN_ALPHA);
+                }
+            }
+        };
+        match &self.base {
+            Bsdf::Diffuse(b) => {
+                let mut b = *b;
+                rgb(P::Diffuse, &mut b.albedo);
+                Local::Diffuse(b)
+            }
+            Bsdf::Microfacet(b) => {
+                let mut b = *b;
+                rgb(P::Diffuse, &mut b.kd);
+                Local::Microfacet(b)
+            }
+            Bsdf::Plastic(b) => {
+                let mut b = *b;
+                rgb(P::Diffuse, &mut b.diffuse_reflectance);
+                rgb(P::SpecularReflectance, &mut b.specular_reflectance);
+                Local::Plastic(b)
+            }
+            Bsdf::RoughPlastic(b) => {
+                let (mut kd, mut ks) = (b.diffuse_reflectance, b.specular_reflectance);
+                rgb(P::Diffuse, &mut kd);
+                rgb(P::SpecularReflectance, &mut ks);
+                Local::RoughPlastic(b, kd, ks)
+            }
+            Bsdf::Conductor(b) => {
+                let mut b = *b;
+                rgb(P::SpecularReflectance, &mut b.specular_reflectance);
+                rgb(P::Eta, &mut b.eta);
+                rgb(P::K, &mut b.k);
+                Local::Conductor(b)
+            }
+            Bsdf::RoughConductor(b) => {
+                let mut b = *b;
+                rgb(P::SpecularReflectance, &mut b.specular_reflectance);
+                rgb(P::Eta, &mut b.eta);
+                rgb(P::K, &mut b.k);
+                alpha(P::Alpha, &mut b.distr.alpha_u);
+                alpha(P::AlphaV, &mut b.distr.alpha_v);
+                Local::RoughConductor(b)
+            }
+            Bsdf::ThinDielectric(b) => {
+                let mut b = *b;
+                rgb(P::SpecularReflectance, &mut b.specular_reflectance);
+                rgb(P::SpecularTransmittance, &mut b.specular_transmittance);
+                Local::ThinDielectric(b)
+            }
+            Bsdf::RoughDielectric(b) => {
+                let mut b = *b;
+                rgb(P::SpecularReflectance, &mut b.specular_reflectance);
+                rgb(P::SpecularTransmittance, &mut b.specular_transmittance);
+                alpha(P::Alpha, &mut b.distr.alpha_u);
+                alpha(P::AlphaV, &mut b.distr.alpha_v);
+                Local::RoughDielectric(b)
+            }
+            _ => unreachable!("Textured::new accepts only texturable models"),
+        }
+    }
+
+    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
+        match self.at(uv) {
+            Local::Diffuse(b) => b.eval(wi, wo),
+            Local::Plastic(b) => b.eval(wi, wo),
+            Local::RoughPlastic(b, kd, ks) => b.eval_tinted(kd, ks, wi, wo),
+            Local::RoughConductor(b) => b.eval(wi, wo),
+            Local::RoughDielectric(b) => b.eval(wi, wo),
+            Local::Microfacet(b) => b.eval(wi, wo),
+            Local::Conductor(_) | Local::ThinDielectric(_) => Rgb::ZERO,
+        }
+    }
+
+    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
+        match self.at(uv) {
+            Local::Diffuse(b) => b.pdf(wi, wo),
+            Local::Plastic(b) => b.pdf(wi, wo),
+            Local::RoughPlastic(b, _, _) => b.pdf(wi, wo),
+            Local::RoughConductor(b) => b.pdf(wi, wo),
+            Local::RoughDielectric(b) => b.pdf(wi, wo),
+            Local::Microfacet(b) => b.pdf(wi, wo),
+            Local::Conductor(_) | Local::ThinDielectric(_) => 0.0,
+        }
+    }
+
+    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        match self.at(uv) {
+            Local::Diffuse(b) => b.sample(wi, u),
+            Local::Plastic(b) => b.sample(wi, u, u_lobe),
+            Local::RoughPlastic(b, kd, ks) => b.sample_tinted(kd, ks, wi, u, u_lobe),
+            Local::Conductor(b) => b.sample(wi),
+            Local::RoughConductor(b) => b.sample(wi, u),
+            Local::ThinDielectric(b) => b.sample(wi, u_lobe),
+            Local::RoughDielectric(b) => b.sample(wi, u, u_lobe),
+            Local::Microfacet(b) => b.sample(wi, u, u_lobe),
+        }
+    }
+}

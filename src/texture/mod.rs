@@ -1,0 +1,124 @@
+//! Textures: values that vary over a surface with the hit's (u, v), as
+//! Mitsuba 3 defines them (`textures/*.cpp`). One kind per file; a BSDF
+//! parameter that accepts a texture holds a [`Texture`], and a constant is
+//! the `Constant` kind, so untextured scenes pay one match per lookup.
+
+mod bitmap;
+mod checkerboard;
+
+pub use bitmap::{BitmapTexture, FilterType, TextureImage, WrapMode};
+pub use checkerboard::Checkerboard;
+
+use crate::color::{luminance, Rgb};
+use crate::math::Vec2;
+
+/// The closed set of textures.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texture {
+    Constant(Rgb),
+    Bitmap(BitmapTexture),
+    Checkerboard(Checkerboard),
+}
+
+impl From<Rgb> for Texture {
+    fn from(c: Rgb) -> Texture {
+        Texture::Constant(c)
+    }
+}
+
+impl Texture {
+    /// The colour at `uv`.
+    #[inline]
+    pub fn eval(&self, uv: Vec2) -> Rgb {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Bitmap(t) => t.eval(uv),
+            Texture::Checkerboard(t) => t.eval(uv),
+        }
+    }
+
+    /// A single value at `uv` (roughness, opacity): Mitsuba's `eval_1`, the
+    /// luminance of a colour (a grey's value).
+    #[inline]
+    pub fn eval_1(&self, uv: Vec2) -> f32 {
+        match self {
+            Texture::Constant(c) => luminance(*c),
+            Texture::Bitmap(t) => luminance(t.eval(uv)),
+            Texture::Checkerboard(t) => t.eval_1(uv),
+        }
+    }
+
+    /// The value if it does not vary.
+    pub fn constant(&self) -> Option<Rgb> {
+        match self {
+            Texture::Constant(c) => Some(*c),
+            _ => None,
+        }
+    }
+
+    /// Mean colour over the unit uv square (Mitsuba's `mean()`, per
+    /// channel): what lobe-selection weights are computed from.
+    pub fn mean(&self) -> Rgb {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Bitmap(t) => t.image().mean(),
+            Texture::Checkerboard(t) => (t.color0 + t.color1) * 0.5,
+        }
+    }
+
+    /// The largest value in any channel anywhere.
+    pub fn max_value(&self) -> f32 {
+        match self {
+            Texture::Constant(c) => c.max_element(),
+            Texture::Bitmap(t) => t.image().max_value(),
+            Texture::Checkerboard(t) => t.color0.max_element().max(t.color1.max_element()),
+        }
+    }
+
+    /// True unless it is a constant.
+    pub fn is_varying(&self) -> bool {
+        !matches!(self, Texture::Constant(_))
+    }
+}
+
+/// Mitsuba's `to_uv`: a 2D affine map applied to the hit's uv before a
+/// lookup (the 2x2 part and the x/y translation of the XML transform).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    /// Rows of the 2x3 matrix.
+    pub row0: [f32; 3],
+    pub row1: [f32; 3],
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        UvTransform::IDENTITY
+    }
+}
+
+impl UvTransform {
+    pub const IDENTITY: UvTransform = UvTransform {
+        row0: [1.0, 0.0, 0.0],
+        row1: [0.0, 1.0, 0.0],
+    };
+
+    /// From a 4x4 scene transform, as Mitsuba reads a 3D transform given
+    /// for a 2D one: x and y rows, x and y columns and the translation.
+    pub fn from_mat4(m: &crate::math::Mat4) -> UvTransform {
+        UvTransform {
+            row0: [m.x_axis.x, m.y_axis.x, m.w_axis.x],
+            row1: [m.x_axis.y, m.y_axis.y, m.w_axis.y],
+        }
+    }
+
+    #[inline]
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        if *self == UvTransform::IDENTITY {
+            return uv;
+        }
+        Vec2::new(
+            self.row0[0] * uv.x + self.row0[1] * uv.y + self.row0[2],
+            self.row1[0] * uv.x + self.row1[1] * uv.y + self.row1[2],
+        )
+    }
+}

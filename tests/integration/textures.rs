@@ -1,0 +1,179 @@
+//! Textures read from Mitsuba files (`bitmap`, `checkerboard`): what the
+//! reader builds, shared images, errors that name the property, and the
+//! textured BSDF's consistency (weight = eval cos / pdf at every uv).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use lente::bsdf::Bsdf;
+use lente::color::Rgb;
+use lente::load::SceneFile;
+use lente::math::{Vec2, Vec3};
+use lente::sampling::Sampler;
+use lente::texture::Texture;
+
+use crate::mitsuba_parse::scene;
+
+/// Scenes are read as if they stood in tests/conformance, next to its
+/// images (tiles.png: 16 x 8 sRGB colour; roughness.png: 8 x 8 grey).
+fn load(body: &str) -> SceneFile {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/t.xml");
+    crate::common::load_clean_at(&scene(body), &path)
+}
+
+fn load_err(body: &str) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/t.xml");
+    crate::common::load_err_at(&scene(body), &path).report()
+}
+
+fn textures(b: &Bsdf) -> Vec<(lente::bsdf::BsdfParam, Texture)> {
+    match b {
+        Bsdf::Textured(t) => t.textures().to_vec(),
+        Bsdf::TwoSided(t) => textures(&t.front),
+        other => panic!("not textured: {other:?}"),
+    }
+}
+
+#[test]
+fn bitmap_and_checkerboard_are_read_and_images_are_shared() {
+    let desc = load(
+        r#"<texture type="bitmap" id="t"><string name="filename" value="tiles.png"/></texture>
+           <shape type="sphere"><bsdf type="diffuse"><ref id="t" name="reflectance"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="plastic">
+               <texture type="bitmap" name="diffuse_reflectance"><string name="filename" value="tiles.png"/>
+                   <string name="filter_type" value="nearest"/></texture></bsdf></shape>
+           <shape type="sphere"><bsdf type="twosided"><bsdf type="diffuse">
+               <texture type="checkerboard" name="reflectance"><float name="color1" value="0.9"/></texture>
+           </bsdf></bsdf></shape>
+           <shape type="sphere"><bsdf type="roughconductor">
+               <texture type="bitmap" name="alpha"><string name="filename" value="roughness.png"/>
+                   <boolean name="raw" value="true"/></texture></bsdf></shape>"#,
+    );
+    let b: Vec<&Bsdf> = desc.scene.shapes.iter().map(|s| &s.bsdf).collect();
+    let (Texture::Bitmap(a), Texture::Bitmap(c)) = (&textures(b[0])[0].1, &textures(b[1])[0].1)
+    else {
+        panic!("bitmaps expected");
+    };
+    assert!(Arc::ptr_eq(a.image(), c.image()), "one file, one image");
+    assert_eq!((a.image().width(), a.image().height()), (16, 8));
+    // The first texel is sRGB (230, 60, 40), decoded to linear.
+    let first = a.eval(Vec2::new(0.5 / 16.0, 0.5 / 8.0));
+    let want = Rgb::new(
+        lente::color::srgb_decode(230.0 / 255.0),
+        lente::color::srgb_decode(60.0 / 255.0),
+        lente::color::srgb_decode(40.0 / 255.0),
+    );
+    assert!((first - want).abs().max_element() < 1e-5, "{first}");
+    // The checkerboard keeps Mitsuba's defaults where not given.
+    let Texture::Checkerboard(k) = &textures(b[2])[0].1 else {
+        panic!("checkerboard expected");
+    };
+    assert_eq!((k.color0, k.color1), (Rgb::splat(0.4), Rgb::splat(0.9)));
+    // The raw roughness is the byte value / 255, for both alpha_u and alpha_v.
+    let rough = textures(b[3]);
+    assert_eq!(rough.len(), 2);
+    let Texture::Bitmap(r) = &rough[0].1 else {
+        panic!("bitmap expected");
+    };
+    let v = r.eval(Vec2::new(0.5 / 8.0, 0.5)).x;
+    assert!((v - 12.0 / 255.0).abs() < 1e-6, "{v}");
+}
+
+#[test]
+fn texture_errors_name_the_property() {
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+           <string name="filename" value="tiles.png"/><string name="filter_type" value="cubic"/>
+           </texture></bsdf></shape>"#,
+    );
+    assert!(
+        e.contains("filter_type") && e.contains("bilinear or nearest"),
+        "{e}"
+    );
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+           <string name="filename" value="missing.png"/></texture></bsdf></shape>"#,
+    );
+    assert!(
+        e.contains("missing.png") && e.contains("cannot load the texture"),
+        "{e}"
+    );
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="dielectric"><texture type="checkerboard" name="int_ior"/>
+           </bsdf></shape>"#,
+    );
+    assert!(e.contains("int_ior") && e.contains("<texture>"), "{e}");
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="roughplastic"><texture type="checkerboard" name="alpha"/>
+           </bsdf></shape>"#,
+    );
+    assert!(
+        e.contains("'alpha'") && e.contains("cannot be a texture"),
+        "{e}"
+    );
+}
+
+/// At several uvs of a checkerboard-textured rough conductor and diffuse
+/// surface, every sample's weight is eval cos / pdf (the texture is read
+/// at the same uv by all three), and the diffuse weight is the texel.
+#[test]
+fn textured_weights_are_eval_cos_over_pdf_at_the_hit() {
+    let desc = load(
+        r#"<shape type="sphere"><bsdf type="diffuse">
+               <texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.8, 0.5, 0.2"/></texture>
+           </bsdf></shape>
+           <shape type="sphere"><bsdf type="roughconductor"><string name="distribution" value="ggx"/>
+               <texture type="checkerboard" name="alpha"><float name="color0" value="0.05"/><float name="color1" value="0.6"/></texture>
+               <texture type="checkerboard" name="specular_reflectance"/>
+           </bsdf></shape>"#,
+    );
+    let mut sampler = Sampler::new(7, 0);
+    let wi = Vec3::new(0.3, -0.2, 0.9).normalize();
+    for (i, shape) in desc.scene.shapes.iter().enumerate() {
+        for uv in [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.7, 0.2),
+            Vec2::new(0.6, 0.9),
+        ] {
+            let mut n = 0;
+            for _ in 0..200 {
+                let Some(s) = shape
+                    .bsdf
+                    .sample(uv, wi, sampler.next_2d(), sampler.next_1d())
+                else {
+                    continue;
+                };
+                n += 1;
+                let f = shape.bsdf.eval(uv, wi, s.wo);
+                let pdf = shape.bsdf.pdf(uv, wi, s.wo);
+                assert!(
+                    (pdf - s.pdf).abs() <= 1e-3 * s.pdf.max(1e-3),
+                    "{pdf} {}",
+                    s.pdf
+                );
+                let w = f * s.wo.z / pdf;
+                assert!(
+                    (w - s.weight).abs().max_element() <= 1e-3 * s.weight.max_element().max(1e-3),
+                    "shape {i} uv {uv}: {w} vs {}",
+                    s.weight
+                );
+                if i == 0 {
+                    let want = if (uv.x > 0.5) == (uv.y > 0.5) {
+                        Rgb::new(0.8, 0.5, 0.2)
+                    } else {
+                        Rgb::splat(0.2)
+                    };
+                    assert!((s.weight - want).abs().max_element() < 1e-6);
+                }
+            }
+            assert!(n > 100, "shape {i}: only {n} samples");
+        }
+    }
+    // The two roughness squares give visibly different lobes: the pdf of
+    // the mirror direction differs by orders of magnitude.
+    let rough = &desc.scene.shapes[1].bsdf;
+    let mirror = Vec3::new(-wi.x, -wi.y, wi.z);
+    let sharp = rough.pdf(Vec2::new(0.75, 0.25), wi, mirror);
+    let wide = rough.pdf(Vec2::new(0.25, 0.25), wi, mirror);
+    assert!(sharp > 50.0 * wide, "{sharp} vs {wide}");
+}
