@@ -20,6 +20,9 @@ pub struct CameraParams {
     pub height: u32,
     /// Horizontal field of view in degrees.
     pub fov_x_deg: f32,
+    /// The image axis the scene gave the field of view for: a new image
+    /// size ([`CameraParams::set_resolution`]) keeps the view along it.
+    pub fov_axis: FovAxis,
     pub near_clip: f32,
     pub far_clip: f32,
     pub to_world: Transform,
@@ -33,6 +36,59 @@ pub struct CameraParams {
     pub autofocus: bool,
 }
 
+/// Which extent of the image a scene's field of view spans (Mitsuba's
+/// `fov_axis`; Nori's `fov` is horizontal, `X`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FovAxis {
+    #[default]
+    X,
+    Y,
+    Diagonal,
+    /// The shorter side (y for a landscape image).
+    Smaller,
+    /// The longer side.
+    Larger,
+}
+
+impl FovAxis {
+    /// tan(half the view along this axis) / tan(half the horizontal view)
+    /// for an image of aspect width / height.
+    fn tan_ratio(self, aspect: f64) -> f64 {
+        match self {
+            FovAxis::X => 1.0,
+            FovAxis::Y => 1.0 / aspect,
+            FovAxis::Diagonal => (1.0 + 1.0 / (aspect * aspect)).sqrt(),
+            FovAxis::Smaller if aspect > 1.0 => 1.0 / aspect,
+            FovAxis::Smaller => 1.0,
+            FovAxis::Larger if aspect > 1.0 => 1.0,
+            FovAxis::Larger => 1.0 / aspect,
+        }
+    }
+
+    /// The horizontal field of view (degrees) of an image of aspect
+    /// width / height whose view along this axis is `fov` degrees.
+    pub fn horizontal_fov(self, fov: f64, aspect: f64) -> f64 {
+        let t = (0.5 * fov).to_radians().tan() / self.tan_ratio(aspect);
+        2.0 * t.atan().to_degrees()
+    }
+}
+
+impl CameraParams {
+    /// A new image size that keeps the field of view along `fov_axis`, as
+    /// Mitsuba does when its film changes shape (`--resolution`).
+    pub fn set_resolution(&mut self, width: u32, height: u32) {
+        if self.width > 0 && self.height > 0 && width > 0 && height > 0 {
+            let old = self.width as f64 / self.height as f64;
+            let new = width as f64 / height as f64;
+            let half_x = (0.5 * self.fov_x_deg as f64).to_radians().tan();
+            let along = 2.0 * (half_x * self.fov_axis.tan_ratio(old)).atan().to_degrees();
+            self.fov_x_deg = self.fov_axis.horizontal_fov(along, new) as f32;
+        }
+        self.width = width;
+        self.height = height;
+    }
+}
+
 impl Default for CameraParams {
     /// Nori's defaults.
     fn default() -> Self {
@@ -40,6 +96,7 @@ impl Default for CameraParams {
             width: 1280,
             height: 720,
             fov_x_deg: 30.0,
+            fov_axis: FovAxis::X,
             near_clip: 1e-4,
             far_clip: 1e4,
             to_world: Transform::IDENTITY,
@@ -326,6 +383,7 @@ mod tests {
         );
         let fov = CameraParams {
             fov_x_deg: 180.0,
+            fov_axis: FovAxis::X,
             ..ok.clone()
         };
         assert_eq!(bad(fov), CameraParam::FieldOfView);

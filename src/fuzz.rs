@@ -30,10 +30,11 @@ pub enum Target {
     Pfm,
     Exr,
     Png,
+    Jpeg,
 }
 
 impl Target {
-    pub const ALL: [Target; 10] = [
+    pub const ALL: [Target; 11] = [
         Target::NoriScene,
         Target::MitsubaScene,
         Target::NoriTest,
@@ -44,6 +45,7 @@ impl Target {
         Target::Pfm,
         Target::Exr,
         Target::Png,
+        Target::Jpeg,
     ];
 
     /// The cargo-fuzz target's name (and its folders' names).
@@ -59,6 +61,7 @@ impl Target {
             Target::Pfm => "pfm",
             Target::Exr => "exr",
             Target::Png => "png",
+            Target::Jpeg => "jpeg",
         }
     }
 
@@ -127,6 +130,7 @@ pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
         Target::Pfm => decode_image(bytes, "pfm").map(drop).map_err(|e| e.0),
         Target::Exr => decode_image(bytes, "exr").map(drop).map_err(|e| e.0),
         Target::Png => decode_image(bytes, "png").map(drop).map_err(|e| e.0),
+        Target::Jpeg => decode_image(bytes, "jpg").map(drop).map_err(|e| e.0),
     }
 }
 

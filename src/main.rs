@@ -362,8 +362,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         mut job,
     } = load(&scene_path, &define)?;
     if let Some((w, h)) = resolution {
-        desc.camera.width = w;
-        desc.camera.height = h;
+        desc.camera.set_resolution(w, h);
     }
     if let Some(spp) = spp {
         job.spp = spp;

@@ -382,6 +382,7 @@ impl<'a> Ctx<'a> {
             width,
             height,
             fov_x_deg: fov,
+            fov_axis: crate::camera::FovAxis::X,
             near_clip,
             far_clip,
             to_world,

@@ -221,6 +221,7 @@ pub fn look_at(origin: Vec3, target: Vec3, fov: f32, w: u32, h: u32) -> CameraPa
         width: w,
         height: h,
         fov_x_deg: fov,
+        fov_axis: lente::camera::FovAxis::X,
         to_world: Transform::new(m).unwrap(),
         ..Default::default()
     }

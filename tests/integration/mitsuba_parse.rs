@@ -167,6 +167,36 @@ fn fov_x(sensor_body: &str, w: u32, h: u32) -> f32 {
     load_clean(&with_sensor(&s)).scene.camera.fov_x_deg
 }
 
+/// `--resolution` with another shape keeps the field of view along the
+/// file's `fov_axis`: the camera equals the one the file would give with
+/// that film size (Mitsuba's behaviour when its film is resized).
+#[test]
+fn a_new_resolution_keeps_the_view_along_fov_axis() {
+    let body = |axis: &str| {
+        format!("<float name=\"fov\" value=\"40\"/><string name=\"fov_axis\" value=\"{axis}\"/>")
+    };
+    for axis in ["x", "y", "diagonal", "smaller", "larger"] {
+        let s = format!(
+            "<sensor type=\"perspective\">{}<film type=\"hdrfilm\"><integer name=\"width\" value=\"800\"/><integer name=\"height\" value=\"400\"/></film></sensor>",
+            body(axis)
+        );
+        let mut camera = load_clean(&with_sensor(&s)).scene.camera;
+        for (w, h) in [(300, 600), (500, 500), (1000, 250)] {
+            camera.set_resolution(w, h);
+            close_f(camera.fov_x_deg, fov_x(&body(axis), w, h), 1e-4);
+            assert_eq!((camera.width, camera.height), (w, h));
+        }
+    }
+    // focal_length spans the diagonal.
+    let f = "<string name=\"focal_length\" value=\"35mm\"/>";
+    let s = format!(
+        "<sensor type=\"perspective\">{f}<film type=\"hdrfilm\"><integer name=\"width\" value=\"1500\"/><integer name=\"height\" value=\"1000\"/></film></sensor>"
+    );
+    let mut camera = load_clean(&with_sensor(&s)).scene.camera;
+    camera.set_resolution(400, 800);
+    close_f(camera.fov_x_deg, fov_x(f, 400, 800), 1e-4);
+}
+
 #[test]
 fn fov_axes_convert_to_the_horizontal_fov() {
     let fov = |axis: &str, w, h| {

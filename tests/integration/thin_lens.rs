@@ -18,6 +18,7 @@ fn camera(lens_radius: f32, focal_distance: f32, aperture: Aperture) -> Camera {
         width: 200,
         height: 150,
         fov_x_deg: 40.0,
+        fov_axis: lente::camera::FovAxis::X,
         lens_radius,
         focal_distance,
         aperture,

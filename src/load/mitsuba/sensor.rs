@@ -2,7 +2,7 @@
 //! `hdrfilm`, reconstruction filters and samplers.
 
 use super::{Child, Ctx};
-use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
+use crate::camera::{Aperture, CameraParam, CameraParams, FovAxis, MAX_RESOLUTION};
 use crate::image::{Filter, FilterParam};
 use crate::load::props::{int_in, Kind, Props};
 use crate::load::xml::{Pos, SceneNode};
@@ -68,7 +68,7 @@ impl<'d> Ctx<'d> {
             None => 4,
         };
         let aspect = width as f64 / height as f64;
-        let fov_x = horizontal_fov(&mut p, aspect)?;
+        let (fov_x, fov_axis) = horizontal_fov(&mut p, aspect)?;
         let near_clip = p.get_float("near_clip", 1e-2)?;
         let far_clip = p.get_float("far_clip", 1e4)?;
         // Mitsuba asks more of near_clip than lente's camera does.
@@ -119,6 +119,7 @@ impl<'d> Ctx<'d> {
             width,
             height,
             fov_x_deg: fov_x,
+            fov_axis,
             near_clip,
             far_clip,
             to_world,
@@ -298,7 +299,7 @@ impl<'d> Ctx<'d> {
 /// The horizontal field of view in degrees from `fov` + `fov_axis` or
 /// `focal_length` (Mitsuba's `parse_fov` in `render/sensor.cpp`; `aspect`
 /// is width / height).
-fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<f32> {
+fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<(f32, FovAxis)> {
     if p.has("fov") && p.has("focal_length") {
         return Err(p.error(
             "focal_length",
@@ -313,12 +314,23 @@ fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<f32> {
                 format!("'fov' must be between 0 and 180 degrees (exclusive), found {fov}"),
             ));
         }
-        let mut axis = p.get_string("fov_axis", "x".into())?.to_ascii_lowercase();
-        if axis == "smaller" {
-            axis = if aspect > 1.0 { "y" } else { "x" }.into();
-        } else if axis == "larger" {
-            axis = if aspect > 1.0 { "x" } else { "y" }.into();
-        }
+        let axis = match p
+            .get_string("fov_axis", "x".into())?
+            .to_ascii_lowercase()
+            .as_str()
+        {
+            "x" => FovAxis::X,
+            "y" => FovAxis::Y,
+            "diagonal" => FovAxis::Diagonal,
+            "smaller" => FovAxis::Smaller,
+            "larger" => FovAxis::Larger,
+            other => {
+                return Err(p.error(
+                    "fov_axis",
+                    format!("unknown fov_axis '{other}'; use x, y, diagonal, smaller or larger"),
+                ))
+            }
+        };
         (fov, axis, "fov")
     } else {
         let f = if p.kind_of("focal_length") == Some(Kind::Float)
@@ -346,33 +358,18 @@ fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<f32> {
         let diag = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
         (
             2.0 * (diag / (2.0 * f)).atan().to_degrees(),
-            "diagonal".to_string(),
+            FovAxis::Diagonal,
             "focal_length",
         )
     };
-    let half = (0.5 * fov).to_radians();
-    let x = match axis.as_str() {
-        "x" => fov,
-        "y" => 2.0 * (half.tan() * aspect).atan().to_degrees(),
-        "diagonal" => {
-            let diagonal = 2.0 * half.tan();
-            let width = diagonal / (1.0 + 1.0 / (aspect * aspect)).sqrt();
-            2.0 * (0.5 * width).atan().to_degrees()
-        }
-        other => {
-            return Err(p.error(
-                "fov_axis",
-                format!("unknown fov_axis '{other}'; use x, y, diagonal, smaller or larger"),
-            ))
-        }
-    };
+    let x = axis.horizontal_fov(fov, aspect);
     if !(x > 0.0 && x < 180.0) {
         return Err(p.error(
             from,
             format!("the horizontal field of view must be between 0 and 180 degrees, found {x}"),
         ));
     }
-    Ok(x as f32)
+    Ok((x as f32, axis))
 }
 
 /// Mitsuba's name of a camera parameter (the film's size and the
@@ -410,6 +407,7 @@ pub(super) fn default_sensor(shapes: &[ShapeDesc]) -> SensorDesc {
         width: 768,
         height: 576,
         fov_x_deg: 45.0,
+        fov_axis: crate::camera::FovAxis::X,
         near_clip: 1e-2,
         far_clip: 1e4,
         to_world: Transform::IDENTITY,
