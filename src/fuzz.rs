@@ -143,7 +143,7 @@ mod tests {
         for t in Target::ALL {
             assert_eq!(Target::from_name(t.name()), Some(t));
         }
-        assert_eq!(Target::from_name("jpeg"), None);
+        assert_eq!(Target::from_name("tga"), None);
     }
 
     #[test]
