@@ -80,9 +80,10 @@ impl CameraParams {
         if self.width > 0 && self.height > 0 && width > 0 && height > 0 {
             let old = self.width as f64 / self.height as f64;
             let new = width as f64 / height as f64;
+            // The half-view's tangent along the axis stays; x follows it.
             let half_x = (0.5 * self.fov_x_deg as f64).to_radians().tan();
-            let along = 2.0 * (half_x * self.fov_axis.tan_ratio(old)).atan().to_degrees();
-            self.fov_x_deg = self.fov_axis.horizontal_fov(along, new) as f32;
+            let scaled = half_x * self.fov_axis.tan_ratio(old) / self.fov_axis.tan_ratio(new);
+            self.fov_x_deg = (2.0 * scaled.atan().to_degrees()) as f32;
         }
         self.width = width;
         self.height = height;

@@ -108,9 +108,12 @@ impl<'d> Ctx<'d> {
 
 /// A constant colour or number (a checkerboard's colours).
 fn constant(p: &mut Props, name: &str, default: f32) -> Result<crate::color::Rgb> {
-    match p.get_texture(name, crate::color::Rgb::splat(default))? {
-        Texture::Constant(c) => Ok(c),
-        _ => Err(p.error(
+    match p
+        .get_texture(name, crate::color::Rgb::splat(default))?
+        .constant()
+    {
+        Some(c) => Ok(c),
+        None => Err(p.error(
             name,
             format!(
                 "'{name}' must be a constant colour or number (nested textures are not supported)"
