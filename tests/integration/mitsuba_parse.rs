@@ -658,6 +658,87 @@ fn includes_splice_files() {
         .contains("includes itself"));
 }
 
+/// Mitsuba 3.9.1's resolver: a nested include is looked for next to the
+/// file that includes it, then next to each file further out (here the
+/// scene's folder); a `<path>` folder likewise falls back to the scene's.
+#[test]
+fn nested_includes_and_paths_fall_back_to_the_including_files_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let inc = dir.path().join("include");
+    std::fs::create_dir_all(inc.join("include")).unwrap();
+    std::fs::create_dir_all(dir.path().join("meshes")).unwrap();
+    // include/base.xml names "include/grey.xml": not in include/include/,
+    // but in the scene's folder's include/.
+    std::fs::write(
+        inc.join("base.xml"),
+        "<scene version=\"3.0.0\">\n<path value=\"meshes\"/>\n<include filename=\"include/grey.xml\"/>\n</scene>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        inc.join("grey.xml"),
+        "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"grey\"/>\n</scene>\n",
+    )
+    .unwrap();
+    let path = dir.path().join("main.xml");
+    std::fs::write(
+        &path,
+        "<scene version=\"3.0.0\">\n<include filename=\"include/base.xml\"/>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>\n</scene>\n",
+    )
+    .unwrap();
+    let (desc, _) = load_scene(&path).unwrap();
+    assert_eq!(desc.scene.shapes.len(), 1);
+    // A file next to the includer wins over one further out.
+    std::fs::write(
+        inc.join("include").join("grey.xml"),
+        "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"grey\"><rgb name=\"reflectance\" value=\"0.25\"/></bsdf>\n</scene>\n",
+    )
+    .unwrap();
+    let (desc, _) = load_scene(&path).unwrap();
+    assert_eq!(
+        desc.scene.shapes[0].bsdf,
+        Bsdf::Diffuse(lente::bsdf::Diffuse {
+            albedo: Rgb::splat(0.25)
+        })
+    );
+    // Found nowhere: the error names the place next to the includer.
+    std::fs::write(
+        inc.join("base.xml"),
+        "<scene version=\"3.0.0\">\n<include filename=\"nothere.xml\"/>\n</scene>\n",
+    )
+    .unwrap();
+    let e = load_scene(&path).unwrap_err();
+    assert_eq!(e.file, inc.join("base.xml"));
+    assert!(e.message.contains("include/nothere.xml"), "{e}");
+}
+
+/// An area emitter declared at the top level with an id and referenced
+/// from shapes (Mitsuba's cbox-rgb.xml, where the reference comes first).
+#[test]
+fn a_top_level_area_emitter_can_be_referenced_by_shapes() {
+    let desc = load_clean(&scene(
+        r#"<shape type="rectangle"><ref id="lamp"/></shape>
+           <emitter type="area" id="lamp"><rgb name="radiance" value="2, 3, 4"/></emitter>"#,
+    ));
+    assert_eq!(
+        desc.scene.shapes[0].area_radiance,
+        Some(Rgb::new(2.0, 3.0, 4.0))
+    );
+    // Used by no shape: an error, as it has nowhere to emit from.
+    assert_err(
+        &scene(r#"<emitter type="area" id="lamp"/>"#),
+        4,
+        1,
+        &["'lamp'", "no shape uses it", "<ref id=\"lamp\"/>"],
+    );
+    // Without an id nothing can use it.
+    assert_err(
+        &scene(r#"<emitter type="area"/>"#),
+        4,
+        1,
+        &["cannot stand inside <scene>"],
+    );
+}
+
 // ---------------------------------------------------------------------------
 // Values and transforms
 // ---------------------------------------------------------------------------

@@ -260,7 +260,14 @@ impl<'d> Ctx<'d> {
                     ctx.check_attributes(node, &["value"], &["value"])?;
                     ctx.no_content(node)?;
                     let value = node.attr_value("value").unwrap_or_default();
-                    let dir = parent_dir(&files[item.file]).join(value);
+                    // Next to its file, else (Mitsuba's file resolver) next
+                    // to the scene file.
+                    let here = parent_dir(&files[item.file]).join(value);
+                    let dir = if here.is_dir() {
+                        here
+                    } else {
+                        parent_dir(&files[0]).join(value)
+                    };
                     if !dir.is_dir() {
                         return Err(ctx.err(
                             node.pos,
@@ -546,6 +553,15 @@ impl<'d> Ctx<'d> {
                     let s = self.enter(&child, |c| c.shape(child.node))?;
                     shapes.push(s);
                 }
+                // Mitsuba lets an area emitter be declared at the top level
+                // with an id, for shapes to `<ref>`; it is built where used.
+                "emitter"
+                    if tag == "emitter"
+                        && child.node.attr_value("type") == Some("area")
+                        && child.node.attr("id").is_some() =>
+                {
+                    definitions.push(child)
+                }
                 "emitter" => match self.enter(&child, |c| c.emitter(child.node, false))? {
                     EmitterDesc::Free {
                         emitter,
@@ -608,6 +624,16 @@ impl<'d> Ctx<'d> {
                 continue;
             }
             match d.node.tag.as_str() {
+                "emitter" => {
+                    let id = d.node.attr_value("id").unwrap_or_default();
+                    return Err(self.err(
+                        d.at,
+                        format!(
+                            "the area emitter '{id}' stands inside <scene> but no shape uses it; \
+                             reference it from a <shape> with <ref id=\"{id}\"/>"
+                        ),
+                    ));
+                }
                 "bsdf" => {
                     self.enter(&d, |c| c.bsdf(d.node))?;
                 }

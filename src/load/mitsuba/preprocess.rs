@@ -2,7 +2,7 @@
 //! (from `-D` and `<default>`) and `<include>`d files, which leave one list
 //! of top-level elements with their files.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::{parent_dir, MAX_INCLUDES, MAX_INCLUDE_DEPTH};
 use crate::load::props::shorten;
@@ -226,6 +226,24 @@ impl Pre {
         Ok(())
     }
 
+    /// Where an included file is, as Mitsuba 3 finds it: next to the file
+    /// that includes it, else next to each file that includes that one in
+    /// turn, out to the scene file (its file resolver gains each including
+    /// file's folder). A name found nowhere stays next to the includer, for
+    /// the error message.
+    fn resolve_include(&self, file: usize, name: &str) -> PathBuf {
+        let here = parent_dir(&self.files[file]).join(name);
+        if Path::new(name).is_absolute() || here.exists() {
+            return here;
+        }
+        self.include_stack
+            .iter()
+            .rev()
+            .map(|f| parent_dir(f).join(name))
+            .find(|p| p.exists())
+            .unwrap_or(here)
+    }
+
     /// `<include filename=".."/>`: a `<scene>` file contributes its
     /// children, any other file its root object.
     fn include(&mut self, node: &SceneNode, file: usize) -> Result<()> {
@@ -237,8 +255,7 @@ impl Pre {
         )?;
         no_content(&self.files[file], node)?;
         let name = node.attr_value("filename").unwrap_or_default();
-        let dir = parent_dir(&self.files[file]);
-        let path = dir.join(name);
+        let path = self.resolve_include(file, name);
         // `files` holds the scene file and every include read so far.
         if self.files.len() > MAX_INCLUDES {
             return Err(self.err(
