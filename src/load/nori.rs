@@ -986,7 +986,7 @@ fn fork_hint(p: &mut Props, name: &str, message: &str) -> Result<()> {
         Kind::Vector => {
             let _ = p.opt_vector_raw(name)?;
         }
-        Kind::Color => {
+        Kind::Color | Kind::Spectrum => {
             let _ = p.opt_rgb_raw(name)?;
         }
         Kind::Transform => {

@@ -10,7 +10,7 @@ use std::path::Path;
 
 use super::xml::{Attribute, Pos};
 use super::{SceneError, Warning};
-use crate::color::Rgb;
+use crate::color::{Rgb, Spectrum, SpectrumUse};
 use crate::math::{Transform, Vec3};
 use crate::texture::Texture;
 
@@ -26,6 +26,7 @@ pub enum Kind {
     Color,
     Transform,
     Texture,
+    Spectrum,
 }
 
 impl Kind {
@@ -40,6 +41,7 @@ impl Kind {
             Kind::Color => "color",
             Kind::Transform => "transform",
             Kind::Texture => "texture",
+            Kind::Spectrum => "spectrum",
         }
     }
 }
@@ -58,6 +60,9 @@ pub enum Value {
     /// A varying texture (`bitmap`, `checkerboard`); constant ones are
     /// `Color` or `Float`.
     Texture(Texture),
+    /// A spectrum; it becomes a colour when read, in the way its object's
+    /// [`SpectrumUse`] says.
+    Spectrum(Spectrum),
 }
 
 impl Value {
@@ -72,6 +77,7 @@ impl Value {
             Value::Color(_) => Kind::Color,
             Value::Transform(_) => Kind::Transform,
             Value::Texture(_) => Kind::Texture,
+            Value::Spectrum(_) => Kind::Spectrum,
         }
     }
 }
@@ -99,6 +105,8 @@ pub struct Props<'a> {
     warnings: Vec<Warning>,
     /// How the dialect spells a colour property's element (`color`, `rgb`).
     color_tag: &'static str,
+    /// How spectra become colours ([`Props::set_spectrum_use`]).
+    spectrum_use: SpectrumUse,
 }
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -141,7 +149,14 @@ impl<'a> Props<'a> {
             queried: Vec::new(),
             warnings: Vec::new(),
             color_tag: "color",
+            spectrum_use: SpectrumUse::Reflectance,
         }
+    }
+
+    /// How spectra read from now on become colours (reflectances unless
+    /// told otherwise); returns the previous setting.
+    pub fn set_spectrum_use(&mut self, use_: SpectrumUse) -> SpectrumUse {
+        std::mem::replace(&mut self.spectrum_use, use_)
     }
 
     /// Names colour properties `<tag>` in messages (Mitsuba writes `<rgb>`).
@@ -256,6 +271,36 @@ impl<'a> Props<'a> {
         // An integer stands in for a float.
         if let (Kind::Float, Value::Int(i)) = (want, &p.value) {
             return Ok(Some(Value::Float(*i as f32)));
+        }
+        // A spectrum is a colour (a flat one a number too), in RGB.
+        match (want, &p.value) {
+            (Kind::Float, Value::Spectrum(Spectrum::Uniform(v))) => {
+                return Ok(Some(Value::Float(*v)));
+            }
+            (Kind::Color, Value::Spectrum(spectrum)) => {
+                let (rgb, clipped) = spectrum.to_rgb(self.spectrum_use);
+                if clipped {
+                    let warning = Warning::new(
+                        self.file,
+                        p.value_pos,
+                        format!(
+                            "the spectrum of '{name}' is outside the sRGB gamut{}; \
+                             clipped to {} {} {}, as Mitsuba's RGB modes do",
+                            if self.spectrum_use == SpectrumUse::Reflectance {
+                                " or above 1"
+                            } else {
+                                ""
+                            },
+                            rgb.x,
+                            rgb.y,
+                            rgb.z
+                        ),
+                    );
+                    self.warnings.push(warning);
+                }
+                return Ok(Some(Value::Color(rgb)));
+            }
+            _ => {}
         }
         Err(SceneError::new(
             self.file,

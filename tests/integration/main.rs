@@ -36,6 +36,7 @@ mod preview_cli;
 mod preview_e2e;
 mod scene_errors;
 mod shading_frames;
+mod spectra;
 mod textures;
 mod thin_lens;
 mod warps;

@@ -148,6 +148,12 @@ const CASES: &[Case] = &[
         renders: 16,
     },
     Case {
+        file: "spectra.xml",
+        covers: "spectra in RGB mode: wavelength:value lists as a reflectance, an area light's radiance and a roughconductor's eta/k; a .spd file; uniform spectra as a constant emitter's radiance and a plastic's reflectance",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
         file: "textures.xml",
         covers: "textures: checkerboard (to_uv; reflectance, specular_reflectance, inside twosided), bitmap (sRGB PNG, bilinear/nearest, repeat/mirror, to_uv, raw roughness); sphere and PLY uvs",
         spp: 192,

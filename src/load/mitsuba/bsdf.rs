@@ -8,7 +8,7 @@ use super::{Child, Ctx};
 use crate::bsdf::presets::{conductor_preset_names, ior_preset_names};
 use crate::bsdf::{conductor_preset, ior_preset, Bsdf, BsdfError, BsdfParam};
 use crate::bsdf::{MicrofacetType, Roughness};
-use crate::color::Rgb;
+use crate::color::{Rgb, SpectrumUse};
 use crate::load::props::{Kind, Props};
 use crate::load::xml::{describe, SceneNode};
 use crate::load::SceneError;
@@ -293,10 +293,12 @@ fn conductor_ior(p: &mut Props, tex: &mut Textures) -> Result<(Rgb, Rgb)> {
                 "give either 'material' or 'eta' and 'k', not both",
             ));
         }
-        return Ok((
-            tex.rgb(p, "eta", 0.0, BsdfParam::Eta)?,
-            tex.rgb(p, "k", 1.0, BsdfParam::K)?,
-        ));
+        // Mitsuba reads these unbounded: spectra are clipped only at zero.
+        let before = p.set_spectrum_use(SpectrumUse::Unbounded);
+        let eta = tex.rgb(p, "eta", 0.0, BsdfParam::Eta)?;
+        let k = tex.rgb(p, "k", 1.0, BsdfParam::K)?;
+        p.set_spectrum_use(before);
+        return Ok((eta, k));
     }
     conductor_preset(&material).ok_or_else(|| {
         let names: Vec<&str> = conductor_preset_names().collect();

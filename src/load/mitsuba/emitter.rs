@@ -1,7 +1,7 @@
 //! Emitters: area, point, directional, constant and envmap.
 
 use super::Ctx;
-use crate::color::Rgb;
+use crate::color::{Rgb, SpectrumUse};
 use crate::emitter::{
     ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight, TexelRows,
 };
@@ -49,6 +49,8 @@ impl<'d> Ctx<'d> {
         let owner = format!("<emitter type=\"{ty}\">");
         super::MITSUBA.check_emitter_place(self.file(), node, ty, in_shape)?;
         let (mut p, children) = self.read_object(node, &owner)?;
+        // Emitted spectra are integrated as they are, not lit by D65.
+        p.set_spectrum_use(SpectrumUse::Emission);
         self.no_children(&children, &owner)?;
         let both = |p: &Props, a: &str, b: &str| -> Result<()> {
             if p.has(a) && p.has(b) {

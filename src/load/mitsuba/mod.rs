@@ -26,6 +26,7 @@ mod integrator;
 mod preprocess;
 mod sensor;
 mod shape;
+mod spectrum;
 mod texture;
 
 use std::collections::{HashMap, HashSet};
@@ -36,7 +37,7 @@ use preprocess::{Item, Param, Pre};
 use sensor::{default_sensor, SensorDesc};
 
 use super::props::shorten;
-use super::props::{self, Props, Value};
+use super::props::{self, Props};
 use super::reader::{self, Dialect, LookAtError};
 use super::xml::{describe, Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
@@ -423,8 +424,9 @@ impl<'d> Ctx<'d> {
         owner: &str,
     ) -> Result<(Props<'d>, Vec<Child<'d>>)> {
         let file = self.file();
+        let this = &*self;
         let (mut props, nodes) =
-            MITSUBA.read_object(file, node, owner, &|n| spectrum_property(file, n))?;
+            MITSUBA.read_object(file, node, owner, &|n| this.spectrum_property(file, n))?;
         let mut children = Vec::with_capacity(nodes.len());
         for ch in nodes {
             children.push(self.child(ch)?);
@@ -518,7 +520,8 @@ impl<'d> Ctx<'d> {
                 self.child(node)?
             } else if MITSUBA.is_property(node) {
                 let file = self.file();
-                let special = |n: &SceneNode| spectrum_property(file, n);
+                let this = &*self;
+                let special = |n: &SceneNode| this.spectrum_property(file, n);
                 if item.file == 0 {
                     MITSUBA.read_property(file, node, &mut scene_props, &special)?;
                 } else {
@@ -690,44 +693,6 @@ impl<'d> Ctx<'d> {
                 filter: sensor.filter,
             },
         })
-    }
-}
-
-/// `<spectrum name=".." value=".."/>` as a property: one value (a grey) or
-/// three (RGB); wavelength:value pairs and spectrum files are refused.
-fn spectrum_property(file: &Path, node: &SceneNode) -> Result<Option<(Value, Pos)>> {
-    if node.tag != "spectrum" {
-        return Ok(None);
-    }
-    reader::check_attributes(file, node, &["name", "value", "filename"], &["name"])?;
-    reader::no_content(file, node)?;
-    let rgb_hint = "lente renders in RGB: give <rgb name=\"...\" value=\"r, g, b\"/>";
-    match (node.attr("value"), node.attr("filename")) {
-        (Some(v), None) => {
-            for (off, tok) in props::tokens(&v.value) {
-                if tok.contains(':') {
-                    return Err(SceneError::new(
-                        file,
-                        v.pos_in_value(off),
-                        format!(
-                            "spectral data not supported ('{tok}' is a wavelength:value pair); {rgb_hint}"
-                        ),
-                    ));
-                }
-            }
-            let c = props::parse_vec3(file, v, true)?;
-            Ok(Some((Value::Color(c), v.value_pos)))
-        }
-        (None, Some(f)) => Err(SceneError::new(
-            file,
-            f.value_pos,
-            format!("spectral data not supported (spectrum files); {rgb_hint}"),
-        )),
-        _ => Err(SceneError::new(
-            file,
-            node.pos,
-            "<spectrum> needs either a 'value' or a 'filename' attribute (not both)",
-        )),
     }
 }
 

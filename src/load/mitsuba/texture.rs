@@ -20,19 +20,21 @@ impl<'d> Ctx<'d> {
         let ty = self
             .object_type(
                 node,
-                &["uniform", "srgb", "bitmap", "checkerboard"],
                 &[
-                    "mesh_attribute",
-                    "volume",
-                    "d65",
+                    "uniform",
+                    "srgb",
+                    "bitmap",
+                    "checkerboard",
+                    "blackbody",
                     "regular",
                     "irregular",
-                    "blackbody",
+                    "d65",
                 ],
+                &["mesh_attribute", "volume"],
             )
             .map_err(|mut e| {
                 e.message
-                    .push_str(" (lente's textures: bitmap, checkerboard, uniform, srgb)");
+                    .push_str(" (lente's textures: bitmap, checkerboard, uniform, srgb; spectra: blackbody, regular, irregular, d65)");
                 e
             })?;
         let owner = describe(node);
@@ -48,6 +50,9 @@ impl<'d> Ctx<'d> {
                 let c = p.require_rgb("color")?;
                 p.get_bool("unbounded", false)?;
                 Value::Color(c)
+            }
+            "blackbody" | "regular" | "irregular" | "d65" => {
+                super::spectrum::spectrum_object(ty, &mut p)?
             }
             "checkerboard" => Value::Texture(Texture::Checkerboard(Checkerboard {
                 color0: constant(&mut p, "color0", 0.4)?,

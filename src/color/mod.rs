@@ -2,6 +2,11 @@
 
 pub use glam::Vec3 as Rgb;
 
+mod cie_tables;
+pub mod spectrum;
+
+pub use spectrum::{SampledSpectrum, Spectrum, SpectrumError, SpectrumUse};
+
 /// Luminance with the Rec. 709 weights Nori uses for its t-tests.
 pub fn luminance(c: Rgb) -> f32 {
     0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
