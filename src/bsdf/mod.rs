@@ -8,6 +8,7 @@ mod dielectric;
 mod diffuse;
 pub mod distribution;
 mod fresnel;
+mod mask;
 mod microfacet;
 mod mirror;
 mod params;
@@ -30,6 +31,7 @@ pub use distribution::{MicrofacetDistribution, MicrofacetType, Roughness};
 pub use fresnel::{
     fresnel_conductor, fresnel_conductor_1, fresnel_dielectric, fresnel_diffuse_reflectance,
 };
+pub use mask::Mask;
 pub use microfacet::Microfacet;
 pub use mirror::Mirror;
 pub use params::{BsdfError, BsdfParam};
@@ -60,6 +62,8 @@ pub enum Bsdf {
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
     TwoSided(TwoSided),
+    /// Mitsuba's `mask`: opacity, the rest passes straight through.
+    Mask(Mask),
     /// A model with textured parameters (boxed: rare, and large).
     Textured(Box<Textured>),
 }
@@ -222,6 +226,11 @@ impl Bsdf {
         Ok(Bsdf::TwoSided(TwoSided::new(front, back)?))
     }
 
+    /// `nested` with an opacity (see [`Mask::new`]).
+    pub fn mask(opacity: crate::texture::Texture, nested: Bsdf) -> Result<Bsdf, BsdfError> {
+        Ok(Bsdf::Mask(Mask::new(opacity, nested)?))
+    }
+
     /// `base` with textured parameters (see [`Textured::new`]); no
     /// textures gives `base` itself.
     pub fn textured(
@@ -237,7 +246,12 @@ impl Bsdf {
     /// True if some lobe scatters light through the surface.
     pub fn has_transmission(&self) -> bool {
         match self {
-            Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::RoughDielectric(_) => true,
+            Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::RoughDielectric(_)
+            // Light passes through a mask's holes (Mitsuba counts its null
+            // lobe as transmission too: twosided refuses a mask).
+            | Bsdf::Mask(_) => true,
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
             Bsdf::Textured(b) => b.base().has_transmission(),
             _ => false,
@@ -254,6 +268,7 @@ impl Bsdf {
             | Bsdf::Conductor(_)
             | Bsdf::ThinDielectric(_) => true,
             Bsdf::TwoSided(b) => b.front.is_specular() && b.back.is_specular(),
+            Bsdf::Mask(b) => b.nested.is_specular(),
             Bsdf::Textured(b) => b.base().is_specular(),
             _ => false,
         }
@@ -268,6 +283,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughPlastic(b) => Some(b.diffuse_reflectance),
             Bsdf::TwoSided(b) => b.front.albedo(),
+            Bsdf::Mask(b) => b.nested.albedo(),
             Bsdf::Textured(b) => b.base().albedo(),
             _ => None,
         }
@@ -284,6 +300,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.eval(wi, wo),
             Bsdf::RoughPlastic(b) => b.eval(wi, wo),
             Bsdf::TwoSided(b) => b.eval(uv, wi, wo),
+            Bsdf::Mask(b) => b.eval(uv, wi, wo),
             Bsdf::Textured(b) => b.eval(uv, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -302,6 +319,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.pdf(wi, wo),
             Bsdf::RoughPlastic(b) => b.pdf(wi, wo),
             Bsdf::TwoSided(b) => b.pdf(uv, wi, wo),
+            Bsdf::Mask(b) => b.pdf(uv, wi, wo),
             Bsdf::Textured(b) => b.pdf(uv, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -324,6 +342,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::TwoSided(b) => b.sample(uv, wi, u, u_lobe),
+            Bsdf::Mask(b) => b.sample(uv, wi, u, u_lobe),
             Bsdf::Textured(b) => b.sample(uv, wi, u, u_lobe),
         }
     }

@@ -20,8 +20,10 @@ pub enum BsdfParam {
     Eta,
     /// A conductor's complex index of refraction: imaginary part.
     K,
-    /// A BSDF nested in another (`twosided`'s).
+    /// A BSDF nested in another (`twosided`'s, `mask`'s).
     Nested,
+    /// A `mask`'s opacity.
+    Opacity,
 }
 
 /// BSDF parameters that describe no BSDF. Each message completes a

@@ -941,7 +941,8 @@ fn nori_bsdf_name(ty: &str, param: BsdfParam) -> &'static str {
         | BsdfParam::SpecularTransmittance
         | BsdfParam::Eta
         | BsdfParam::K
-        | BsdfParam::Nested => "",
+        | BsdfParam::Nested
+        | BsdfParam::Opacity => "",
     }
 }
 

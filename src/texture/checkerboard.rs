@@ -2,7 +2,7 @@
 //! per unit of uv (the square containing uv in (0, 0.5)^2 has `color0`).
 
 use super::UvTransform;
-use crate::color::{luminance, Rgb};
+use crate::color::Rgb;
 use crate::math::Vec2;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,9 +35,10 @@ impl Checkerboard {
 
     /// Mitsuba 3.9's `eval_1` swaps the squares relative to `eval` (its
     /// mask test is inverted there); kept so scalar uses (roughness) match.
+    /// Its colours are constants: their `eval_1` is the channel mean.
     #[inline]
     pub fn eval_1(&self, uv: Vec2) -> f32 {
-        luminance(if self.first(uv) {
+        super::channel_mean(if self.first(uv) {
             self.color1
         } else {
             self.color0

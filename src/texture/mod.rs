@@ -37,12 +37,13 @@ impl Texture {
         }
     }
 
-    /// A single value at `uv` (roughness, opacity): Mitsuba's `eval_1`, the
-    /// luminance of a colour (a grey's value).
+    /// A single value at `uv` (roughness, opacity): Mitsuba's `eval_1`,
+    /// which is a bitmap's luminance but a constant colour's channel mean
+    /// (its `srgb` texture's `mean()`); a grey's value either way.
     #[inline]
     pub fn eval_1(&self, uv: Vec2) -> f32 {
         match self {
-            Texture::Constant(c) => luminance(*c),
+            Texture::Constant(c) => channel_mean(*c),
             Texture::Bitmap(t) => luminance(t.eval(uv)),
             Texture::Checkerboard(t) => t.eval_1(uv),
         }
@@ -120,5 +121,34 @@ impl UvTransform {
             self.row0[0] * uv.x + self.row0[1] * uv.y + self.row0[2],
             self.row1[0] * uv.x + self.row1[1] * uv.y + self.row1[2],
         )
+    }
+}
+
+/// The mean of a colour's channels: Mitsuba's `eval_1` of a constant
+/// (`srgb`) colour.
+#[inline]
+pub(crate) fn channel_mean(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Mitsuba's `eval_1`: a constant colour's channel mean (its `srgb`
+    /// texture's `mean()`), not its luminance; a checkerboard's squares
+    /// likewise. (A bitmap's is its luminance: `bitmap.rs`.)
+    #[test]
+    fn eval_1_of_constants_is_the_channel_mean() {
+        let c = Texture::Constant(Rgb::new(0.5, 0.7, 0.3));
+        assert!((c.eval_1(Vec2::ZERO) - 0.5).abs() < 1e-6);
+        let board = Texture::Checkerboard(Checkerboard {
+            color0: Rgb::new(0.9, 0.0, 0.0),
+            color1: Rgb::new(0.0, 0.0, 0.6),
+            to_uv: UvTransform::default(),
+        });
+        let values = [0.25f32, 0.75].map(|u| board.eval_1(Vec2::new(u, 0.25)));
+        let near = |x: f32| values.iter().any(|v| (v - x).abs() < 1e-6);
+        assert!(near(0.3) && near(0.2), "{values:?}");
     }
 }

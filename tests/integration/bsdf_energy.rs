@@ -16,6 +16,7 @@ use lente::color::Rgb;
 use lente::math::Vec3;
 use lente::sampling::{warp, Sampler};
 use lente::stats::{sidak, t_test, welch_t_test, MeanVar};
+use lente::texture::Texture;
 
 use MicrofacetType::{Beckmann, Ggx};
 
@@ -121,6 +122,30 @@ fn rough_bsdfs() -> Vec<(String, Bsdf, Vec<Vec3>)> {
         Bsdf::two_sided(
             Bsdf::rough_conductor(Ggx, 0.2, 0.2, au_e, au_k, Rgb::ONE, true).unwrap(),
             Some(Bsdf::plastic(1.49, AIR, Rgb::splat(0.5), Rgb::ONE, false).unwrap()),
+        )
+        .unwrap(),
+        both.clone(),
+    ));
+    // A mask's pass-through is a delta lobe; its nested lobe keeps the
+    // nested weight, with pdf and eval scaled by the opacity.
+    v.push((
+        "mask 0.6 over twosided roughconductor".into(),
+        Bsdf::mask(
+            Texture::Constant(Rgb::splat(0.6)),
+            Bsdf::two_sided(
+                Bsdf::rough_conductor(Ggx, 0.3, 0.3, au_e, au_k, Rgb::ONE, true).unwrap(),
+                None,
+            )
+            .unwrap(),
+        )
+        .unwrap(),
+        both.clone(),
+    ));
+    v.push((
+        "mask (0.2, 0.9, 0.4) over roughdielectric".into(),
+        Bsdf::mask(
+            Texture::Constant(Rgb::new(0.2, 0.9, 0.4)),
+            Bsdf::rough_dielectric(Beckmann, 0.4, 0.4, BK7, AIR, Rgb::ONE, Rgb::ONE, true).unwrap(),
         )
         .unwrap(),
         both.clone(),

@@ -100,7 +100,7 @@ fn grazing_inside() -> Vec3 {
 }
 
 /// Total number of chi-square tests that must pass, across this file.
-const FAMILY: usize = 35;
+const FAMILY: usize = 37;
 
 #[test]
 fn rough_conductor_sampling_matches_pdf() {
@@ -390,6 +390,70 @@ fn plastics_and_twosided_sampling_match_pdf() {
         .filter(|b| b.specular)
         .count();
     assert!(spec > 500, "delta lobe sampled {spec} times");
+}
+
+/// A mask: its nested lobe against pdf() (which is the nested pdf times
+/// the opacity), and the pass-through: straight on, weight 1, as often as
+/// 1 - opacity says (a binomial z-test at 4.4 sigma).
+#[test]
+fn mask_sampling_matches_pdf() {
+    let (eta, k) = conductor_preset("Cu").unwrap();
+    let rough = Bsdf::rough_conductor(Ggx, 0.3, 0.3, eta, k, Rgb::ONE, true).unwrap();
+    let opacity = |a: f32| lente::texture::Texture::Constant(Rgb::splat(a));
+    let cases = [
+        case(
+            "mask 0.3 over roughconductor",
+            Bsdf::mask(opacity(0.3), rough.clone()).unwrap(),
+            dir(40.0, 10.0, false),
+            30,
+            60,
+        ),
+        case(
+            "mask 0.8 over twosided roughplastic, from below",
+            Bsdf::mask(
+                opacity(0.8),
+                Bsdf::two_sided(
+                    Bsdf::rough_plastic(
+                        Beckmann,
+                        0.2,
+                        1.5,
+                        1.0,
+                        Rgb::splat(0.5),
+                        Rgb::ONE,
+                        false,
+                        true,
+                    )
+                    .unwrap(),
+                    None,
+                )
+                .unwrap(),
+            )
+            .unwrap(),
+            dir(60.0, 200.0, true),
+            30,
+            60,
+        ),
+    ];
+    run(&cases, FAMILY, 4000);
+    let m = Bsdf::mask(opacity(0.3), rough).unwrap();
+    let wi = dir(40.0, 10.0, false);
+    let mut s = lente::sampling::Sampler::new(5, 5);
+    let n = 200_000;
+    let mut through = 0usize;
+    for _ in 0..n {
+        // (None: a nested sample below the horizon.)
+        let Some(b) = m.sample(UV0, wi, s.next_2d(), s.next_1d()) else {
+            continue;
+        };
+        if b.specular {
+            through += 1;
+            assert_eq!((b.wo, b.weight, b.eta), (-wi, Rgb::ONE, 1.0));
+            assert!((b.pdf - 0.7).abs() < 1e-6);
+        }
+    }
+    let p = 0.7;
+    let z = (through as f64 - n as f64 * p) / (n as f64 * p * (1.0 - p)).sqrt();
+    assert!(z.abs() < 4.4, "pass-through {through} of {n}: z = {z:.2}");
 }
 
 #[test]

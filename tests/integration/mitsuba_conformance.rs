@@ -148,6 +148,12 @@ const CASES: &[Case] = &[
         renders: 16,
     },
     Case {
+        file: "mask.xml",
+        covers: "mask: a bitmap opacity over twosided diffuse before an area light, constant opacity over a checkerboard diffuse and over a roughconductor (an RGB opacity: its channel mean, as Mitsuba's eval_1)",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
         file: "spectra.xml",
         covers: "spectra in RGB mode: wavelength:value lists as a reflectance, an area light's radiance and a roughconductor's eta/k; a .spd file; uniform spectra as a constant emitter's radiance and a plastic's reflectance",
         spp: 192,

@@ -739,3 +739,45 @@ fn bsdfs() {
     );
     assert!(e("<shape type=\"sphere\"><bsdf type=\"twosided\"/></shape>").contains("nested"));
 }
+
+/// `mask`: opacity (0.5) as a number, colour or texture over one nested
+/// BSDF; like Mitsuba, twosided refuses a mask inside it (the holes
+/// transmit) and takes one outside.
+#[test]
+fn masks() {
+    use lente::texture::Texture;
+    let (desc, w) = load(&scene(
+        r#"<shape type="sphere"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="mask"><float name="opacity" value="0.25"/><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>
+           <shape type="sphere"><bsdf type="mask"><texture type="checkerboard" name="opacity"/><bsdf type="conductor"/></bsdf></shape>"#,
+    ));
+    assert!(w.is_empty(), "{w:?}");
+    let b = |i: usize| desc.scene.shapes[i].bsdf.clone();
+    let grey = Bsdf::diffuse(Rgb::splat(0.5)).unwrap();
+    assert_eq!(
+        b(0),
+        Bsdf::mask(Texture::Constant(Rgb::splat(0.5)), grey.clone()).unwrap()
+    );
+    assert_eq!(
+        b(1),
+        Bsdf::mask(
+            Texture::Constant(Rgb::splat(0.25)),
+            Bsdf::two_sided(grey, None).unwrap()
+        )
+        .unwrap()
+    );
+    match b(2) {
+        Bsdf::Mask(m) => assert!(matches!(m.opacity, Texture::Checkerboard(_))),
+        other => panic!("{other:?}"),
+    }
+    let e = |body: &str| load_err(&scene(body)).report();
+    assert!(
+        e(r#"<shape type="sphere"><bsdf type="mask"/></shape>"#).contains("needs a nested <bsdf>")
+    );
+    assert!(e(r#"<shape type="sphere"><bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#)
+        .contains("takes one nested <bsdf>"));
+    assert!(e(r#"<shape type="sphere"><bsdf type="twosided"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#)
+        .contains("put the twosided inside the mask"));
+    assert!(e(r#"<shape type="sphere"><bsdf type="mask"><float name="opacity" value="-1"/><bsdf type="diffuse"/></bsdf></shape>"#)
+        .contains("opacity"));
+}

@@ -35,6 +35,7 @@ fn param_name(ty: &str, param: BsdfParam) -> &'static str {
         BsdfParam::Eta => "eta",
         BsdfParam::K => "k",
         BsdfParam::Nested => "bsdf",
+        BsdfParam::Opacity => "opacity",
     }
 }
 
@@ -63,12 +64,12 @@ impl<'d> Ctx<'d> {
                 "plastic",
                 "roughplastic",
                 "twosided",
+                "mask",
             ],
             &[
                 "principled",
                 "principledthin",
                 "blendbsdf",
-                "mask",
                 "bumpmap",
                 "normalmap",
                 "hair",
@@ -191,6 +192,11 @@ impl<'d> Ctx<'d> {
                     )
                 }
             }
+            "mask" => {
+                let opacity = p.get_texture("opacity", Rgb::splat(0.5))?;
+                let nested = self.one_nested(node, &owner, &children)?;
+                Bsdf::mask(opacity, nested)
+            }
             _ => self.two_sided(node, &owner, &children)?,
         };
         let bsdf = built.and_then(|b| Bsdf::textured(b, tex.0)).map_err(|e| {
@@ -200,11 +206,31 @@ impl<'d> Ctx<'d> {
             };
             p.param_error(name, &e)
         })?;
-        if ty != "twosided" {
+        if !matches!(ty, "twosided" | "mask") {
             self.no_children(&children, &owner)?;
         }
         p.finish(&mut self.warnings);
         Ok(bsdf)
+    }
+
+    /// The one nested `<bsdf>` of a BSDF that wraps another (`mask`).
+    fn one_nested(
+        &mut self,
+        node: &'d SceneNode,
+        owner: &str,
+        children: &[Child<'d>],
+    ) -> Result<Bsdf> {
+        let mut nested = None;
+        for c in children {
+            if c.node.tag != "bsdf" {
+                return Err(self.misplaced(c, owner));
+            }
+            if nested.is_some() {
+                return Err(self.err(c.at, format!("{owner} takes one nested <bsdf>")));
+            }
+            nested = Some(self.enter(c, |x| x.bsdf(c.node))?);
+        }
+        nested.ok_or_else(|| self.err(node.pos, format!("{owner} needs a nested <bsdf>")))
     }
 
     /// `twosided`: one or two nested BSDFs without transmission.
@@ -224,10 +250,15 @@ impl<'d> Ctx<'d> {
             }
             let nested = self.enter(c, |x| x.bsdf(c.node))?;
             if nested.has_transmission() {
+                let hint = if matches!(nested, Bsdf::Mask(_)) {
+                    "put the twosided inside the mask instead (Mitsuba refuses this too)"
+                } else {
+                    "a dielectric is two-sided already, use it without twosided"
+                };
                 return Err(self.err(
                     c.at,
                     format!(
-                        "{} {}; a dielectric is two-sided already, use it without twosided",
+                        "{} {}; {hint}",
                         describe(c.node),
                         BsdfError::NestedTransmission
                     ),
