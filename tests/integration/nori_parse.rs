@@ -551,7 +551,7 @@ fn comments_declarations_and_whitespace_are_ignored() {
 
 /// Nori forks' files often carry `version="0.5.0"`: their `<mesh>` and
 /// `<camera>` say they are Nori scenes, read as such with one warning;
-/// a Mitsuba 0.5 file (`<shape>`, `<sensor>`) still gets the upgrade hint.
+/// a Mitsuba 0.5 file (`<shape>`, `<sensor>`) is upgraded as Mitsuba 3 does.
 #[test]
 fn a_nori_scene_with_a_version_attribute_is_read_as_nori() {
     let path = std::path::Path::new("fork.xml");
@@ -568,6 +568,12 @@ fn a_nori_scene_with_a_version_attribute_is_read_as_nori() {
     let mitsuba = r#"<scene version="0.5.0">
   <shape type="sphere"/>
 </scene>"#;
-    let err = load_scene_str(mitsuba, path).unwrap_err();
-    assert!(err.message.contains("Mitsuba 0.5.0 scene"), "{err}");
+    let (file, warnings) = load_scene_str(mitsuba, path).unwrap();
+    assert_eq!(file.scene.shapes.len(), 1);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.message.contains("Mitsuba 0.5.0 scene: upgraded")),
+        "{warnings:?}"
+    );
 }

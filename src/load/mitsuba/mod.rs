@@ -124,6 +124,7 @@ pub fn load(
         warnings: Vec::new(),
         items: Vec::new(),
         include_stack: vec![file.to_path_buf()],
+        legacy: Vec::new(),
     };
     for (name, value) in defines {
         if let Some(p) = pre.params.iter_mut().find(|p| p.name == *name) {

@@ -31,6 +31,9 @@ pub(super) struct Pre {
     pub(super) warnings: Vec<Warning>,
     pub(super) items: Vec<Item>,
     pub(super) include_stack: Vec<PathBuf>,
+    /// Files written for Mitsuba 0.x (version < 2), whose elements are
+    /// upgraded as Mitsuba 3 upgrades them.
+    pub(super) legacy: Vec<usize>,
 }
 
 impl Pre {
@@ -75,18 +78,21 @@ impl Pre {
             }
         };
         match major {
-            0 | 1 => Err(self.err(
-                file,
-                v.value_pos,
-                format!(
-                    "this is a Mitsuba {} scene; lente reads Mitsuba 2 and 3 scenes. \
-                     Mitsuba 3 renames the properties of older files in memory \
-                     (camelCase such as toWorld, sampleCount, intIOR becomes snake_case: \
-                     to_world, sample_count, int_ior); do the same in the file and set \
-                     version=\"3.0.0\"",
-                    v.value.trim()
-                ),
-            )),
+            0 | 1 => {
+                self.legacy.push(file);
+                self.warnings.push(Warning::new(
+                    &self.files[file],
+                    v.value_pos,
+                    format!(
+                        "this is a Mitsuba {} scene: upgraded as Mitsuba 3 upgrades it \
+                         (camelCase property names such as toWorld, sampleCount, intIOR \
+                         become to_world, sample_count, int_ior; a diffuse BSDF's \
+                         diffuseReflectance becomes reflectance)",
+                        v.value.trim()
+                    ),
+                ));
+                Ok(())
+            }
             2 | 3 => Ok(()),
             _ => {
                 self.warnings.push(Warning::new(
@@ -107,6 +113,9 @@ impl Pre {
     pub(super) fn top_level(&mut self, children: &[SceneNode], file: usize) -> Result<()> {
         for ch in children {
             let mut node = ch.clone();
+            if self.legacy.contains(&file) {
+                upgrade_from_v1(&mut node, None);
+            }
             self.substitute_attributes(&mut node, file)?;
             match node.tag.as_str() {
                 "default" => self.define(&node, file)?,
@@ -297,6 +306,13 @@ impl Pre {
         self.files.push(path.clone());
         let inc = self.files.len() - 1;
         self.include_stack.push(path);
+        if root.tag != "scene" {
+            // An included object's version decides its upgrade too.
+            let v = root.attr("version").map(|a| a.value.trim().to_string());
+            if v.is_some_and(|v| v.starts_with("0.") || v.starts_with("1.")) {
+                self.legacy.push(inc);
+            }
+        }
         if root.tag == "scene" {
             self.check_root(&root, inc)?;
             if let Some(t) = root.text.first() {
@@ -320,11 +336,82 @@ impl Pre {
                 ));
             }
             node.attributes.retain(|a| a.name != "version");
+            if self.legacy.contains(&inc) {
+                upgrade_from_v1(&mut node, None);
+            }
             self.substitute_attributes(&mut node, inc)?;
             self.substitute_children(&mut node, inc)?;
             self.items.push(Item { file: inc, node });
         }
         self.include_stack.pop();
         Ok(())
+    }
+}
+
+/// Mitsuba 3's `upgrade_from_v1` on an element of a 0.x file and its
+/// children: property and object names from camelCase to snake_case, and a
+/// diffuse BSDF's `diffuse_reflectance` to `reflectance`. `owner_type` is
+/// the type of the object the element stands in. (`<default>` names are
+/// parameters, not properties: kept.)
+fn upgrade_from_v1(node: &mut SceneNode, owner_type: Option<&str>) {
+    if node.tag != "default" {
+        if let Some(a) = node.attributes.iter_mut().find(|a| a.name == "name") {
+            let mut new = camel_to_snake(&a.value);
+            if owner_type == Some("diffuse") && new == "diffuse_reflectance" {
+                new = "reflectance".to_string();
+            }
+            a.set_value(new);
+        }
+    }
+    let ty = node.attr_value("type").map(str::to_string);
+    for ch in &mut node.children {
+        upgrade_from_v1(ch, ty.as_deref());
+    }
+}
+
+/// Mitsuba 3's `camel_to_underscore_case`: an upper-case letter after a
+/// lower-case one starts a word (`intIOR` -> `int_ior`, `toWorld` ->
+/// `to_world`).
+fn camel_to_snake(name: &str) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    let mut out = String::with_capacity(name.len() + 4);
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        if i > 0 && chars[i - 1].is_ascii_lowercase() && c.is_ascii_uppercase() {
+            out.push('_');
+            out.push(c.to_ascii_lowercase());
+            while i + 1 < chars.len() && chars[i + 1].is_ascii_uppercase() {
+                i += 1;
+                out.push(chars[i].to_ascii_lowercase());
+            }
+        } else {
+            out.push(c);
+        }
+        i += 1;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::camel_to_snake;
+
+    #[test]
+    fn camel_case_becomes_snake_case_as_in_mitsuba() {
+        for (old, new) in [
+            ("toWorld", "to_world"),
+            ("intIOR", "int_ior"),
+            ("sampleCount", "sample_count"),
+            ("fovAxis", "fov_axis"),
+            ("specularReflectance", "specular_reflectance"),
+            ("maxDepth", "max_depth"),
+            ("alpha", "alpha"),
+            ("to_world", "to_world"),
+            ("IOR", "IOR"),
+            ("aB", "a_b"),
+        ] {
+            assert_eq!(camel_to_snake(old), new, "{old}");
+        }
     }
 }
