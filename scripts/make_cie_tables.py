@@ -27,7 +27,11 @@ assert len(d65_values) == 95
 
 
 def lit(v):
-    """A Rust float literal with the table's 7 significant digits."""
+    """A Rust float literal with the table's 7 significant digits; the
+    interpolation noise colour-science leaves where the CIE table has 0
+    (z-bar at 650 nm: -1.9e-21) is written as 0."""
+    if abs(v) < 1e-15:
+        v = 0.0
     s = f"{v:.7g}"
     return s if any(c in s for c in ".e") else s + ".0"
 
