@@ -67,6 +67,15 @@ impl Texture {
         }
     }
 
+    /// The mean of [`Texture::eval_1`] over the unit uv square (both are
+    /// linear in the colour, so it is the single value of the mean colour).
+    pub fn mean_1(&self) -> f32 {
+        match self {
+            Texture::Bitmap(t) => luminance(t.image().mean()),
+            _ => channel_mean(self.mean()),
+        }
+    }
+
     /// The largest value in any channel anywhere.
     pub fn max_value(&self) -> f32 {
         match self {
@@ -150,5 +159,8 @@ mod tests {
         let values = [0.25f32, 0.75].map(|u| board.eval_1(Vec2::new(u, 0.25)));
         let near = |x: f32| values.iter().any(|v| (v - x).abs() < 1e-6);
         assert!(near(0.3) && near(0.2), "{values:?}");
+        // mean_1 is the mean of eval_1 over the squares.
+        assert!((board.mean_1() - 0.25).abs() < 1e-6);
+        assert!((c.mean_1() - 0.5).abs() < 1e-6);
     }
 }

@@ -83,29 +83,21 @@ impl<'d> Ctx<'d> {
         )?;
         let owner = format!("<bsdf type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
-        let mut tex = Textures::default();
+        let mut tex = Textures::new(ty);
         let built: std::result::Result<Bsdf, BsdfError> = match ty {
-            "diffuse" => Bsdf::diffuse(tex.rgb(&mut p, "reflectance", 0.5, BsdfParam::Diffuse)?),
+            "diffuse" => Bsdf::diffuse(tex.rgb(&mut p, BsdfParam::Diffuse, 0.5)?),
             "dielectric" | "thindielectric" | "roughdielectric" => {
                 let int_ior = ior(&mut p, "int_ior", 1.5046)?;
                 let ext_ior = ior(&mut p, "ext_ior", 1.000277)?;
-                let reflectance = tex.rgb(
-                    &mut p,
-                    "specular_reflectance",
-                    1.0,
-                    BsdfParam::SpecularReflectance,
-                )?;
-                let transmittance = tex.rgb(
-                    &mut p,
-                    "specular_transmittance",
-                    1.0,
-                    BsdfParam::SpecularTransmittance,
-                )?;
+                let reflectance = tex.rgb(&mut p, BsdfParam::SpecularReflectance, 1.0)?;
+                let transmittance = tex.rgb(&mut p, BsdfParam::SpecularTransmittance, 1.0)?;
                 match ty {
                     "dielectric" => {
-                        if reflectance != Rgb::ONE || transmittance != Rgb::ONE || !tex.0.is_empty()
+                        if reflectance != Rgb::ONE
+                            || transmittance != Rgb::ONE
+                            || !tex.list.is_empty()
                         {
-                            tex.0.clear();
+                            tex.list.clear();
                             self.warn(
                                 node.pos,
                                 format!(
@@ -137,12 +129,7 @@ impl<'d> Ctx<'d> {
             }
             "conductor" | "roughconductor" => {
                 let (eta, k) = conductor_ior(&mut p, &mut tex)?;
-                let reflectance = tex.rgb(
-                    &mut p,
-                    "specular_reflectance",
-                    1.0,
-                    BsdfParam::SpecularReflectance,
-                )?;
+                let reflectance = tex.rgb(&mut p, BsdfParam::SpecularReflectance, 1.0)?;
                 if ty == "conductor" {
                     Bsdf::conductor(eta, k, reflectance)
                 } else {
@@ -159,13 +146,8 @@ impl<'d> Ctx<'d> {
                 }
             }
             "plastic" | "roughplastic" => {
-                let diffuse = tex.rgb(&mut p, "diffuse_reflectance", 0.5, BsdfParam::Diffuse)?;
-                let specular = tex.rgb(
-                    &mut p,
-                    "specular_reflectance",
-                    1.0,
-                    BsdfParam::SpecularReflectance,
-                )?;
+                let diffuse = tex.rgb(&mut p, BsdfParam::Diffuse, 0.5)?;
+                let specular = tex.rgb(&mut p, BsdfParam::SpecularReflectance, 1.0)?;
                 let int_ior = ior(&mut p, "int_ior", 1.49)?;
                 let ext_ior = ior(&mut p, "ext_ior", 1.000277)?;
                 let nonlinear = p.get_bool("nonlinear", false)?;
@@ -199,13 +181,15 @@ impl<'d> Ctx<'d> {
             }
             _ => self.two_sided(node, &owner, &children)?,
         };
-        let bsdf = built.and_then(|b| Bsdf::textured(b, tex.0)).map_err(|e| {
-            let name = match e.param() {
-                BsdfParam::Alpha if p.has("alpha_u") => "alpha_u",
-                param => param_name(ty, param),
-            };
-            p.param_error(name, &e)
-        })?;
+        let bsdf = built
+            .and_then(|b| Bsdf::textured(b, tex.list))
+            .map_err(|e| {
+                let name = match e.param() {
+                    BsdfParam::Alpha if p.has("alpha_u") => "alpha_u",
+                    param => param_name(ty, param),
+                };
+                p.param_error(name, &e)
+            })?;
         if !matches!(ty, "twosided" | "mask") {
             self.no_children(&children, &owner)?;
         }
@@ -274,26 +258,37 @@ impl<'d> Ctx<'d> {
     }
 }
 
-/// The textured parameters of the BSDF being read.
-#[derive(Default)]
-struct Textures(Vec<(BsdfParam, Texture)>);
+/// The textured parameters of the BSDF being read, of Mitsuba type `ty`
+/// (which names its parameters).
+struct Textures<'t> {
+    ty: &'t str,
+    list: Vec<(BsdfParam, Texture)>,
+}
 
-impl Textures {
-    /// A colour parameter that may be a texture: the constant to build the
-    /// model with (a varying texture's mean, which Mitsuba's lobe weights
-    /// use too); a varying texture is recorded for `param`.
-    fn rgb(&mut self, p: &mut Props, name: &str, default: f32, param: BsdfParam) -> Result<Rgb> {
-        let t = p.get_texture(name, Rgb::splat(default))?;
+impl<'t> Textures<'t> {
+    fn new(ty: &'t str) -> Self {
+        Textures {
+            ty,
+            list: Vec::new(),
+        }
+    }
+
+    /// A colour parameter (read under its Mitsuba name) that may be a
+    /// texture: the constant to build the model with (a varying texture's
+    /// mean, which Mitsuba's lobe weights use too); a varying texture is
+    /// recorded for `param`.
+    fn rgb(&mut self, p: &mut Props, param: BsdfParam, default: f32) -> Result<Rgb> {
+        let t = p.get_texture(param_name(self.ty, param), Rgb::splat(default))?;
         let mean = t.mean();
         if t.is_varying() {
-            self.0.push((param, t));
+            self.list.push((param, t));
         }
         Ok(mean)
     }
 
-    /// A number that may be a texture (a roughness, read as its luminance
-    /// where it is a colour, as Mitsuba's `eval_1`); recorded for every
-    /// one of `params`.
+    /// A number that may be a texture (a roughness, read as a number by
+    /// Mitsuba's `eval_1`); recorded for every one of `params`, its mean
+    /// single value the constant the model is built with.
     fn float(
         &mut self,
         p: &mut Props,
@@ -306,16 +301,16 @@ impl Textures {
         }
         let t = p.get_texture(name, Rgb::splat(default))?;
         for &param in params {
-            self.0.push((param, t.clone()));
+            self.list.push((param, t.clone()));
         }
-        Ok(crate::color::luminance(t.mean()))
+        Ok(t.mean_1())
     }
 }
 
 /// A conductor's complex index of refraction: `eta` and `k`, or one of
 /// Mitsuba's measured `material`s (`none`, the default, gives 0 and 1: a
 /// perfect mirror).
-fn conductor_ior(p: &mut Props, tex: &mut Textures) -> Result<(Rgb, Rgb)> {
+fn conductor_ior(p: &mut Props, tex: &mut Textures<'_>) -> Result<(Rgb, Rgb)> {
     let material = p.get_string("material", "none".into())?;
     if p.has("eta") || p.has("k") || material == "none" {
         if material != "none" {
@@ -326,8 +321,8 @@ fn conductor_ior(p: &mut Props, tex: &mut Textures) -> Result<(Rgb, Rgb)> {
         }
         // Mitsuba reads these unbounded: spectra are clipped only at zero.
         let before = p.set_spectrum_use(SpectrumUse::Unbounded);
-        let eta = tex.rgb(p, "eta", 0.0, BsdfParam::Eta)?;
-        let k = tex.rgb(p, "k", 1.0, BsdfParam::K)?;
+        let eta = tex.rgb(p, BsdfParam::Eta, 0.0)?;
+        let k = tex.rgb(p, BsdfParam::K, 1.0)?;
         p.set_spectrum_use(before);
         return Ok((eta, k));
     }
@@ -363,7 +358,7 @@ fn ior(p: &mut Props, name: &str, default: f32) -> Result<f32> {
 
 /// `distribution` (beckmann or ggx, default beckmann), `alpha` (0.1) or
 /// both `alpha_u` and `alpha_v`, `sample_visible` (true).
-fn roughness(p: &mut Props, tex: &mut Textures) -> Result<Roughness> {
+fn roughness(p: &mut Props, tex: &mut Textures<'_>) -> Result<Roughness> {
     let dist = p.get_string("distribution", "beckmann".into())?;
     let Some(distribution) = MicrofacetType::from_name(dist.trim()) else {
         return Err(p.error(
