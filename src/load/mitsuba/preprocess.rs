@@ -62,11 +62,9 @@ impl Pre {
                 "a Mitsuba scene needs a version attribute, e.g. <scene version=\"3.0.0\">",
             ));
         };
-        let parts: Vec<&str> = v.value.trim().split('.').collect();
-        let nums: Option<Vec<u32>> = parts.iter().map(|p| p.trim().parse().ok()).collect();
-        let major = match nums {
-            Some(n) if (1..=3).contains(&n.len()) => n[0],
-            _ => {
+        let major = match version_major(&v.value) {
+            Some(major) => major,
+            None => {
                 return Err(self.err(
                     file,
                     v.value_pos,
@@ -241,8 +239,9 @@ impl Pre {
     /// file's folder). A name found nowhere stays next to the includer, for
     /// the error message.
     fn resolve_include(&self, file: usize, name: &str) -> PathBuf {
+        // The top of the include stack is `file` itself.
         let here = parent_dir(&self.files[file]).join(name);
-        if Path::new(name).is_absolute() || here.exists() {
+        if Path::new(name).is_absolute() {
             return here;
         }
         self.include_stack
@@ -308,8 +307,8 @@ impl Pre {
         self.include_stack.push(path);
         if root.tag != "scene" {
             // An included object's version decides its upgrade too.
-            let v = root.attr("version").map(|a| a.value.trim().to_string());
-            if v.is_some_and(|v| v.starts_with("0.") || v.starts_with("1.")) {
+            let major = root.attr("version").and_then(|a| version_major(&a.value));
+            if major.is_some_and(|m| m < 2) {
                 self.legacy.push(inc);
             }
         }
@@ -346,6 +345,17 @@ impl Pre {
         self.include_stack.pop();
         Ok(())
     }
+}
+
+/// The major number of a `version` attribute ("3.0.0", "0.6", "2"), if it
+/// is one to three numbers.
+fn version_major(value: &str) -> Option<u32> {
+    let nums: Option<Vec<u32>> = value
+        .trim()
+        .split('.')
+        .map(|p| p.trim().parse().ok())
+        .collect();
+    nums.filter(|n| (1..=3).contains(&n.len())).map(|n| n[0])
 }
 
 /// Mitsuba 3's `upgrade_from_v1` on an element of a 0.x file and its
