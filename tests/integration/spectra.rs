@@ -133,6 +133,11 @@ fn bad_spectra_are_errors_at_their_place() {
             "t.xml:4:88: cannot read '500' as a wavelength:value pair",
         ),
         (
+            // Spaces around ':' are joined; the error is still at '500'.
+            r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400 : 0.5, 500"/></bsdf></shape>"#,
+            "t.xml:4:90: cannot read '500' as a wavelength:value pair",
+        ),
+        (
             r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="500:0.5, 400:0.2"/></bsdf></shape>"#,
             "wavelengths must increase, but 400 nm follows 500 nm",
         ),

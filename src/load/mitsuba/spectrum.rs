@@ -154,8 +154,27 @@ fn number_list(p: &mut Props, name: &str) -> Result<Vec<f32>> {
 
 /// `"400:0.1, 500 : 0.2"`: wavelength:value pairs, each error at its token.
 fn parse_pairs(file: &Path, attr: &Attribute) -> Result<Vec<(f32, f32)>> {
-    // Spaces around ':' are allowed: join them before splitting.
-    let text = attr.value.replace(" :", ":").replace(": ", ":");
+    // One space on either side of ':' is allowed: drop it before
+    // splitting, keeping each character's offset in the value.
+    let chars: Vec<(usize, char)> = attr.value.char_indices().collect();
+    let before: Vec<(usize, char)> = chars
+        .iter()
+        .enumerate()
+        .filter(|&(i, &(_, c))| !(c == ' ' && chars.get(i + 1).is_some_and(|n| n.1 == ':')))
+        .map(|(_, &x)| x)
+        .collect();
+    let joined: Vec<(usize, char)> = before
+        .iter()
+        .enumerate()
+        .filter(|&(i, &(_, c))| !(c == ' ' && i > 0 && before[i - 1].1 == ':'))
+        .map(|(_, &x)| x)
+        .collect();
+    let text: String = joined.iter().map(|&(_, c)| c).collect();
+    // Byte offset in `text` -> byte offset in the value.
+    let mut offsets = Vec::with_capacity(text.len());
+    for &(off, c) in &joined {
+        offsets.extend(std::iter::repeat_n(off, c.len_utf8()));
+    }
     let mut pairs = Vec::new();
     for (off, tok) in props::tokens(&text) {
         let parsed = tok
@@ -164,11 +183,9 @@ fn parse_pairs(file: &Path, attr: &Attribute) -> Result<Vec<(f32, f32)>> {
         match parsed {
             Some(pair) => pairs.push(pair),
             None => {
-                // Offsets in `text` equal those in the value when no spaces
-                // were joined before this token; close enough otherwise.
                 return Err(SceneError::new(
                     file,
-                    attr.pos_in_value(off.min(attr.value.len())),
+                    attr.pos_in_value(offsets[off]),
                     format!("cannot read '{tok}' as a wavelength:value pair (e.g. 400:0.5)"),
                 ));
             }
