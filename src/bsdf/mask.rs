@@ -17,7 +17,7 @@ use crate::texture::Texture;
 pub struct Mask {
     /// Opacity, read as a number (`Texture::eval_1`).
     pub opacity: Texture,
-    pub nested: Box<Bsdf>,
+    pub nested: Bsdf,
 }
 
 impl Mask {
@@ -37,10 +37,7 @@ impl Mask {
             }
             None => {}
         }
-        Ok(Mask {
-            opacity,
-            nested: Box::new(nested),
-        })
+        Ok(Mask { opacity, nested })
     }
 
     #[inline]

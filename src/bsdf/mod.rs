@@ -62,8 +62,9 @@ pub enum Bsdf {
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
     TwoSided(TwoSided),
-    /// Mitsuba's `mask`: opacity, the rest passes straight through.
-    Mask(Mask),
+    /// Mitsuba's `mask`: opacity, the rest passes straight through
+    /// (boxed: rare, and its texture is large).
+    Mask(Box<Mask>),
     /// A model with textured parameters (boxed: rare, and large).
     Textured(Box<Textured>),
 }
@@ -228,7 +229,7 @@ impl Bsdf {
 
     /// `nested` with an opacity (see [`Mask::new`]).
     pub fn mask(opacity: crate::texture::Texture, nested: Bsdf) -> Result<Bsdf, BsdfError> {
-        Ok(Bsdf::Mask(Mask::new(opacity, nested)?))
+        Ok(Bsdf::Mask(Box::new(Mask::new(opacity, nested)?)))
     }
 
     /// `base` with textured parameters (see [`Textured::new`]); no
