@@ -739,6 +739,38 @@ fn a_top_level_area_emitter_can_be_referenced_by_shapes() {
     );
 }
 
+/// Samplers, films and filters may also stand at the top level with an id
+/// (mitsuba-data's sampler scenes do), built where a sensor refers to them.
+#[test]
+fn top_level_samplers_films_and_filters_can_be_referenced() {
+    let text = r#"<scene version="3.0.0"><integrator type="path"/>
+<sampler type="independent" id="s"><integer name="sample_count" value="9"/></sampler>
+<rfilter type="box" id="f"/>
+<film type="hdrfilm" id="film">
+  <integer name="width" value="40"/><integer name="height" value="30"/><ref id="f"/>
+</film>
+<sensor type="perspective"><ref id="s"/><ref id="film"/></sensor>
+<shape type="sphere"/>
+</scene>
+"#;
+    let desc = load_clean(text);
+    assert_eq!(desc.job.spp, 9);
+    assert_eq!(desc.job.filter, Filter::Box { radius: 0.5 });
+    assert_eq!(
+        (desc.scene.camera.width, desc.scene.camera.height),
+        (40, 30)
+    );
+    // An unused one is still checked.
+    assert_err(
+        &scene(
+            r#"<sampler type="independent" id="s"><integer name="sample_count" value="-1"/></sampler>"#,
+        ),
+        4,
+        72,
+        &["sample_count"],
+    );
+}
+
 // ---------------------------------------------------------------------------
 // Values and transforms
 // ---------------------------------------------------------------------------

@@ -592,6 +592,11 @@ impl<'d> Ctx<'d> {
                     }
                     EmitterDesc::Area(_) => unreachable!("checked by emitter()"),
                 },
+                // Mitsuba lets any object be declared at the top level with an
+                // id and referenced where it belongs (samplers in sensors, ...).
+                "sampler" | "film" | "rfilter" if child.node.attr("id").is_some() => {
+                    definitions.push(child)
+                }
                 "bsdf" | "texture" | "spectrum" => {
                     if child.node.attr("id").is_none() && tag != "ref" {
                         self.warn(
@@ -640,6 +645,15 @@ impl<'d> Ctx<'d> {
                 }
                 "bsdf" => {
                     self.enter(&d, |c| c.bsdf(d.node))?;
+                }
+                "sampler" => {
+                    self.enter(&d, |c| c.sampler(d.node))?;
+                }
+                "film" => {
+                    self.enter(&d, |c| c.film(d.node))?;
+                }
+                "rfilter" => {
+                    self.enter(&d, |c| c.rfilter(d.node))?;
                 }
                 _ => {
                     self.enter(&d, |c| c.texture(d.node))?;

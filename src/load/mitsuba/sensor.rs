@@ -142,7 +142,7 @@ impl<'d> Ctx<'d> {
     /// `hdrfilm` (Mitsuba's `render/film.cpp`, `films/hdrfilm.cpp`):
     /// 768 x 576 and a gaussian filter by default. Output formats are
     /// accepted and ignored (lente writes EXR and PNG).
-    fn film(&mut self, node: &'d SceneNode) -> Result<(u32, u32, Filter)> {
+    pub(super) fn film(&mut self, node: &'d SceneNode) -> Result<(u32, u32, Filter)> {
         let ty = self.object_type(node, &["hdrfilm"], &["specfilm", "tape"])?;
         let owner = format!("<film type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
@@ -220,7 +220,7 @@ impl<'d> Ctx<'d> {
     /// Mitsuba's `rfilters/`: box (radius 0.5), tent (radius 1), gaussian
     /// (stddev 0.5, cut off at 4 stddev), mitchell (B = C = 1/3, radius 2),
     /// catmullrom (Mitchell with B = 0, C = 1/2).
-    fn rfilter(&mut self, node: &'d SceneNode) -> Result<Filter> {
+    pub(super) fn rfilter(&mut self, node: &'d SceneNode) -> Result<Filter> {
         let ty = self.object_type(
             node,
             &["box", "tent", "gaussian", "mitchell", "catmullrom"],
@@ -260,7 +260,7 @@ impl<'d> Ctx<'d> {
 
     /// Samplers: `sample_count` (default 4). lente has one sampler; the
     /// others give the same expected image with different noise.
-    fn sampler(&mut self, node: &'d SceneNode) -> Result<u32> {
+    pub(super) fn sampler(&mut self, node: &'d SceneNode) -> Result<u32> {
         let ty = self.object_type(
             node,
             &[
