@@ -24,19 +24,7 @@ impl Mask {
     /// `opacity` must be finite and not negative (it is clipped to at
     /// most 1 where read, as Mitsuba does).
     pub fn new(opacity: Texture, nested: Bsdf) -> Result<Mask, BsdfError> {
-        let param = super::BsdfParam::Opacity;
-        match opacity.constant() {
-            Some(c) => {
-                super::params::color(param, c)?;
-            }
-            None if !opacity.max_value().is_finite() => {
-                return Err(BsdfError::NegativeColor {
-                    param,
-                    value: Rgb::splat(opacity.max_value()),
-                })
-            }
-            None => {}
-        }
+        super::params::texture_color(super::BsdfParam::Opacity, &opacity)?;
         Ok(Mask { opacity, nested })
     }
 

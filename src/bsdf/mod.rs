@@ -3,6 +3,7 @@
 //! where light is gathered from the camera side (Nori's convention: `wi` is
 //! the direction the path arrived from, `wo` the sampled continuation).
 
+mod blend;
 mod conductor;
 mod dielectric;
 mod diffuse;
@@ -11,6 +12,7 @@ mod fresnel;
 mod mask;
 mod microfacet;
 mod mirror;
+mod normal_map;
 mod params;
 mod plastic;
 pub mod presets;
@@ -24,6 +26,7 @@ mod two_sided;
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
 
+pub use blend::Blend;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
@@ -34,6 +37,7 @@ pub use fresnel::{
 pub use mask::Mask;
 pub use microfacet::Microfacet;
 pub use mirror::Mirror;
+pub use normal_map::NormalMap;
 pub use params::{BsdfError, BsdfParam};
 pub use plastic::Plastic;
 pub use presets::{conductor_preset, ior_preset};
@@ -65,6 +69,11 @@ pub enum Bsdf {
     /// Mitsuba's `mask`: opacity, the rest passes straight through
     /// (boxed: rare, and its texture is large).
     Mask(Box<Mask>),
+    /// Mitsuba's `blendbsdf`: a weighted mix of two BSDFs (boxed: rare).
+    Blend(Box<Blend>),
+    /// Mitsuba's `normalmap`: a nested BSDF in a frame tilted by a
+    /// texture (boxed: rare).
+    NormalMap(Box<NormalMap>),
     /// A model with textured parameters (boxed: rare, and large).
     Textured(Box<Textured>),
 }
@@ -232,6 +241,30 @@ impl Bsdf {
         Ok(Bsdf::Mask(Box::new(Mask::new(opacity, nested)?)))
     }
 
+    /// A mix of two BSDFs (see [`Blend::new`]).
+    pub fn blend(
+        weight: crate::texture::Texture,
+        first: Bsdf,
+        second: Bsdf,
+    ) -> Result<Bsdf, BsdfError> {
+        Ok(Bsdf::Blend(Box::new(Blend::new(weight, first, second)?)))
+    }
+
+    /// `nested` in a frame tilted by a normal map (see [`NormalMap::new`]).
+    pub fn normal_map(
+        normals: crate::texture::Texture,
+        nested: Bsdf,
+        flip_invalid_normals: bool,
+        use_shadowing_function: bool,
+    ) -> Result<Bsdf, BsdfError> {
+        Ok(Bsdf::NormalMap(Box::new(NormalMap::new(
+            normals,
+            nested,
+            flip_invalid_normals,
+            use_shadowing_function,
+        )?)))
+    }
+
     /// `base` with textured parameters (see [`Textured::new`]); no
     /// textures gives `base` itself.
     pub fn textured(
@@ -254,6 +287,8 @@ impl Bsdf {
             // lobe as transmission too: twosided refuses a mask).
             | Bsdf::Mask(_) => true,
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
+            Bsdf::Blend(b) => b.first.has_transmission() || b.second.has_transmission(),
+            Bsdf::NormalMap(b) => b.nested.has_transmission(),
             Bsdf::Textured(b) => b.base().has_transmission(),
             _ => false,
         }
@@ -270,6 +305,8 @@ impl Bsdf {
             | Bsdf::ThinDielectric(_) => true,
             Bsdf::TwoSided(b) => b.front.is_specular() && b.back.is_specular(),
             Bsdf::Mask(b) => b.nested.is_specular(),
+            Bsdf::Blend(b) => b.first.is_specular() && b.second.is_specular(),
+            Bsdf::NormalMap(b) => b.nested.is_specular(),
             Bsdf::Textured(b) => b.base().is_specular(),
             _ => false,
         }
@@ -285,6 +322,14 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => Some(b.diffuse_reflectance),
             Bsdf::TwoSided(b) => b.front.albedo(),
             Bsdf::Mask(b) => b.nested.albedo(),
+            Bsdf::Blend(b) => {
+                let w = b.weight.mean_1().clamp(0.0, 1.0);
+                match (b.first.albedo(), b.second.albedo()) {
+                    (Some(a), Some(c)) => Some(a * (1.0 - w) + c * w),
+                    (a, c) => a.or(c),
+                }
+            }
+            Bsdf::NormalMap(b) => b.nested.albedo(),
             Bsdf::Textured(b) => b.base().albedo(),
             _ => None,
         }
@@ -302,6 +347,8 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.eval(wi, wo),
             Bsdf::TwoSided(b) => b.eval(uv, wi, wo),
             Bsdf::Mask(b) => b.eval(uv, wi, wo),
+            Bsdf::Blend(b) => b.eval(uv, wi, wo),
+            Bsdf::NormalMap(b) => b.eval(uv, wi, wo),
             Bsdf::Textured(b) => b.eval(uv, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -321,6 +368,8 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.pdf(wi, wo),
             Bsdf::TwoSided(b) => b.pdf(uv, wi, wo),
             Bsdf::Mask(b) => b.pdf(uv, wi, wo),
+            Bsdf::Blend(b) => b.pdf(uv, wi, wo),
+            Bsdf::NormalMap(b) => b.pdf(uv, wi, wo),
             Bsdf::Textured(b) => b.pdf(uv, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -344,6 +393,8 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::TwoSided(b) => b.sample(uv, wi, u, u_lobe),
             Bsdf::Mask(b) => b.sample(uv, wi, u, u_lobe),
+            Bsdf::Blend(b) => b.sample(uv, wi, u, u_lobe),
+            Bsdf::NormalMap(b) => b.sample(uv, wi, u, u_lobe),
             Bsdf::Textured(b) => b.sample(uv, wi, u, u_lobe),
         }
     }

@@ -24,6 +24,10 @@ pub enum BsdfParam {
     Nested,
     /// A `mask`'s opacity.
     Opacity,
+    /// A `blendbsdf`'s weight.
+    Weight,
+    /// A `normalmap`'s normals.
+    NormalMap,
 }
 
 /// BSDF parameters that describe no BSDF. Each message completes a
@@ -64,6 +68,22 @@ pub(super) fn color(param: BsdfParam, value: Rgb) -> Result<Rgb, BsdfError> {
         Ok(value)
     } else {
         Err(BsdfError::NegativeColor { param, value })
+    }
+}
+
+/// A texture whose values are finite and not negative (a weight or an
+/// opacity, clipped to at most 1 where read).
+pub(super) fn texture_color(
+    param: BsdfParam,
+    t: &crate::texture::Texture,
+) -> Result<(), BsdfError> {
+    match t.constant() {
+        Some(c) => color(param, c).map(|_| ()),
+        None if !t.max_value().is_finite() => Err(BsdfError::NegativeColor {
+            param,
+            value: Rgb::splat(t.max_value()),
+        }),
+        None => Ok(()),
     }
 }
 

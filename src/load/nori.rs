@@ -942,7 +942,9 @@ fn nori_bsdf_name(ty: &str, param: BsdfParam) -> &'static str {
         | BsdfParam::Eta
         | BsdfParam::K
         | BsdfParam::Nested
-        | BsdfParam::Opacity => "",
+        | BsdfParam::Opacity
+        | BsdfParam::Weight
+        | BsdfParam::NormalMap => "",
     }
 }
 

@@ -150,6 +150,71 @@ fn rough_bsdfs() -> Vec<(String, Bsdf, Vec<Vec3>)> {
         .unwrap(),
         both.clone(),
     ));
+    // blendbsdf: the mixture's value and density in every sampled
+    // direction, a delta component's samples keeping their own weight.
+    v.push((
+        "blend 0.35 roughconductor / twosided roughplastic".into(),
+        Bsdf::blend(
+            Texture::Constant(Rgb::splat(0.35)),
+            Bsdf::rough_conductor(Ggx, 0.2, 0.2, au_e, au_k, Rgb::ONE, true).unwrap(),
+            Bsdf::two_sided(
+                Bsdf::rough_plastic(
+                    Ggx,
+                    0.3,
+                    1.49,
+                    AIR,
+                    Rgb::new(0.9, 0.5, 0.1),
+                    Rgb::ONE,
+                    false,
+                    true,
+                )
+                .unwrap(),
+                None,
+            )
+            .unwrap(),
+        )
+        .unwrap(),
+        up.clone(),
+    ));
+    v.push((
+        "blend 0.5 plastic / roughdielectric".into(),
+        Bsdf::blend(
+            Texture::Constant(Rgb::splat(0.5)),
+            Bsdf::plastic(1.49, AIR, Rgb::splat(0.5), Rgb::ONE, false).unwrap(),
+            Bsdf::rough_dielectric(Beckmann, 0.3, 0.3, BK7, AIR, Rgb::ONE, Rgb::ONE, true).unwrap(),
+        )
+        .unwrap(),
+        both.clone(),
+    ));
+    // normalmap: the nested weight times the shadowing term, which keeps
+    // it at most the nested albedo.
+    let tilt = |n: Vec3| Texture::Constant((n.normalize() + Vec3::ONE) * 0.5);
+    v.push((
+        "normalmap over roughconductor".into(),
+        Bsdf::normal_map(
+            tilt(Vec3::new(0.3, 0.4, 0.8)),
+            Bsdf::rough_conductor(Ggx, 0.3, 0.3, none_e, none_k, Rgb::ONE, true).unwrap(),
+            true,
+            true,
+        )
+        .unwrap(),
+        up.clone(),
+    ));
+    v.push((
+        "twosided normalmap over diffuse".into(),
+        Bsdf::two_sided(
+            Bsdf::normal_map(
+                tilt(Vec3::new(-0.5, 0.1, 0.8)),
+                Bsdf::diffuse(Rgb::splat(0.8)).unwrap(),
+                true,
+                true,
+            )
+            .unwrap(),
+            None,
+        )
+        .unwrap(),
+        both.clone(),
+    ));
     v
 }
 

@@ -100,7 +100,7 @@ fn grazing_inside() -> Vec3 {
 }
 
 /// Total number of chi-square tests that must pass, across this file.
-const FAMILY: usize = 37;
+const FAMILY: usize = 42;
 
 #[test]
 fn rough_conductor_sampling_matches_pdf() {
@@ -454,6 +454,93 @@ fn mask_sampling_matches_pdf() {
     let p = 0.7;
     let z = (through as f64 - n as f64 * p) / (n as f64 * p * (1.0 - p)).sqrt();
     assert!(z.abs() < 4.4, "pass-through {through} of {n}: z = {z:.2}");
+}
+
+/// blendbsdf's mixture density (one BSDF chosen by the weight, the
+/// mixture's pdf returned) and normalmap's tilted frames (a constant tilt,
+/// one that the flip mirrors for this wi, and a normal map over a
+/// twosided BSDF seen from below) against their pdf().
+#[test]
+fn blend_and_normal_map_sampling_match_pdf() {
+    use lente::texture::Texture;
+    let constant = |c: Rgb| Texture::Constant(c);
+    let plastic = Bsdf::rough_plastic(
+        Beckmann,
+        0.2,
+        1.5,
+        1.0,
+        Rgb::splat(0.5),
+        Rgb::ONE,
+        false,
+        true,
+    )
+    .unwrap();
+    // Normals are stored as (n + 1) / 2.
+    let tilt = |n: Vec3| constant((n.normalize() + Vec3::ONE) * 0.5);
+    let cases = [
+        case(
+            "blend 0.3 diffuse / roughconductor",
+            Bsdf::blend(
+                constant(Rgb::splat(0.3)),
+                Bsdf::diffuse(Rgb::splat(0.7)).unwrap(),
+                rc(Ggx, 0.15, 0.15, true),
+            )
+            .unwrap(),
+            dir(40.0, 10.0, false),
+            40,
+            80,
+        ),
+        case(
+            "blend 0.6 roughdielectric / roughplastic, from below",
+            Bsdf::blend(
+                constant(Rgb::splat(0.6)),
+                rd(Ggx, 0.3, 0.3, true),
+                plastic.clone(),
+            )
+            .unwrap(),
+            dir(30.0, 100.0, true),
+            40,
+            80,
+        ),
+        case(
+            "normalmap tilted 25 degrees over roughplastic",
+            Bsdf::normal_map(tilt(Vec3::new(0.4, 0.2, 0.9)), plastic.clone(), true, true).unwrap(),
+            dir(50.0, 30.0, false),
+            40,
+            80,
+        ),
+        case(
+            "normalmap flipped for wi, over roughconductor, no shadowing",
+            Bsdf::normal_map(
+                tilt(Vec3::new(-0.7, 0.1, 0.7)),
+                rc(Beckmann, 0.3, 0.3, true),
+                true,
+                false,
+            )
+            .unwrap(),
+            dir(60.0, 0.0, false),
+            40,
+            80,
+        ),
+        case(
+            "twosided normalmap diffuse from below",
+            Bsdf::two_sided(
+                Bsdf::normal_map(
+                    tilt(Vec3::new(0.3, -0.3, 0.9)),
+                    Bsdf::diffuse(Rgb::splat(0.5)).unwrap(),
+                    true,
+                    true,
+                )
+                .unwrap(),
+                None,
+            )
+            .unwrap(),
+            dir(45.0, 250.0, true),
+            30,
+            60,
+        ),
+    ];
+    run(&cases, FAMILY, 5000);
 }
 
 #[test]

@@ -36,6 +36,8 @@ fn param_name(ty: &str, param: BsdfParam) -> &'static str {
         BsdfParam::K => "k",
         BsdfParam::Nested => "bsdf",
         BsdfParam::Opacity => "opacity",
+        BsdfParam::Weight => "weight",
+        BsdfParam::NormalMap => "normalmap",
     }
 }
 
@@ -65,13 +67,13 @@ impl<'d> Ctx<'d> {
                 "roughplastic",
                 "twosided",
                 "mask",
+                "blendbsdf",
+                "normalmap",
             ],
             &[
                 "principled",
                 "principledthin",
-                "blendbsdf",
                 "bumpmap",
-                "normalmap",
                 "hair",
                 "measured",
                 "pplastic",
@@ -179,6 +181,31 @@ impl<'d> Ctx<'d> {
                 let nested = self.one_nested(node, &owner, &children)?;
                 Bsdf::mask(opacity, nested)
             }
+            "blendbsdf" => {
+                let Some(weight) = p.opt_texture("weight")? else {
+                    return Err(self.err(
+                        node.pos,
+                        format!("{owner} needs a 'weight' (a number or a texture, 0 to 1)"),
+                    ));
+                };
+                let [first, second] = self.nested_pair(node, &owner, &children)?;
+                Bsdf::blend(weight, first, second)
+            }
+            "normalmap" => {
+                let Some(normals) = p.opt_texture("normalmap")? else {
+                    return Err(self.err(
+                        node.pos,
+                        format!(
+                            "{owner} needs a 'normalmap' texture (a bitmap with \
+                             <boolean name=\"raw\" value=\"true\"/>)"
+                        ),
+                    ));
+                };
+                let flip = p.get_bool("flip_invalid_normals", true)?;
+                let shadowing = p.get_bool("use_shadowing_function", true)?;
+                let nested = self.one_nested(node, &owner, &children)?;
+                Bsdf::normal_map(normals, nested, flip, shadowing)
+            }
             _ => self.two_sided(node, &owner, &children)?,
         };
         let bsdf = built
@@ -190,7 +217,7 @@ impl<'d> Ctx<'d> {
                 };
                 p.param_error(name, &e)
             })?;
-        if !matches!(ty, "twosided" | "mask") {
+        if !matches!(ty, "twosided" | "mask" | "blendbsdf" | "normalmap") {
             self.no_children(&children, &owner)?;
         }
         p.finish(&mut self.warnings);
@@ -215,6 +242,29 @@ impl<'d> Ctx<'d> {
             nested = Some(self.enter(c, |x| x.bsdf(c.node))?);
         }
         nested.ok_or_else(|| self.err(node.pos, format!("{owner} needs a nested <bsdf>")))
+    }
+
+    /// The two nested `<bsdf>`s of a `blendbsdf`, in file order.
+    fn nested_pair(
+        &mut self,
+        node: &'d SceneNode,
+        owner: &str,
+        children: &[Child<'d>],
+    ) -> Result<[Bsdf; 2]> {
+        let mut nested = Vec::with_capacity(2);
+        for c in children {
+            if c.node.tag != "bsdf" {
+                return Err(self.misplaced(c, owner));
+            }
+            if nested.len() == 2 {
+                return Err(self.err(c.at, format!("{owner} takes two nested <bsdf>s")));
+            }
+            nested.push(self.enter(c, |x| x.bsdf(c.node))?);
+        }
+        match <[Bsdf; 2]>::try_from(nested) {
+            Ok(pair) => Ok(pair),
+            Err(_) => Err(self.err(node.pos, format!("{owner} needs two nested <bsdf>s"))),
+        }
     }
 
     /// `twosided`: one or two nested BSDFs without transmission.
