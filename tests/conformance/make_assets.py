@@ -19,7 +19,9 @@ folder; files go next to this script). Plain Python, no packages:
 - tiles.png: a 16 x 8 8-bit sRGB RGB image (colour tiles and a gradient),
   the colour texture of textures.xml;
 - roughness.png: an 8 x 8 8-bit greyscale image, read raw as a
-  roughness (0.05 to 0.6 in bands).
+  roughness (0.05 to 0.6 in bands);
+- normals.png: a 32 x 32 8-bit RGB normal map (read raw: colour c is the
+  normal 2c - 1) of a field of round bumps, tilted up to ~50 degrees.
 """
 
 import math
@@ -201,7 +203,22 @@ def roughness():
     png("roughness.png", 8, 8, 1, [[r[0] for r in rows] for _ in range(8)])
 
 
+def normals():
+    rows = []
+    for y in range(32):
+        row = []
+        for x in range(32):
+            # h = sin(2 pi x / 16) sin(2 pi y / 16); n ~ (-dh/dx, -dh/dy, 1/k)
+            a, b = 2 * math.pi * (x + 0.5) / 16, 2 * math.pi * (y + 0.5) / 16
+            n = (-math.cos(a) * math.sin(b), -math.sin(a) * math.cos(b), 0.9)
+            length = math.sqrt(sum(c * c for c in n))
+            row += [int(round(255 * (c / length + 1) / 2)) for c in n]
+        rows.append(row)
+    png("normals.png", 32, 32, 3, rows)
+
+
 if __name__ == "__main__":
+    normals()
     tiles()
     roughness()
     icosphere()

@@ -5,7 +5,8 @@
 //! (obj, ply, sphere, rectangle, cube, disk, cylinder), BSDF (diffuse,
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
-//! roughplastic, twosided with one and two BSDFs), texture (checkerboard,
+//! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
+//! normalmap), texture (checkerboard,
 //! bitmap) and emitter (envmap, constant, area, point, directional) that
 //! lente reads from Mitsuba files.
 //!
@@ -144,6 +145,12 @@ const CASES: &[Case] = &[
     Case {
         file: "env_elevation.xml",
         covers: "envmap varying with the elevation (Mitsuba's pole-to-pole rows), seen directly; sphere, rectangle; diffuse, roughconductor GGX (Al)",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "blend_normalmap.xml",
+        covers: "blendbsdf (a bitmap weight over diffuse and roughconductor; a constant weight over roughplastic and roughconductor), normalmap (a raw bitmap, bilinear and nearest, over roughplastic on a rectangle and inside twosided over diffuse on a sphere); point and area lights",
         spp: 192,
         renders: 16,
     },
