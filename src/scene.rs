@@ -71,8 +71,10 @@ impl Scene {
         let bvh = Bvh::build(&geometry);
         let mut bounds = bvh.bounds();
         for e in &emitters {
-            if let Emitter::Point(light) = e {
-                bounds = bounds.extend(light.position);
+            match e {
+                Emitter::Point(light) => bounds = bounds.extend(light.position),
+                Emitter::Spot(light) => bounds = bounds.extend(light.position),
+                _ => {}
             }
         }
         let scene_radius = if bounds.is_empty() {

@@ -58,6 +58,15 @@ impl LightBounds {
     pub fn of(emitter: &Emitter, ctx: &EmitterContext, power: f32) -> Option<LightBounds> {
         match emitter {
             Emitter::Point(p) => Some(LightBounds::omni(p.position, 0.0, power)),
+            // Emission within the cone only; the bound's 90 degrees beyond
+            // it are conservative.
+            Emitter::Spot(s) => Some(LightBounds {
+                centre: s.position,
+                radius: 0.0,
+                power,
+                axis: s.axis,
+                cos_theta_o: s.cos_cutoff(),
+            }),
             Emitter::Area(a) => match &ctx.shapes[a.shape as usize] {
                 Geometry::Sphere(s) => Some(LightBounds::omni(s.center, s.radius, power)),
                 Geometry::Mesh(m) => {

@@ -8,6 +8,7 @@ mod envmap;
 mod light_choice;
 mod point;
 pub mod sky;
+mod spot;
 
 pub use area::AreaLight;
 pub use constant::ConstantLight;
@@ -15,6 +16,7 @@ pub use directional::DirectionalLight;
 pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, LightPdf, TexelRows};
 pub use light_choice::{ChoicePoint, LightBounds, LightChoice, EXHAUSTIVE_MAX};
 pub use point::PointLight;
+pub use spot::{SpotError, SpotLight};
 
 use crate::color::Rgb;
 use crate::geometry::Geometry;
@@ -26,6 +28,8 @@ use crate::math::{Vec2, Vec3, PI};
 pub enum Emitter {
     Area(AreaLight),
     Point(PointLight),
+    /// Mitsuba's `spot` (boxed: rare, and it may hold a texture).
+    Spot(Box<SpotLight>),
     Directional(DirectionalLight),
     Constant(ConstantLight),
     /// An image-based light at infinity.
@@ -114,6 +118,7 @@ impl Emitter {
         match self {
             Emitter::Area(_) => "area",
             Emitter::Point(_) => "point",
+            Emitter::Spot(_) => "spot",
             Emitter::Directional(_) => "directional",
             Emitter::Constant(_) => "constant",
             Emitter::Environment(_) => "environment",
@@ -133,7 +138,10 @@ impl Emitter {
     }
 
     pub fn is_delta(&self) -> bool {
-        matches!(self, Emitter::Point(_) | Emitter::Directional(_))
+        matches!(
+            self,
+            Emitter::Point(_) | Emitter::Spot(_) | Emitter::Directional(_)
+        )
     }
 
     /// Estimated emitted power (luminance), for choosing lights.
@@ -141,6 +149,7 @@ impl Emitter {
         match self {
             Emitter::Area(e) => e.power(ctx),
             Emitter::Point(e) => e.power(),
+            Emitter::Spot(e) => e.power(),
             Emitter::Directional(e) => e.power(ctx),
             Emitter::Constant(e) => e.power(ctx),
             Emitter::Environment(e) => {
@@ -182,6 +191,7 @@ impl Emitter {
         match self {
             Emitter::Area(e) => e.sample(ctx, p_ref, u, u1),
             Emitter::Point(e) => e.sample(p_ref),
+            Emitter::Spot(e) => e.sample(p_ref),
             Emitter::Directional(e) => e.sample(ctx, p_ref),
             Emitter::Constant(e) => e.sample(ctx, p_ref, u),
             Emitter::Environment(e) => {
@@ -204,7 +214,7 @@ impl Emitter {
     ) -> f32 {
         match self {
             Emitter::Area(e) => e.pdf(ctx, p_ref, wi, at),
-            Emitter::Point(_) | Emitter::Directional(_) => 0.0,
+            Emitter::Point(_) | Emitter::Spot(_) | Emitter::Directional(_) => 0.0,
             Emitter::Constant(e) => e.pdf(wi),
             Emitter::Environment(e) => e.pdf(wi, which),
         }

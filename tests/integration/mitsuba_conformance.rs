@@ -7,7 +7,7 @@
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
 //! normalmap), texture (checkerboard,
-//! bitmap) and emitter (envmap, constant, area, point, directional) that
+//! bitmap) and emitter (envmap, constant, area, point, spot, directional) that
 //! lente reads from Mitsuba files.
 //!
 //! # The statistic
@@ -157,6 +157,12 @@ const CASES: &[Case] = &[
     Case {
         file: "mask.xml",
         covers: "mask: a bitmap opacity over twosided diffuse before an area light, constant opacity over a checkerboard diffuse and over a roughconductor (an RGB opacity: its channel mean, as Mitsuba's eval_1)",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "spot.xml",
+        covers: "spot: beam width and cutoff (the linear falloff), Mitsuba's default beam width with a projected sRGB bitmap, tilted; diffuse, roughconductor",
         spp: 192,
         renders: 16,
     },

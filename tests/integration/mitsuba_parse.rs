@@ -771,6 +771,37 @@ fn top_level_samplers_films_and_filters_can_be_referenced() {
     );
 }
 
+/// `spot`: Mitsuba's defaults (cutoff 20, beam 3/4 of it), and the
+/// angles or a constant texture refused at the property.
+#[test]
+fn spot_lights() {
+    let desc = load_clean(&scene(
+        r#"<emitter type="spot"><rgb name="intensity" value="3"/></emitter>"#,
+    ));
+    match desc.scene.emitters.as_slice() {
+        [Emitter::Spot(s)] => {
+            assert!((s.cos_cutoff() - 20f32.to_radians().cos()).abs() < 1e-6);
+            assert_eq!(s.axis, Vec3::Z);
+            assert_eq!(s.intensity, Rgb::splat(3.0));
+        }
+        e => panic!("{e:?}"),
+    }
+    assert_err(
+        &scene(
+            r#"<emitter type="spot"><float name="cutoff_angle" value="10"/><float name="beam_width" value="12"/></emitter>"#,
+        ),
+        4,
+        93,
+        &["beam_width", "cutoff angle"],
+    );
+    assert_err(
+        &scene(r#"<emitter type="spot"><rgb name="texture" value="1, 0, 0"/></emitter>"#),
+        4,
+        49,
+        &["texture", "vary"],
+    );
+}
+
 // ---------------------------------------------------------------------------
 // Values and transforms
 // ---------------------------------------------------------------------------

@@ -1,9 +1,10 @@
-//! Emitters: area, point, directional, constant and envmap.
+//! Emitters: area, point, spot, directional, constant and envmap.
 
 use super::Ctx;
 use crate::color::{Rgb, SpectrumUse};
 use crate::emitter::{
-    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight, TexelRows,
+    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight, SpotError,
+    SpotLight, TexelRows,
 };
 use crate::load::objects::{self, EnvMapNames, EnvMapSpec, Texels};
 use crate::load::props::Props;
@@ -35,9 +36,8 @@ impl<'d> Ctx<'d> {
     pub(super) fn emitter(&mut self, node: &'d SceneNode, in_shape: bool) -> Result<EmitterDesc> {
         let ty = self.object_type(
             node,
-            &["area", "point", "directional", "constant", "envmap"],
+            &["area", "point", "spot", "directional", "constant", "envmap"],
             &[
-                "spot",
                 "projector",
                 "sunsky",
                 "sky",
@@ -86,6 +86,35 @@ impl<'d> Ctx<'d> {
                 })?;
                 EmitterDesc::Free {
                     emitter: Emitter::Point(light),
+                    environment: false,
+                }
+            }
+            "spot" => {
+                let to_world = p.get_transform("to_world", Transform::IDENTITY)?;
+                let intensity = p.get_rgb_or_float("intensity", Rgb::ONE)?;
+                let cutoff = p.get_float("cutoff_angle", 20.0)?;
+                let beam = p.get_float("beam_width", cutoff * 0.75)?;
+                let texture = p.opt_texture("texture")?;
+                if texture.as_ref().is_some_and(|t| !t.is_varying()) {
+                    return Err(p.error(
+                        "texture",
+                        "'texture' must vary over the beam (a bitmap or checkerboard), as \
+                         Mitsuba requires; fold a constant into 'intensity'",
+                    ));
+                }
+                let light = SpotLight::new(&to_world, intensity, cutoff, beam, texture).map_err(
+                    |e| match e {
+                        SpotError::Cutoff(_) => p.param_error("cutoff_angle", &e),
+                        SpotError::Beam { .. } => p.param_error("beam_width", &e),
+                        SpotError::Texture(_) => p.param_error("texture", &e),
+                        SpotError::Emitter(EmitterError::Radiance(_)) => {
+                            p.param_error("intensity", &e)
+                        }
+                        _ => p.param_error("to_world", &e),
+                    },
+                )?;
+                EmitterDesc::Free {
+                    emitter: Emitter::Spot(Box::new(light)),
                     environment: false,
                 }
             }
