@@ -10,7 +10,7 @@ use crate::sampling::warp;
 
 /// Smith's shadowing for the Beckmann distribution (Walter et al. 2007's
 /// rational approximation), with the sidedness check.
-fn smith_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
+pub(super) fn smith_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
     if v.dot(m) * v.z <= 0.0 {
         return 0.0;
     }

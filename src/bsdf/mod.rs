@@ -19,6 +19,8 @@ pub mod presets;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
+mod rough_substrate;
+mod schlick_conductor;
 mod textured;
 mod thin_dielectric;
 mod two_sided;
@@ -44,6 +46,8 @@ pub use presets::{conductor_preset, ior_preset};
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
+pub use rough_substrate::RoughSubstrate;
+pub use schlick_conductor::SchlickConductor;
 pub use textured::Textured;
 pub use thin_dielectric::ThinDielectric;
 pub use two_sided::TwoSided;
@@ -66,6 +70,10 @@ pub enum Bsdf {
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
     TwoSided(TwoSided),
+    /// The Zaragoza Nori fork's `roughconductor` (Schlick's Fresnel).
+    SchlickConductor(SchlickConductor),
+    /// The Zaragoza Nori fork's `roughsubstrate` (Ashikhmin-Shirley).
+    RoughSubstrate(RoughSubstrate),
     /// Mitsuba's `mask`: opacity, the rest passes straight through
     /// (boxed: rare, and its texture is large).
     Mask(Box<Mask>),
@@ -320,6 +328,7 @@ impl Bsdf {
             Bsdf::Microfacet(b) => Some(b.kd),
             Bsdf::Plastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughPlastic(b) => Some(b.diffuse_reflectance),
+            Bsdf::RoughSubstrate(b) => Some(b.kd),
             Bsdf::TwoSided(b) => b.front.albedo(),
             Bsdf::Mask(b) => b.nested.albedo(),
             Bsdf::Blend(b) => {
@@ -345,6 +354,8 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.eval(wi, wo),
             Bsdf::Plastic(b) => b.eval(wi, wo),
             Bsdf::RoughPlastic(b) => b.eval(wi, wo),
+            Bsdf::SchlickConductor(b) => b.eval(wi, wo),
+            Bsdf::RoughSubstrate(b) => b.eval(wi, wo),
             Bsdf::TwoSided(b) => b.eval(uv, wi, wo),
             Bsdf::Mask(b) => b.eval(uv, wi, wo),
             Bsdf::Blend(b) => b.eval(uv, wi, wo),
@@ -366,6 +377,8 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.pdf(wi, wo),
             Bsdf::Plastic(b) => b.pdf(wi, wo),
             Bsdf::RoughPlastic(b) => b.pdf(wi, wo),
+            Bsdf::SchlickConductor(b) => b.pdf(wi, wo),
+            Bsdf::RoughSubstrate(b) => b.pdf(wi, wo),
             Bsdf::TwoSided(b) => b.pdf(uv, wi, wo),
             Bsdf::Mask(b) => b.pdf(uv, wi, wo),
             Bsdf::Blend(b) => b.pdf(uv, wi, wo),
@@ -391,6 +404,8 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.sample(wi, u, u_lobe),
             Bsdf::Plastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
+            Bsdf::SchlickConductor(b) => b.sample(wi, u),
+            Bsdf::RoughSubstrate(b) => b.sample(wi, u, u_lobe),
             Bsdf::TwoSided(b) => b.sample(uv, wi, u, u_lobe),
             Bsdf::Mask(b) => b.sample(uv, wi, u, u_lobe),
             Bsdf::Blend(b) => b.sample(uv, wi, u, u_lobe),

@@ -24,7 +24,7 @@ use super::props::{Kind, Props};
 use super::reader::{self, Dialect, LookAtError};
 use super::xml::{Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
-use crate::bsdf::{Bsdf, BsdfParam, Mirror};
+use crate::bsdf::{Bsdf, BsdfParam, Mirror, RoughSubstrate, SchlickConductor};
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
@@ -104,7 +104,14 @@ const INTEGRATOR_TYPES: &[&str] = &[
     "path",
 ];
 const MESH_TYPES: &[&str] = &["obj", "sphere"];
-const BSDF_TYPES: &[&str] = &["diffuse", "mirror", "dielectric", "microfacet"];
+const BSDF_TYPES: &[&str] = &[
+    "diffuse",
+    "mirror",
+    "dielectric",
+    "microfacet",
+    "roughconductor",
+    "roughsubstrate",
+];
 /// `filename` value of an environment emitter that means the built-in
 /// procedural sky (Preetham, turbidity 3, sun at 45 degrees elevation).
 pub const BUILTIN_SKY: &str = "@sky";
@@ -126,27 +133,12 @@ const EMITTER_TYPES: &[&str] = &[
 pub const ZARAGOZA_POINT_POSITION: Vec3 = Vec3::new(0.0, 100.0, 0.0);
 
 /// Object types other Nori forks define and lente does not.
-const FORK_TYPES: &[&str] = &[
-    "roughconductor",
-    "roughsubstrate",
-    "roughdielectric",
-    "depth",
-];
+const FORK_TYPES: &[&str] = &["roughdielectric", "depth"];
 
 /// Object types other Nori forks define and lente does not: what they are
 /// there, and what to use instead (appended to the unknown-type error).
 fn fork_type_hint(tag: &str, ty: &str) -> Option<&'static str> {
     Some(match (tag, ty) {
-        ("bsdf", "roughconductor") => {
-            "'roughconductor' is the Zaragoza fork's rough metal (Beckmann 'alpha', \
-             Schlick's 'R0'); lente's Nori dialect has no metal: the closest is \
-             'microfacet', and Mitsuba 3 scenes have a 'roughconductor'"
-        }
-        ("bsdf", "roughsubstrate") => {
-            "'roughsubstrate' is the Zaragoza fork's rough coating over a diffuse base; \
-             lente's 'microfacet' reads the same 'alpha', 'intIOR', 'extIOR' and 'kd' \
-             but weights the base by 1 - max(kd) (wjakob/nori's model)"
-        }
         ("bsdf", "roughdielectric") => {
             "'roughdielectric' is the Zaragoza fork's rough glass; lente reads rough \
              glass only from Mitsuba 3 scenes"
@@ -663,6 +655,19 @@ impl<'a> Ctx<'a> {
                 )?;
                 Bsdf::microfacet(alpha, int_ior, ext_ior, kd)
             }
+            // The Zaragoza fork's rough metal and coated diffuse.
+            "roughconductor" => {
+                let alpha = p.get_float("alpha", 0.1)?;
+                let r0 = p.get_rgb("R0", Rgb::splat(0.5))?;
+                SchlickConductor::new(alpha, r0).map(Bsdf::SchlickConductor)
+            }
+            "roughsubstrate" => {
+                let alpha = p.get_float("alpha", 0.1)?;
+                let int_ior = p.get_float("intIOR", 1.5046)?;
+                let ext_ior = p.get_float("extIOR", 1.000277)?;
+                let kd = p.get_rgb("kd", Rgb::splat(0.5))?;
+                RoughSubstrate::new(alpha, int_ior, ext_ior, kd).map(Bsdf::RoughSubstrate)
+            }
             _ => unreachable!(),
         };
         let bsdf = bsdf.map_err(|e| p.param_error(nori_bsdf_name(ty, e.param()), &e))?;
@@ -933,6 +938,7 @@ fn nori_bsdf_name(ty: &str, param: BsdfParam) -> &'static str {
     match param {
         BsdfParam::Diffuse if ty == "diffuse" => "albedo",
         BsdfParam::Diffuse => "kd",
+        BsdfParam::SpecularReflectance if ty == "roughconductor" => "R0",
         BsdfParam::IntIor => "intIOR",
         BsdfParam::ExtIor => "extIOR",
         BsdfParam::Alpha | BsdfParam::AlphaV => "alpha",

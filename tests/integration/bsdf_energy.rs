@@ -186,6 +186,21 @@ fn rough_bsdfs() -> Vec<(String, Bsdf, Vec<Vec3>)> {
         .unwrap(),
         both.clone(),
     ));
+    // The Zaragoza Nori fork's models.
+    v.push((
+        "zaragoza roughconductor".into(),
+        Bsdf::SchlickConductor(
+            lente::bsdf::SchlickConductor::new(0.25, Rgb::new(0.95, 0.64, 0.54)).unwrap(),
+        ),
+        up.clone(),
+    ));
+    v.push((
+        "zaragoza roughsubstrate".into(),
+        Bsdf::RoughSubstrate(
+            lente::bsdf::RoughSubstrate::new(0.2, 1.5046, AIR, Rgb::new(0.8, 0.5, 0.1)).unwrap(),
+        ),
+        up.clone(),
+    ));
     // normalmap: the nested weight times the shadowing term, which keeps
     // it at most the nested albedo.
     let tilt = |n: Vec3| Texture::Constant((n.normalize() + Vec3::ONE) * 0.5);

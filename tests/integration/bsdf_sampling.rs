@@ -100,7 +100,7 @@ fn grazing_inside() -> Vec3 {
 }
 
 /// Total number of chi-square tests that must pass, across this file.
-const FAMILY: usize = 42;
+const FAMILY: usize = 44;
 
 #[test]
 fn rough_conductor_sampling_matches_pdf() {
@@ -541,6 +541,33 @@ fn blend_and_normal_map_sampling_match_pdf() {
         ),
     ];
     run(&cases, FAMILY, 5000);
+}
+
+/// The Zaragoza Nori fork's roughconductor (Beckmann normals) and
+/// roughsubstrate (coating chosen with probability F(cos θi), else a
+/// cosine-weighted direction).
+#[test]
+fn nori_fork_bsdf_sampling_matches_pdf() {
+    use lente::bsdf::{RoughSubstrate, SchlickConductor};
+    let cases = [
+        case(
+            "zaragoza roughconductor 0.2",
+            Bsdf::SchlickConductor(SchlickConductor::new(0.2, Rgb::new(0.9, 0.6, 0.3)).unwrap()),
+            dir(45.0, 20.0, false),
+            40,
+            80,
+        ),
+        case(
+            "zaragoza roughsubstrate 0.15, grazing",
+            Bsdf::RoughSubstrate(
+                RoughSubstrate::new(0.15, 1.5046, 1.000277, Rgb::new(0.2, 0.5, 0.8)).unwrap(),
+            ),
+            dir(75.0, 200.0, false),
+            40,
+            80,
+        ),
+    ];
+    run(&cases, FAMILY, 6000);
 }
 
 #[test]
