@@ -249,6 +249,30 @@ impl<'a> Ctx<'a> {
         let mut shapes = Vec::new();
         let mut emitters = Vec::new();
         let mut environment: Option<Pos> = None;
+        // A light not on a shape; at most one environment.
+        let mut handle_free = |ctx: &mut Self, desc: EmitterDesc, at: Pos| -> Result<()> {
+            let EmitterDesc::Free {
+                emitter,
+                environment: env,
+            } = desc
+            else {
+                unreachable!("checked by emitter()")
+            };
+            if env {
+                if let Some(first) = environment {
+                    return Err(ctx.err(
+                        at,
+                        format!(
+                            "a scene can have at most one environment emitter \
+                             (environment, envmap, sky or constant); the first is at {first}"
+                        ),
+                    ));
+                }
+                environment = Some(at);
+            }
+            emitters.push(emitter);
+            Ok(())
+        };
         for node in objects {
             match node.tag.as_str() {
                 "camera" => {
@@ -279,26 +303,12 @@ impl<'a> Ctx<'a> {
                     }
                     integrator = Some((self.integrator(node)?, node.pos));
                 }
-                "mesh" => shapes.push(self.mesh(node)?),
+                "mesh" => match self.environment_in_mesh(node)? {
+                    None => shapes.push(self.mesh(node)?),
+                    Some(env) => handle_free(self, env, node.pos)?,
+                },
                 "emitter" => match self.emitter(node, false)? {
-                    EmitterDesc::Free {
-                        emitter,
-                        environment: env,
-                    } => {
-                        if env {
-                            if let Some(first) = environment {
-                                return Err(self.err(
-                                    node.pos,
-                                    format!(
-                                        "a scene can have at most one environment emitter \
-                                         (environment, envmap, sky or constant); the first is at {first}"
-                                    ),
-                                ));
-                            }
-                            environment = Some(node.pos);
-                        }
-                        emitters.push(emitter);
-                    }
+                    free @ EmitterDesc::Free { .. } => handle_free(self, free, node.pos)?,
                     EmitterDesc::Area(_) => unreachable!("checked by emitter()"),
                 },
                 _ => return Err(self.misplaced(node, "<scene>")),
@@ -542,6 +552,32 @@ impl<'a> Ctx<'a> {
         p.finish(&mut self.warnings);
         self.no_children(objects, &owner)?;
         Ok(integrator)
+    }
+
+    /// An environment emitter written inside a `<mesh>` (ETH students
+    /// wrap theirs in a big sphere): read as the scene's environment, the
+    /// mesh around it dropped (it would hide the environment), with a
+    /// warning. `None` for a mesh without one.
+    fn environment_in_mesh(&mut self, node: &SceneNode) -> Result<Option<EmitterDesc>> {
+        const ENVIRONMENTS: &[&str] = &["environment", "envmap", "sky", "constant"];
+        let Some(ch) = node.children.iter().find(|c| {
+            c.tag == "emitter"
+                && c.attr_value("type")
+                    .is_some_and(|t| ENVIRONMENTS.contains(&t))
+        }) else {
+            return Ok(None);
+        };
+        let ty = ch.attr_value("type").unwrap_or_default();
+        let desc = self.emitter(ch, false)?;
+        self.warn(
+            ch.pos,
+            format!(
+                "<emitter type=\"{ty}\"> inside a <mesh> is read as the scene's environment; \
+                 the mesh around it is left out (it would hide the environment): write the \
+                 emitter directly inside <scene>"
+            ),
+        );
+        Ok(Some(desc))
     }
 
     fn mesh(&mut self, node: &SceneNode) -> Result<ShapeDesc> {

@@ -624,6 +624,47 @@ fn zaragoza_rough_bsdfs_are_the_forks_models() {
     assert!(e.message.contains("'R0'"), "{e}");
 }
 
+/// ETH students write their environment map inside a big `<mesh
+/// type="sphere">`: it becomes the scene's environment (one warning), the
+/// sphere around it is left out; a second environment is still an error,
+/// and a point light inside a mesh still cannot stand there.
+#[test]
+fn an_environment_inside_a_mesh_is_the_scenes_environment() {
+    let text = r#"<scene>
+    <integrator type="path_mis"/>
+    <camera type="perspective"/>
+    <mesh type="sphere">
+        <float name="radius" value="1000"/>
+        <emitter type="envmap">
+            <string name="filename" value="ENV"/>
+        </emitter>
+    </mesh>
+    <mesh type="sphere"/>
+</scene>
+"#;
+    let env = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/stripes.pfm");
+    let text = text.replace("ENV", env.to_str().unwrap());
+    let desc = one_warning(&text, 6, 9, &["scene's environment", "left out", "<scene>"]);
+    assert_eq!(desc.scene.shapes.len(), 1);
+    assert!(matches!(
+        desc.scene.emitters.as_slice(),
+        [Emitter::Environment(_)]
+    ));
+    let twice = text.replace(
+        "<mesh type=\"sphere\"/>",
+        "<emitter type=\"environment\"><color name=\"radiance\" value=\"1\"/></emitter>",
+    );
+    let e = load_err(&twice);
+    assert_eq!((e.line, e.col), (10, 5), "{e}");
+    assert!(e.message.contains("at most one environment"), "{e}");
+    let e = load_err(&text.replace(
+        "<emitter type=\"envmap\">",
+        "<emitter type=\"point\"><point name=\"position\" value=\"0, 1, 0\"/>",
+    ));
+    assert_eq!((e.line, e.col), (6, 9), "{e}");
+    assert!(e.message.contains("cannot stand inside a <mesh>"), "{e}");
+}
+
 /// Object types and elements only the Zaragoza fork has are errors that
 /// name it and point to lente's nearest equivalent.
 #[test]
