@@ -996,6 +996,38 @@ fn mitsuba_0x_files_are_upgraded() {
     assert!(w.iter().any(|w| w.message.contains("'maxDepth'")), "{w:?}");
 }
 
+/// 0.x's `uoffset`/`voffset`/`uscale`/`vscale` become `to_uv` =
+/// scale(uscale, vscale) translate(uoffset, voffset), as Mitsuba 3
+/// upgrades them, whatever order they are written in.
+#[test]
+fn mitsuba_0x_uv_offsets_and_scales_become_to_uv() {
+    use lente::texture::{Texture, UvTransform};
+    let old = r#"<scene version="0.5.0">
+  <integrator type="path"/>
+  <sensor type="perspective"/>
+  <shape type="sphere">
+    <bsdf type="diffuse">
+      <texture type="checkerboard" name="reflectance">
+        <float name="uscale" value="4"/><float name="voffset" value="0.5"/>
+        <float name="vscale" value="2"/><float name="uoffset" value="0.25"/>
+      </texture>
+    </bsdf>
+  </shape>
+</scene>"#;
+    let (desc, _) = load(old);
+    let Bsdf::Textured(t) = &desc.scene.shapes[0].bsdf else {
+        panic!("{:?}", desc.scene.shapes[0].bsdf);
+    };
+    let Texture::Checkerboard(c) = &t.textures()[0].1 else {
+        panic!("{t:?}");
+    };
+    let expect = UvTransform {
+        row0: [4.0, 0.0, 1.0],
+        row1: [0.0, 2.0, 1.0],
+    };
+    assert_eq!(c.to_uv, expect);
+}
+
 // ---------------------------------------------------------------------------
 // File structure errors
 // ---------------------------------------------------------------------------

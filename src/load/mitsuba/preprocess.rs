@@ -377,6 +377,68 @@ fn upgrade_from_v1(node: &mut SceneNode, owner_type: Option<&str>) {
     for ch in &mut node.children {
         upgrade_from_v1(ch, ty.as_deref());
     }
+    uv_offsets_to_transform(node);
+}
+
+/// Mitsuba 3 turns 0.x's `uoffset`, `voffset`, `uscale`, `vscale` into
+/// `to_uv` = scale(uscale, vscale) · translate(uoffset, voffset): here the
+/// property elements become a `<transform name="to_uv">` of `<translate>`s
+/// and then `<scale>`s, keeping their file positions for errors.
+fn uv_offsets_to_transform(node: &mut SceneNode) {
+    let is_uv = |c: &SceneNode| {
+        c.tag != "transform"
+            && matches!(
+                c.attr_value("name"),
+                Some("uoffset" | "voffset" | "uscale" | "vscale")
+            )
+    };
+    if !node.children.iter().any(is_uv) {
+        return;
+    }
+    let at = node.children.iter().position(is_uv).expect("checked");
+    let (uv, rest): (Vec<SceneNode>, Vec<SceneNode>) = std::mem::take(&mut node.children)
+        .into_iter()
+        .partition(is_uv);
+    node.children = rest;
+    let mut name = None;
+    let mut ops = Vec::with_capacity(uv.len());
+    for mut c in uv {
+        let which = c.attr_value("name").unwrap_or_default().to_string();
+        let (tag, axis) = match which.as_str() {
+            "uoffset" => ("translate", "x"),
+            "voffset" => ("translate", "y"),
+            "uscale" => ("scale", "x"),
+            _ => ("scale", "y"),
+        };
+        let i = c
+            .attributes
+            .iter()
+            .position(|a| a.name == "name")
+            .expect("matched");
+        let mut n = c.attributes.remove(i);
+        n.set_value("to_uv".to_string());
+        name.get_or_insert(n);
+        for a in &mut c.attributes {
+            if a.name == "value" {
+                a.name = axis.to_string();
+            }
+        }
+        c.tag = tag.to_string();
+        ops.push(c);
+    }
+    // Translations first: each later operation applies after the ones before.
+    ops.sort_by_key(|c| c.tag != "translate");
+    let first = ops[0].pos;
+    node.children.insert(
+        at.min(node.children.len()),
+        SceneNode {
+            tag: "transform".to_string(),
+            pos: first,
+            attributes: name.into_iter().collect(),
+            children: ops,
+            text: Vec::new(),
+        },
+    );
 }
 
 /// Mitsuba 3's `camel_to_underscore_case`: an upper-case letter after a
