@@ -10,7 +10,7 @@ use super::params::BsdfError;
 use super::{Bsdf, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
-use crate::texture::Texture;
+use crate::texture::{SurfacePoint, Texture};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Blend {
@@ -33,39 +33,39 @@ impl Blend {
     }
 
     #[inline]
-    fn w(&self, uv: Vec2) -> f32 {
-        self.weight.eval_1(uv).clamp(0.0, 1.0)
+    fn w(&self, at: SurfacePoint) -> f32 {
+        self.weight.eval_1(at).clamp(0.0, 1.0)
     }
 
-    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
-        let w = self.w(uv);
-        self.first.eval(uv, wi, wo) * (1.0 - w) + self.second.eval(uv, wi, wo) * w
+    pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
+        let w = self.w(at);
+        self.first.eval(at, wi, wo) * (1.0 - w) + self.second.eval(at, wi, wo) * w
     }
 
-    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
-        let w = self.w(uv);
-        self.first.pdf(uv, wi, wo) * (1.0 - w) + self.second.pdf(uv, wi, wo) * w
+    pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
+        let w = self.w(at);
+        self.first.pdf(at, wi, wo) * (1.0 - w) + self.second.pdf(at, wi, wo) * w
     }
 
     /// `first` when `u_lobe` ≥ w, else `second` (`u_lobe` rescaled for the
     /// chosen one).
-    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
-        let w = self.w(uv);
+    pub fn sample(&self, at: SurfacePoint, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        let w = self.w(at);
         let (chosen, p, u_lobe) = if u_lobe >= w {
             (&self.first, 1.0 - w, (u_lobe - w) / (1.0 - w))
         } else {
             (&self.second, w, u_lobe / w)
         };
-        let mut s = chosen.sample(uv, wi, u, u_lobe.min(1.0 - f32::EPSILON))?;
+        let mut s = chosen.sample(at, wi, u, u_lobe.min(1.0 - f32::EPSILON))?;
         if s.specular {
             s.pdf *= p;
             return Some(s);
         }
-        let pdf = self.pdf(uv, wi, s.wo);
+        let pdf = self.pdf(at, wi, s.wo);
         if pdf <= 0.0 {
             return None;
         }
-        s.weight = self.eval(uv, wi, s.wo) * s.wo.z.abs() / pdf;
+        s.weight = self.eval(at, wi, s.wo) * s.wo.z.abs() / pdf;
         s.pdf = pdf;
         Some(s)
     }

@@ -11,7 +11,7 @@ use super::params::BsdfError;
 use super::{Bsdf, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
-use crate::texture::Texture;
+use crate::texture::{SurfacePoint, Texture};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mask {
@@ -29,26 +29,26 @@ impl Mask {
     }
 
     #[inline]
-    fn alpha(&self, uv: Vec2) -> f32 {
-        self.opacity.eval_1(uv).clamp(0.0, 1.0)
+    fn alpha(&self, at: SurfacePoint) -> f32 {
+        self.opacity.eval_1(at).clamp(0.0, 1.0)
     }
 
-    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
-        self.nested.eval(uv, wi, wo) * self.alpha(uv)
+    pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
+        self.nested.eval(at, wi, wo) * self.alpha(at)
     }
 
-    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
-        self.nested.pdf(uv, wi, wo) * self.alpha(uv)
+    pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
+        self.nested.pdf(at, wi, wo) * self.alpha(at)
     }
 
     /// The nested BSDF with probability α (`u_lobe` rescaled for it), else
     /// straight through.
-    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
-        let alpha = self.alpha(uv);
+    pub fn sample(&self, at: SurfacePoint, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        let alpha = self.alpha(at);
         if u_lobe < alpha {
             let mut s = self
                 .nested
-                .sample(uv, wi, u, (u_lobe / alpha).min(1.0 - f32::EPSILON))?;
+                .sample(at, wi, u, (u_lobe / alpha).min(1.0 - f32::EPSILON))?;
             s.pdf *= alpha;
             return Some(s);
         }

@@ -27,6 +27,7 @@ mod two_sided;
 
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
+use crate::texture::SurfacePoint;
 
 pub use blend::Blend;
 pub use conductor::Conductor;
@@ -344,9 +345,11 @@ impl Bsdf {
         }
     }
 
-    /// BSDF value f(wi, wo) (without the cosine) at surface coordinates
-    /// `uv` (what textured parameters are read at). Zero for delta lobes.
-    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
+    /// BSDF value f(wi, wo) (without the cosine) at a surface point (where
+    /// textured parameters are read; a bare uv converts). Zero for delta
+    /// lobes.
+    pub fn eval(&self, at: impl Into<SurfacePoint>, wi: Vec3, wo: Vec3) -> Rgb {
+        let at = at.into();
         match self {
             Bsdf::Diffuse(b) => b.eval(wi, wo),
             Bsdf::Microfacet(b) => b.eval(wi, wo),
@@ -356,11 +359,11 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.eval(wi, wo),
             Bsdf::SchlickConductor(b) => b.eval(wi, wo),
             Bsdf::RoughSubstrate(b) => b.eval(wi, wo),
-            Bsdf::TwoSided(b) => b.eval(uv, wi, wo),
-            Bsdf::Mask(b) => b.eval(uv, wi, wo),
-            Bsdf::Blend(b) => b.eval(uv, wi, wo),
-            Bsdf::NormalMap(b) => b.eval(uv, wi, wo),
-            Bsdf::Textured(b) => b.eval(uv, wi, wo),
+            Bsdf::TwoSided(b) => b.eval(at, wi, wo),
+            Bsdf::Mask(b) => b.eval(at, wi, wo),
+            Bsdf::Blend(b) => b.eval(at, wi, wo),
+            Bsdf::NormalMap(b) => b.eval(at, wi, wo),
+            Bsdf::Textured(b) => b.eval(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
@@ -369,7 +372,8 @@ impl Bsdf {
     }
 
     /// Solid-angle density of `sample` producing `wo`. Zero for delta lobes.
-    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
+    pub fn pdf(&self, at: impl Into<SurfacePoint>, wi: Vec3, wo: Vec3) -> f32 {
+        let at = at.into();
         match self {
             Bsdf::Diffuse(b) => b.pdf(wi, wo),
             Bsdf::Microfacet(b) => b.pdf(wi, wo),
@@ -379,11 +383,11 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.pdf(wi, wo),
             Bsdf::SchlickConductor(b) => b.pdf(wi, wo),
             Bsdf::RoughSubstrate(b) => b.pdf(wi, wo),
-            Bsdf::TwoSided(b) => b.pdf(uv, wi, wo),
-            Bsdf::Mask(b) => b.pdf(uv, wi, wo),
-            Bsdf::Blend(b) => b.pdf(uv, wi, wo),
-            Bsdf::NormalMap(b) => b.pdf(uv, wi, wo),
-            Bsdf::Textured(b) => b.pdf(uv, wi, wo),
+            Bsdf::TwoSided(b) => b.pdf(at, wi, wo),
+            Bsdf::Mask(b) => b.pdf(at, wi, wo),
+            Bsdf::Blend(b) => b.pdf(at, wi, wo),
+            Bsdf::NormalMap(b) => b.pdf(at, wi, wo),
+            Bsdf::Textured(b) => b.pdf(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
@@ -392,7 +396,14 @@ impl Bsdf {
     }
 
     /// Samples `wo` given `wi`; `u` drives the direction, `u_lobe` the lobe choice.
-    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+    pub fn sample(
+        &self,
+        at: impl Into<SurfacePoint>,
+        wi: Vec3,
+        u: Vec2,
+        u_lobe: f32,
+    ) -> Option<BsdfSample> {
+        let at = at.into();
         match self {
             Bsdf::Diffuse(b) => b.sample(wi, u),
             Bsdf::Mirror(b) => b.sample(wi),
@@ -406,11 +417,11 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::SchlickConductor(b) => b.sample(wi, u),
             Bsdf::RoughSubstrate(b) => b.sample(wi, u, u_lobe),
-            Bsdf::TwoSided(b) => b.sample(uv, wi, u, u_lobe),
-            Bsdf::Mask(b) => b.sample(uv, wi, u, u_lobe),
-            Bsdf::Blend(b) => b.sample(uv, wi, u, u_lobe),
-            Bsdf::NormalMap(b) => b.sample(uv, wi, u, u_lobe),
-            Bsdf::Textured(b) => b.sample(uv, wi, u, u_lobe),
+            Bsdf::TwoSided(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::Mask(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::Blend(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::NormalMap(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::Textured(b) => b.sample(at, wi, u, u_lobe),
         }
     }
 }

@@ -11,7 +11,7 @@ use super::params::BsdfError;
 use super::{Bsdf, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{Frame, Vec2, Vec3};
-use crate::texture::Texture;
+use crate::texture::{SurfacePoint, Texture};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct NormalMap {
@@ -65,8 +65,8 @@ impl NormalMap {
 
     /// The tilted frame in the local shading frame at `uv`, seen from `wi`.
     #[inline]
-    fn frame(&self, uv: Vec2, wi: Vec3) -> Frame {
-        let mut n = self.normals.eval(uv) * 2.0 - 1.0;
+    fn frame(&self, at: SurfacePoint, wi: Vec3) -> Frame {
+        let mut n = self.normals.eval(at) * 2.0 - 1.0;
         if self.flip_invalid_normals && wi.z * wi.dot(n) <= 0.0 {
             n = Vec3::new(-n.x, -n.y, n.z);
         }
@@ -89,27 +89,27 @@ impl NormalMap {
         Some(shadow * pwo.z.abs() / wo.z.abs())
     }
 
-    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
-        let f = self.frame(uv, wi);
+    pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
+        let f = self.frame(at, wi);
         let pwo = f.to_local(wo);
         match self.factor(&f, wo, pwo) {
-            Some(k) => self.nested.eval(uv, f.to_local(wi), pwo) * k,
+            Some(k) => self.nested.eval(at, f.to_local(wi), pwo) * k,
             None => Rgb::ZERO,
         }
     }
 
-    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
-        let f = self.frame(uv, wi);
+    pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
+        let f = self.frame(at, wi);
         let pwo = f.to_local(wo);
         if wo.z * pwo.z <= 0.0 {
             return 0.0;
         }
-        self.nested.pdf(uv, f.to_local(wi), pwo)
+        self.nested.pdf(at, f.to_local(wi), pwo)
     }
 
-    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
-        let f = self.frame(uv, wi);
-        let mut s = self.nested.sample(uv, f.to_local(wi), u, u_lobe)?;
+    pub fn sample(&self, at: SurfacePoint, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        let f = self.frame(at, wi);
+        let mut s = self.nested.sample(at, f.to_local(wi), u, u_lobe)?;
         let pwo = s.wo;
         s.wo = f.to_world(pwo);
         if s.wo.z * pwo.z <= 0.0 {

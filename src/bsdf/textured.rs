@@ -11,7 +11,7 @@ use super::{
 };
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
-use crate::texture::Texture;
+use crate::texture::{SurfacePoint, Texture};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Textured {
@@ -69,19 +69,19 @@ impl Textured {
     }
 
     #[inline]
-    fn at(&self, uv: Vec2) -> Local<'_> {
+    fn at(&self, at: SurfacePoint) -> Local<'_> {
         use BsdfParam as P;
         let rgb = |p: BsdfParam, c: &mut Rgb| {
             for (q, t) in &self.textures {
                 if *q == p {
-                    *c = t.eval(uv);
+                    *c = t.eval(at);
                 }
             }
         };
         let alpha = |p: BsdfParam, a: &mut f32| {
             for (q, t) in &self.textures {
                 if *q == p {
-                    *a = t.eval_1(uv).max(super::distribution::MIN_ALPHA);
+                    *a = t.eval_1(at).max(super::distribution::MIN_ALPHA);
                 }
             }
         };
@@ -142,8 +142,8 @@ impl Textured {
         }
     }
 
-    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
-        match self.at(uv) {
+    pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
+        match self.at(at) {
             Local::Diffuse(b) => b.eval(wi, wo),
             Local::Plastic(b) => b.eval(wi, wo),
             Local::RoughPlastic(b, kd, ks) => b.eval_tinted(kd, ks, wi, wo),
@@ -154,8 +154,8 @@ impl Textured {
         }
     }
 
-    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
-        match self.at(uv) {
+    pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
+        match self.at(at) {
             Local::Diffuse(b) => b.pdf(wi, wo),
             Local::Plastic(b) => b.pdf(wi, wo),
             Local::RoughPlastic(b, _, _) => b.pdf(wi, wo),
@@ -166,8 +166,8 @@ impl Textured {
         }
     }
 
-    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
-        match self.at(uv) {
+    pub fn sample(&self, at: SurfacePoint, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+        match self.at(at) {
             Local::Diffuse(b) => b.sample(wi, u),
             Local::Plastic(b) => b.sample(wi, u, u_lobe),
             Local::RoughPlastic(b, kd, ks) => b.sample_tinted(kd, ks, wi, u, u_lobe),

@@ -6,6 +6,7 @@ use super::params::BsdfError;
 use super::{Bsdf, BsdfSample};
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
+use crate::texture::SurfacePoint;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct TwoSided {
@@ -34,31 +35,31 @@ impl TwoSided {
         })
     }
 
-    pub fn eval(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> Rgb {
+    pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z > 0.0 {
-            self.front.eval(uv, wi, wo)
+            self.front.eval(at, wi, wo)
         } else if wi.z < 0.0 {
-            self.back.eval(uv, flip_z(wi), flip_z(wo))
+            self.back.eval(at, flip_z(wi), flip_z(wo))
         } else {
             Rgb::ZERO
         }
     }
 
-    pub fn pdf(&self, uv: Vec2, wi: Vec3, wo: Vec3) -> f32 {
+    pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
         if wi.z > 0.0 {
-            self.front.pdf(uv, wi, wo)
+            self.front.pdf(at, wi, wo)
         } else if wi.z < 0.0 {
-            self.back.pdf(uv, flip_z(wi), flip_z(wo))
+            self.back.pdf(at, flip_z(wi), flip_z(wo))
         } else {
             0.0
         }
     }
 
-    pub fn sample(&self, uv: Vec2, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
+    pub fn sample(&self, at: SurfacePoint, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         if wi.z > 0.0 {
-            self.front.sample(uv, wi, u, u_lobe)
+            self.front.sample(at, wi, u, u_lobe)
         } else if wi.z < 0.0 {
-            self.back.sample(uv, flip_z(wi), u, u_lobe).map(|mut s| {
+            self.back.sample(at, flip_z(wi), u, u_lobe).map(|mut s| {
                 s.wo = flip_z(s.wo);
                 s
             })

@@ -330,6 +330,7 @@ impl TriangleMesh {
             ng,
             shading: Frame::from_normal_tangent(ns, self.dpdu_with(tri, e1, e2)),
             uv,
+            bary: Vec2::new(hit.b1, hit.b2),
             shape: 0,
             prim: hit.index,
         }

@@ -161,6 +161,8 @@ pub struct Intersection {
     /// Shading frame (interpolated normal).
     pub shading: Frame,
     pub uv: Vec2,
+    /// Barycentrics (b1, b2) of the hit in its triangle (zero on spheres).
+    pub bary: Vec2,
     /// Index of the shape in the scene.
     pub shape: u32,
     /// Triangle index within its mesh (0 for spheres).
@@ -168,6 +170,16 @@ pub struct Intersection {
 }
 
 impl Intersection {
+    /// Where textures and BSDFs are read.
+    #[inline]
+    pub fn surface_point(&self) -> crate::texture::SurfacePoint {
+        crate::texture::SurfacePoint {
+            uv: self.uv,
+            prim: self.prim,
+            bary: self.bary,
+        }
+    }
+
     /// Origin for a ray leaving the surface in direction `w`.
     pub fn spawn(&self, w: Vec3) -> Vec3 {
         crate::math::offset_ray_origin(self.p, self.err, self.ng, w)

@@ -182,6 +182,7 @@ impl Sphere {
             ng: n,
             shading: Frame::from_normal_tangent(n, self.dpdu(n)),
             uv,
+            bary: Vec2::ZERO,
             shape: 0,
             prim: 0,
         }

@@ -155,10 +155,10 @@ pub fn li(
             if let Some((ls, pchoice)) = super::sample_light(scene, its.p, &prev_at, sampler, which)
             {
                 let wo = frame.to_local(ls.wi);
-                let f = bsdf.eval(its.uv, wi, wo);
+                let f = bsdf.eval(its.surface_point(), wi, wo);
                 if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {
                     let w = if strategy == Strategy::Mis && !ls.delta {
-                        power_heuristic(ls.pdf * pchoice, bsdf.pdf(its.uv, wi, wo))
+                        power_heuristic(ls.pdf * pchoice, bsdf.pdf(its.surface_point(), wi, wo))
                     } else {
                         1.0
                     };
@@ -170,7 +170,7 @@ pub fn li(
         // Continue the path by sampling the BSDF.
         let u = sampler.next_2d();
         let u_lobe = sampler.next_1d();
-        let Some(bs) = bsdf.sample(its.uv, wi, u, u_lobe) else {
+        let Some(bs) = bsdf.sample(its.surface_point(), wi, u, u_lobe) else {
             break;
         };
         let wo_world = frame.to_world(bs.wo);

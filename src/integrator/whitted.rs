@@ -37,7 +37,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
                 super::sample_light(scene, its.p, &at, sampler, LightPdf::Complete)
             {
                 let wo = its.shading.to_local(ls.wi);
-                let f = bsdf.eval(its.uv, wi, wo);
+                let f = bsdf.eval(its.surface_point(), wi, wo);
                 if f != Rgb::ZERO && scene.unoccluded(&its, &ls) {
                     l += beta * f * wo.z.abs() * ls.weight / p;
                 }
@@ -47,7 +47,12 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         if sampler.next_1d() >= CONTINUE {
             return l;
         }
-        let Some(bs) = bsdf.sample(its.uv, wi, sampler.next_2d(), sampler.next_1d()) else {
+        let Some(bs) = bsdf.sample(
+            its.surface_point(),
+            wi,
+            sampler.next_2d(),
+            sampler.next_1d(),
+        ) else {
             return l;
         };
         beta *= bs.weight / CONTINUE;

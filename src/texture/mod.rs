@@ -12,6 +12,28 @@ pub use checkerboard::Checkerboard;
 use crate::color::{luminance, Rgb};
 use crate::math::Vec2;
 
+/// Where a texture (or a BSDF with textures) is read at a hit: its (u, v)
+/// and, for per-vertex and per-face mesh data, its triangle and the
+/// barycentrics (b1, b2) of the point in it (zero on spheres). A bare uv
+/// converts into one.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SurfacePoint {
+    pub uv: Vec2,
+    pub prim: u32,
+    pub bary: Vec2,
+}
+
+impl From<Vec2> for SurfacePoint {
+    #[inline]
+    fn from(uv: Vec2) -> SurfacePoint {
+        SurfacePoint {
+            uv,
+            prim: 0,
+            bary: Vec2::ZERO,
+        }
+    }
+}
+
 /// The closed set of textures.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
@@ -27,9 +49,10 @@ impl From<Rgb> for Texture {
 }
 
 impl Texture {
-    /// The colour at `uv`.
+    /// The colour at a surface point (or a bare uv).
     #[inline]
-    pub fn eval(&self, uv: Vec2) -> Rgb {
+    pub fn eval(&self, at: impl Into<SurfacePoint>) -> Rgb {
+        let uv = at.into().uv;
         match self {
             Texture::Constant(c) => *c,
             Texture::Bitmap(t) => t.eval(uv),
@@ -41,7 +64,8 @@ impl Texture {
     /// which is a bitmap's luminance but a constant colour's channel mean
     /// (its `srgb` texture's `mean()`); a grey's value either way.
     #[inline]
-    pub fn eval_1(&self, uv: Vec2) -> f32 {
+    pub fn eval_1(&self, at: impl Into<SurfacePoint>) -> f32 {
+        let uv = at.into().uv;
         match self {
             Texture::Constant(c) => channel_mean(*c),
             Texture::Bitmap(t) => luminance(t.eval(uv)),
