@@ -286,6 +286,32 @@ impl Bsdf {
         Ok(Bsdf::Textured(Box::new(Textured::new(base, textures)?)))
     }
 
+    /// Calls `f` on every texture this BSDF (and those nested in it)
+    /// reads: the loader binds mesh attribute textures to their mesh.
+    pub fn for_each_texture_mut(&mut self, f: &mut dyn FnMut(&mut crate::texture::Texture)) {
+        match self {
+            Bsdf::Textured(b) => b.textures_mut().iter_mut().for_each(|(_, t)| f(t)),
+            Bsdf::Mask(b) => {
+                f(&mut b.opacity);
+                b.nested.for_each_texture_mut(f);
+            }
+            Bsdf::Blend(b) => {
+                f(&mut b.weight);
+                b.first.for_each_texture_mut(f);
+                b.second.for_each_texture_mut(f);
+            }
+            Bsdf::NormalMap(b) => {
+                f(&mut b.normals);
+                b.nested.for_each_texture_mut(f);
+            }
+            Bsdf::TwoSided(b) => {
+                b.front.for_each_texture_mut(f);
+                b.back.for_each_texture_mut(f);
+            }
+            _ => {}
+        }
+    }
+
     /// True if some lobe scatters light through the surface.
     pub fn has_transmission(&self) -> bool {
         match self {

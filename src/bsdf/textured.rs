@@ -68,6 +68,11 @@ impl Textured {
         &self.textures
     }
 
+    /// The textures, to bind mesh attributes (the parameters stay).
+    pub fn textures_mut(&mut self) -> &mut [(BsdfParam, Texture)] {
+        &mut self.textures
+    }
+
     #[inline]
     fn at(&self, at: SurfacePoint) -> Local<'_> {
         use BsdfParam as P;

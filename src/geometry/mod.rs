@@ -1,5 +1,6 @@
 //! Shapes, ray intersection, and the acceleration structure.
 
+mod attribute;
 mod bvh;
 mod mesh;
 mod obj;
@@ -9,11 +10,14 @@ mod shapes;
 mod sphere;
 mod triangle;
 
+pub use attribute::MeshAttribute;
 pub use bvh::{Bvh, BvhHit};
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
-pub use ply::{load_ply, parse_ply};
-pub use serialized::{load_serialized, parse_serialized, SerializedError};
+pub use ply::{load_ply, load_ply_full, parse_ply, parse_ply_full};
+pub use serialized::{
+    load_serialized, load_serialized_full, parse_serialized, parse_serialized_full, SerializedError,
+};
 pub use shapes::{
     cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
 };

@@ -4,30 +4,22 @@
 //! texture coordinates (`u v`, `s t`, `texture_u texture_v` or
 //! `texture_s texture_t`), and the `face` element's index list
 //! (`vertex_indices` or `vertex_index`, any integer count and item types).
-//! Polygons are fan-triangulated. Every other element and property is read
-//! past and ignored. A malformed file is an error naming the file and what
+//! Polygons are fan-triangulated. Other numeric vertex and face properties
+//! become [`MeshAttribute`]s as Mitsuba 3 groups them (`parse_ply_full`);
+//! every other element and property is read past and ignored. A malformed file is an error naming the file and what
 //! is wrong with it, never a panic, and counts in the header never make the
 //! loader allocate more than the file can hold.
 
 use std::path::Path;
 
+use super::attribute::{group_fields, MeshAttribute};
 use super::{MeshError, MeshFileError, TriangleMesh};
+use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
 
 /// Loads a PLY file as a triangle mesh.
 pub fn load_ply(path: &Path) -> Result<TriangleMesh, MeshFileError> {
-    let bytes = super::read_mesh_file(path)?;
-    match parse_ply(&bytes) {
-        Ok(mesh) => Ok(mesh),
-        Err(PlyError::Malformed(message)) => Err(MeshFileError::Ply {
-            path: path.to_path_buf(),
-            message,
-        }),
-        Err(PlyError::Invalid(error)) => Err(MeshFileError::Invalid {
-            path: path.to_path_buf(),
-            error,
-        }),
-    }
+    load_ply_full(path).map(|(mesh, _)| mesh)
 }
 
 /// Why PLY bytes are no mesh.
@@ -367,12 +359,33 @@ impl<'b> Reader<'b> {
 
 /// Parses a whole PLY file held in memory.
 pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, PlyError> {
+    parse_ply_full(bytes).map(|(mesh, _)| mesh)
+}
+
+/// Loads a PLY file with its vertex and face attributes.
+pub fn load_ply_full(path: &Path) -> Result<(TriangleMesh, Vec<MeshAttribute>), MeshFileError> {
+    let bytes = super::read_mesh_file(path)?;
+    parse_ply_full(&bytes).map_err(|e| match e {
+        PlyError::Malformed(message) => MeshFileError::Ply {
+            path: path.to_path_buf(),
+            message,
+        },
+        PlyError::Invalid(error) => MeshFileError::Invalid {
+            path: path.to_path_buf(),
+            error,
+        },
+    })
+}
+
+/// [`parse_ply`] with the vertex and face attributes.
+pub fn parse_ply_full(bytes: &[u8]) -> Result<(TriangleMesh, Vec<MeshAttribute>), PlyError> {
     let header = parse_header(bytes)?;
     let mut r = Reader::new(bytes, &header)?;
     let mut positions: Vec<Vec3> = Vec::new();
     let mut normals: Vec<Vec3> = Vec::new();
     let mut uvs: Vec<Vec2> = Vec::new();
     let mut indices: Vec<[u32; 3]> = Vec::new();
+    let mut attributes: Vec<MeshAttribute> = Vec::new();
     let mut seen_vertex = false;
     let mut seen_face = false;
 
@@ -389,7 +402,14 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, PlyError> {
         match el.name.as_str() {
             "vertex" if !seen_vertex => {
                 seen_vertex = true;
-                read_vertices(&mut r, el, &mut positions, &mut normals, &mut uvs)?;
+                read_vertices(
+                    &mut r,
+                    el,
+                    &mut positions,
+                    &mut normals,
+                    &mut uvs,
+                    &mut attributes,
+                )?;
             }
             "face" if !seen_face => {
                 seen_face = true;
@@ -398,7 +418,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, PlyError> {
                         "the 'face' element comes before the 'vertex' element".into(),
                     ));
                 }
-                read_faces(&mut r, el, positions.len(), &mut indices)?;
+                read_faces(&mut r, el, positions.len(), &mut indices, &mut attributes)?;
             }
             "vertex" | "face" => {
                 return Err(PlyError::Malformed(format!(
@@ -414,7 +434,50 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriangleMesh, PlyError> {
             "the file has no 'vertex' element".into(),
         ));
     }
-    TriangleMesh::new(positions, normals, uvs, indices).map_err(PlyError::Invalid)
+    let mesh = TriangleMesh::new(positions, normals, uvs, indices).map_err(PlyError::Invalid)?;
+    Ok((mesh, attributes))
+}
+
+/// The attributes of an element's records: what [`group_fields`] makes of
+/// its numeric properties that are not `reserved`.
+fn attribute_groups(
+    el: &Element,
+    reserved: &[usize],
+    kind: &str,
+) -> Vec<(MeshAttribute, Vec<usize>)> {
+    let names: Vec<&str> = el.props.iter().map(|p| p.name.as_str()).collect();
+    let taken: Vec<bool> = (0..names.len())
+        .map(|i| reserved.contains(&i) || matches!(el.props[i].ty, PropType::List { .. }))
+        .collect();
+    group_fields(&names, &taken)
+        .into_iter()
+        .map(|(name, fields)| {
+            let attribute = MeshAttribute {
+                name: format!("{kind}_{name}"),
+                per_vertex: kind == "vertex",
+                channels: fields.len(),
+                values: Vec::new(),
+            };
+            (attribute, fields)
+        })
+        .collect()
+}
+
+/// The attribute value of one record (a single channel in all three;
+/// values that are not finite read as 0).
+fn attribute_value(values: &[f64], fields: &[usize]) -> Rgb {
+    let v = |k: usize| {
+        let x = values[fields[k]] as f32;
+        if x.is_finite() {
+            x
+        } else {
+            0.0
+        }
+    };
+    match fields.len() {
+        1 => Rgb::splat(v(0)),
+        _ => Rgb::new(v(0), v(1), v(2)),
+    }
 }
 
 fn skip_element(r: &mut Reader, el: &Element) -> Result<(), PlyError> {
@@ -438,6 +501,7 @@ fn read_vertices(
     positions: &mut Vec<Vec3>,
     normals: &mut Vec<Vec3>,
     uvs: &mut Vec<Vec2>,
+    attributes: &mut Vec<MeshAttribute>,
 ) -> Result<(), PlyError> {
     let find = |name: &str| el.props.iter().position(|p| p.name == name);
     let (Some(ix), Some(iy), Some(iz)) = (find("x"), find("y"), find("z")) else {
@@ -457,11 +521,13 @@ fn read_vertices(
     ]
     .iter()
     .find_map(|(a, b)| Some([find(a)?, find(b)?]));
-    let used = [ix, iy, iz]
+    let used: Vec<usize> = [ix, iy, iz]
         .into_iter()
         .chain(normal_idx.into_iter().flatten())
-        .chain(uv_idx.into_iter().flatten());
-    for i in used {
+        .chain(uv_idx.into_iter().flatten())
+        .collect();
+    let mut groups = attribute_groups(el, &used, "vertex");
+    for &i in &used {
         if matches!(el.props[i].ty, PropType::List { .. }) {
             return Err(PlyError::from(format!(
                 "vertex property '{}' must be a number, not a list",
@@ -499,7 +565,11 @@ fn read_vertices(
             let uv = Vec2::new(values[a] as f32, values[b] as f32);
             uvs.push(if uv.is_finite() { uv } else { Vec2::ZERO });
         }
+        for (a, fields) in &mut groups {
+            a.values.push(attribute_value(&values, fields));
+        }
     }
+    attributes.extend(groups.into_iter().map(|(a, _)| a));
     Ok(())
 }
 
@@ -508,6 +578,7 @@ fn read_faces(
     el: &Element,
     vertex_count: usize,
     indices: &mut Vec<[u32; 3]>,
+    attributes: &mut Vec<MeshAttribute>,
 ) -> Result<(), PlyError> {
     let Some(list) = el
         .props
@@ -526,11 +597,15 @@ fn read_faces(
         )));
     }
     indices.reserve(el.count);
+    let mut groups = attribute_groups(el, &[list], "face");
+    let mut values = vec![0.0f64; el.props.len()];
     let mut poly: Vec<u32> = Vec::new();
     for f in 0..el.count {
+        let triangles_before = indices.len();
         for (k, p) in el.props.iter().enumerate() {
             match p.ty {
-                PropType::Scalar(t) => r.skip(t, 1)?,
+                PropType::Scalar(t) if groups.is_empty() => r.skip(t, 1)?,
+                PropType::Scalar(t) => values[k] = r.value(t)?,
                 PropType::List { count, item } if k == list => {
                     let n = r.list_count(count)?;
                     if n < 3 {
@@ -564,7 +639,14 @@ fn read_faces(
                 }
             }
         }
+        // A polygon's value on each of its triangles.
+        for (a, fields) in &mut groups {
+            let v = attribute_value(&values, fields);
+            a.values
+                .extend(std::iter::repeat_n(v, indices.len() - triangles_before));
+        }
     }
+    attributes.extend(groups.into_iter().map(|(a, _)| a));
     Ok(())
 }
 

@@ -6,8 +6,9 @@
 //! colours where the flags say so, in single or double precision, and the
 //! triangles' `u32` indices. A dictionary at the end of the file gives each
 //! shape's offset (u64 in version 4, u32 in version 3) and their count, for
-//! `shape_index`. Colours are read past (lente has no vertex colours), as
-//! Mitsuba 3 does.
+//! `shape_index`. Colours become the `vertex_color` attribute
+//! (`parse_serialized_full`) that `mesh_attribute` textures read; Mitsuba
+//! 3.9.1 reads them past.
 //!
 //! Counts in a header never make the loader allocate more than the
 //! compressed data could hold (zlib expands at most ~1032:1).
@@ -15,7 +16,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use super::{MeshError, MeshFileError, TriangleMesh};
+use super::{MeshAttribute, MeshError, MeshFileError, TriangleMesh};
 use crate::math::{Vec2, Vec3};
 
 const MAGIC: u16 = 0x041C;
@@ -45,8 +46,17 @@ fn malformed(message: impl Into<String>) -> SerializedError {
 
 /// Loads shape `shape_index` of a `.serialized` file.
 pub fn load_serialized(path: &Path, shape_index: u32) -> Result<TriangleMesh, MeshFileError> {
+    load_serialized_full(path, shape_index).map(|(mesh, _)| mesh)
+}
+
+/// [`load_serialized`] with the vertex colours as a `vertex_color`
+/// attribute (as Mitsuba names them), if the shape has them.
+pub fn load_serialized_full(
+    path: &Path,
+    shape_index: u32,
+) -> Result<(TriangleMesh, Vec<MeshAttribute>), MeshFileError> {
     let bytes = super::read_mesh_file(path)?;
-    parse_serialized(&bytes, shape_index).map_err(|e| match e {
+    parse_serialized_full(&bytes, shape_index).map_err(|e| match e {
         SerializedError::Malformed(message) => MeshFileError::Serialized {
             path: path.to_path_buf(),
             message,
@@ -60,6 +70,14 @@ pub fn load_serialized(path: &Path, shape_index: u32) -> Result<TriangleMesh, Me
 
 /// Parses shape `shape_index` of a `.serialized` file's bytes.
 pub fn parse_serialized(bytes: &[u8], shape_index: u32) -> Result<TriangleMesh, SerializedError> {
+    parse_serialized_full(bytes, shape_index).map(|(mesh, _)| mesh)
+}
+
+/// [`parse_serialized`] with the vertex colours.
+pub fn parse_serialized_full(
+    bytes: &[u8],
+    shape_index: u32,
+) -> Result<(TriangleMesh, Vec<MeshAttribute>), SerializedError> {
     let version = read_header(bytes, 0)?;
     let start = if shape_index == 0 {
         4
@@ -123,8 +141,26 @@ pub fn parse_serialized(bytes: &[u8], shape_index: u32) -> Result<TriangleMesh, 
     } else {
         Vec::new()
     };
+    let mut attributes = Vec::new();
     if flags & HAS_COLORS != 0 {
-        z.floats(nv * 3, double)?;
+        let values = z
+            .floats(nv * 3, double)?
+            .chunks_exact(3)
+            .map(|c| {
+                let c = Vec3::from_slice(c);
+                if c.is_finite() {
+                    c
+                } else {
+                    Vec3::ZERO
+                }
+            })
+            .collect();
+        attributes.push(MeshAttribute {
+            name: "vertex_color".to_string(),
+            per_vertex: true,
+            channels: 3,
+            values,
+        });
     }
     let mut raw = vec![0u8; nt * 12];
     z.fill(&mut raw, "triangle indices")?;
@@ -132,7 +168,9 @@ pub fn parse_serialized(bytes: &[u8], shape_index: u32) -> Result<TriangleMesh, 
         .chunks_exact(12)
         .map(|t| [0, 4, 8].map(|o| u32::from_le_bytes([t[o], t[o + 1], t[o + 2], t[o + 3]])))
         .collect();
-    TriangleMesh::new(positions, normals, uvs, indices).map_err(SerializedError::Invalid)
+    let mesh =
+        TriangleMesh::new(positions, normals, uvs, indices).map_err(SerializedError::Invalid)?;
+    Ok((mesh, attributes))
 }
 
 /// Checks the shape header at `at`; returns the format version (3 or 4).

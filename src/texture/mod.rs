@@ -5,9 +5,11 @@
 
 mod bitmap;
 mod checkerboard;
+mod mesh_attribute;
 
 pub use bitmap::{BitmapTexture, FilterType, TextureImage, WrapMode};
 pub use checkerboard::Checkerboard;
+pub use mesh_attribute::{BindError, MeshAttributeTexture};
 
 use crate::color::{luminance, Rgb};
 use crate::math::Vec2;
@@ -40,6 +42,8 @@ pub enum Texture {
     Constant(Rgb),
     Bitmap(BitmapTexture),
     Checkerboard(Checkerboard),
+    /// A mesh's per-vertex or per-face data (boxed: rare).
+    MeshAttribute(Box<MeshAttributeTexture>),
 }
 
 impl From<Rgb> for Texture {
@@ -52,11 +56,12 @@ impl Texture {
     /// The colour at a surface point (or a bare uv).
     #[inline]
     pub fn eval(&self, at: impl Into<SurfacePoint>) -> Rgb {
-        let uv = at.into().uv;
+        let at = at.into();
         match self {
             Texture::Constant(c) => *c,
-            Texture::Bitmap(t) => t.eval(uv),
-            Texture::Checkerboard(t) => t.eval(uv),
+            Texture::Bitmap(t) => t.eval(at.uv),
+            Texture::Checkerboard(t) => t.eval(at.uv),
+            Texture::MeshAttribute(t) => t.eval(at),
         }
     }
 
@@ -65,11 +70,13 @@ impl Texture {
     /// (its `srgb` texture's `mean()`); a grey's value either way.
     #[inline]
     pub fn eval_1(&self, at: impl Into<SurfacePoint>) -> f32 {
-        let uv = at.into().uv;
+        let at = at.into();
         match self {
             Texture::Constant(c) => channel_mean(*c),
-            Texture::Bitmap(t) => luminance(t.eval(uv)),
-            Texture::Checkerboard(t) => t.eval_1(uv),
+            Texture::Bitmap(t) => luminance(t.eval(at.uv)),
+            Texture::Checkerboard(t) => t.eval_1(at.uv),
+            // One channel is stored in all three; three read as luminance.
+            Texture::MeshAttribute(t) => luminance(t.eval(at)),
         }
     }
 
@@ -88,6 +95,7 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Bitmap(t) => t.image().mean(),
             Texture::Checkerboard(t) => (t.color0 + t.color1) * 0.5,
+            Texture::MeshAttribute(t) => t.mean(),
         }
     }
 
@@ -96,6 +104,7 @@ impl Texture {
     pub fn mean_1(&self) -> f32 {
         match self {
             Texture::Bitmap(t) => luminance(t.image().mean()),
+            Texture::MeshAttribute(t) => luminance(t.mean()),
             _ => channel_mean(self.mean()),
         }
     }
@@ -106,6 +115,15 @@ impl Texture {
             Texture::Constant(c) => c.max_element(),
             Texture::Bitmap(t) => t.image().max_value(),
             Texture::Checkerboard(t) => t.color0.max_element().max(t.color1.max_element()),
+            Texture::MeshAttribute(t) => t.max_value(),
+        }
+    }
+
+    /// Visits a mesh attribute texture (to bind it to its mesh).
+    pub fn mesh_attribute_mut(&mut self) -> Option<&mut MeshAttributeTexture> {
+        match self {
+            Texture::MeshAttribute(t) => Some(t),
+            _ => None,
         }
     }
 

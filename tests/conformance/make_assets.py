@@ -20,6 +20,10 @@ folder; files go next to this script). Plain Python, no packages:
   the colour texture of textures.xml;
 - roughness.png: an 8 x 8 8-bit greyscale image, read raw as a
   roughness (0.05 to 0.6 in bands);
+- attributes.ply: a 6 x 4 grid of quads, each two triangles (Mitsuba reads
+  triangles only) of one weight, on a gentle hump, binary little-endian,
+  with per-vertex colours as float `r g b` and a per-face `weight_0`: the
+  mesh_attribute scene's `vertex_color` and `face_weight`;
 - normals.png: a 32 x 32 8-bit RGB normal map (read raw: colour c is the
   normal 2c - 1) of a field of round bumps, tilted up to ~50 degrees.
 """
@@ -217,7 +221,40 @@ def normals():
     png("normals.png", 32, 32, 3, rows)
 
 
+def attributes():
+    nx, ny = 6, 4
+    verts = []
+    for j in range(ny + 1):
+        for i in range(nx + 1):
+            x, y = -1.5 + 3 * i / nx, -1 + 2 * j / ny
+            z = 0.3 * math.exp(-(x * x + y * y))
+            r = 0.5 + 0.45 * math.sin(2.1 * x)
+            g = 0.5 + 0.45 * math.cos(1.7 * y + x)
+            b = 0.2 + 0.7 * (i + j) / (nx + ny)
+            verts.append((x, y, z, r, g, b))
+    faces = []
+    for j in range(ny):
+        for i in range(nx):
+            a = j * (nx + 1) + i
+            weight = ((i * 7 + j * 3) % 5) / 4
+            faces.append(((a, a + 1, a + nx + 2), weight))
+            faces.append(((a, a + nx + 2, a + nx + 1), weight))
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"element vertex {len(verts)}\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "property float r\nproperty float g\nproperty float b\n"
+        f"element face {len(faces)}\n"
+        "property list uchar int vertex_indices\nproperty float weight_0\nend_header\n"
+    )
+    body = b"".join(struct.pack("<6f", *v) for v in verts)
+    body += b"".join(struct.pack("<B3if", 3, *f, w) for f, w in faces)
+    with open(os.path.join(HERE, "attributes.ply"), "wb") as out:
+        out.write(header.encode() + body)
+
+
 if __name__ == "__main__":
+    attributes()
     normals()
     tiles()
     roughness()

@@ -6,7 +6,7 @@
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
-//! normalmap), texture (checkerboard,
+//! normalmap), texture (checkerboard, mesh_attribute,
 //! bitmap) and emitter (envmap, constant, area, point, spot, directional) that
 //! lente reads from Mitsuba files.
 //!
@@ -157,6 +157,12 @@ const CASES: &[Case] = &[
     Case {
         file: "mask.xml",
         covers: "mask: a bitmap opacity over twosided diffuse before an area light, constant opacity over a checkerboard diffuse and over a roughconductor (an RGB opacity: its channel mean, as Mitsuba's eval_1)",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "mesh_attribute.xml",
+        covers: "mesh_attribute: a PLY's per-vertex float r g b (vertex_color, interpolated) as a diffuse reflectance, plain and scaled, and its per-face weight_0 (face_weight) as a blendbsdf weight; directional and constant lights",
         spp: 192,
         renders: 16,
     },

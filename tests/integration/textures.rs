@@ -177,3 +177,112 @@ fn textured_weights_are_eval_cos_over_pdf_at_the_hit() {
     let wide = rough.pdf(Vec2::new(0.25, 0.25), wi, mirror);
     assert!(sharp > 50.0 * wide, "{sharp} vs {wide}");
 }
+
+/// `mesh_attribute`: a PLY's per-vertex colours read at a hit's
+/// barycentrics and per-face weights on each of a polygon's triangles
+/// (`attributes.ply`: vertex colours as float `r g b`, `weight_0` per
+/// face), the scale, and errors: a shape without the attribute names what
+/// it has; a name without its kind prefix.
+#[test]
+fn mesh_attributes_are_read_at_the_hit() {
+    use lente::geometry::{parse_ply_full, Geometry};
+    use lente::texture::SurfacePoint;
+    let bytes = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/attributes.ply"),
+    )
+    .unwrap();
+    let (mesh, attributes) = parse_ply_full(&bytes).unwrap();
+    let names: Vec<&str> = attributes.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(names, ["vertex_color", "face_weight"]);
+    assert_eq!(attributes[0].values.len(), mesh.positions().len());
+    assert_eq!(attributes[1].values.len(), mesh.triangle_count());
+
+    let desc = load(
+        r#"<shape type="ply"><string name="filename" value="attributes.ply"/>
+             <bsdf type="blendbsdf">
+               <texture type="mesh_attribute" name="weight"><string name="name" value="face_weight"/></texture>
+               <bsdf type="diffuse">
+                 <texture type="mesh_attribute" name="reflectance">
+                   <string name="name" value="vertex_color"/><float name="scale" value="0.5"/>
+                 </texture>
+               </bsdf>
+               <bsdf type="diffuse"/>
+             </bsdf>
+           </shape>"#,
+    );
+    let Geometry::Mesh(m) = &desc.scene.shapes[0].geometry else {
+        panic!()
+    };
+    let Bsdf::Blend(b) = &desc.scene.shapes[0].bsdf else {
+        panic!("{:?}", desc.scene.shapes[0].bsdf)
+    };
+    let [reflectance] = textures(&b.first).try_into().unwrap();
+    for tri in [0usize, 5, 17, 40] {
+        let [i0, i1, i2] = m.indices()[tri].map(|i| i as usize);
+        let bary = Vec2::new(0.2, 0.3);
+        let at = SurfacePoint {
+            uv: Vec2::ZERO,
+            prim: tri as u32,
+            bary,
+        };
+        let c = &attributes[0].values;
+        let expect = (c[i0] * 0.5 + c[i1] * 0.2 + c[i2] * 0.3) * 0.5;
+        let got = reflectance.1.eval(at);
+        assert!((got - expect).abs().max_element() < 1e-6, "{got} {expect}");
+        let w = b.weight.eval_1(at);
+        assert!((w - attributes[1].values[tri].x).abs() < 1e-6);
+    }
+    // A shape without it, and a sphere, name what is missing.
+    let e = load_err(
+        r#"<shape type="ply"><string name="filename" value="attributes.ply"/>
+             <bsdf type="diffuse">
+               <texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_uv"/></texture>
+             </bsdf></shape>"#,
+    );
+    assert!(
+        e.contains("no attribute 'vertex_uv'") && e.contains("vertex_color, face_weight"),
+        "{e}"
+    );
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="diffuse">
+               <texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture>
+             </bsdf></shape>"#,
+    );
+    assert!(e.contains("(it has: none)"), "{e}");
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="diffuse">
+               <texture type="mesh_attribute" name="reflectance"><string name="name" value="color"/></texture>
+             </bsdf></shape>"#,
+    );
+    assert!(e.contains("'vertex_' or 'face_'"), "{e}");
+    // A serialized shape's vertex colours (gems.serialized, shape 1: the
+    // octahedron's six vertices are coloured 0.25).
+    let bytes = std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/gems.serialized"),
+    )
+    .unwrap();
+    let (_, a) = lente::geometry::parse_serialized_full(&bytes, 1).unwrap();
+    assert_eq!(a.len(), 1);
+    assert_eq!(a[0].name, "vertex_color");
+    assert_eq!(a[0].values, vec![Rgb::splat(0.25); 6]);
+    let (_, a) = lente::geometry::parse_serialized_full(&bytes, 0).unwrap();
+    assert!(a.is_empty());
+}
+
+/// Polygons of a PLY file are fan-triangulated; a face attribute is
+/// repeated on each triangle of its polygon.
+#[test]
+fn a_polygons_face_attribute_covers_its_triangles() {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n\
+               property float z\nproperty float red\nproperty float green\nproperty float blue\n\
+               element face 2\nproperty list uchar int vertex_indices\nproperty float w_0\nend_header\n\
+               0 0 0 1 0 0\n1 0 0 0 1 0\n1 1 0 0 0 1\n0 1 0 1 1 1\n2 2 0 0 0 0\n\
+               4 0 1 2 3 0.25\n3 1 4 2 0.75\n";
+    let (mesh, a) = lente::geometry::parse_ply_full(ply.as_bytes()).unwrap();
+    assert_eq!(mesh.triangle_count(), 3);
+    assert_eq!(a[0].name, "vertex_color");
+    assert_eq!(a[0].values[2], Rgb::new(0.0, 0.0, 1.0));
+    assert_eq!(a[1].name, "face_w");
+    let w: Vec<f32> = a[1].values.iter().map(|v| v.x).collect();
+    assert_eq!(w, [0.25, 0.25, 0.75]);
+}

@@ -11,6 +11,7 @@ use crate::load::props::Props;
 use crate::load::xml::SceneNode;
 use crate::load::SceneError;
 use crate::math::{Transform, Vec3};
+use crate::texture::Texture;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -95,6 +96,12 @@ impl<'d> Ctx<'d> {
                 let cutoff = p.get_float("cutoff_angle", 20.0)?;
                 let beam = p.get_float("beam_width", cutoff * 0.75)?;
                 let texture = p.opt_texture("texture")?;
+                if matches!(texture, Some(Texture::MeshAttribute(_))) {
+                    return Err(p.error(
+                        "texture",
+                        "'texture' cannot be a mesh_attribute: a spot light has no mesh",
+                    ));
+                }
                 if texture.as_ref().is_some_and(|t| !t.is_varying()) {
                     return Err(p.error(
                         "texture",

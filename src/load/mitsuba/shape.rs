@@ -5,7 +5,9 @@ use super::emitter::EmitterDesc;
 use super::Ctx;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::color::Rgb;
-use crate::geometry::{self, Geometry, ShapeError, Sphere, SphereError, TriangleMesh};
+use crate::geometry::{
+    self, Geometry, MeshAttribute, ShapeError, Sphere, SphereError, TriangleMesh,
+};
 use crate::load::objects;
 use crate::load::props::positive;
 use crate::load::xml::{Pos, SceneNode};
@@ -52,6 +54,8 @@ impl<'d> Ctx<'d> {
         enum Source {
             Mesh {
                 mesh: TriangleMesh,
+                /// Per-vertex and per-face data (PLY files).
+                attributes: Vec<MeshAttribute>,
                 /// Normals to compute after the transform (Mitsuba does so
                 /// for meshes without them unless face_normals is set).
                 smooth: bool,
@@ -67,9 +71,13 @@ impl<'d> Ctx<'d> {
                 let face_normals = p.get_bool("face_normals", false)?;
                 let flip_tex = ty == "obj" && p.get_bool("flip_tex_coords", true)?;
                 let path = self.resolve(&name);
+                let mut attributes = Vec::new();
                 let mut mesh = match ty {
                     "obj" => geometry::load_obj(&path),
-                    "ply" => geometry::load_ply(&path),
+                    "ply" => geometry::load_ply_full(&path).map(|(m, a)| {
+                        attributes = a;
+                        m
+                    }),
                     _ => {
                         let index = p.get_int("shape_index", 0)?;
                         let index = u32::try_from(index).map_err(|_| {
@@ -78,7 +86,10 @@ impl<'d> Ctx<'d> {
                                 format!("'shape_index' must not be negative, found {index}"),
                             )
                         })?;
-                        geometry::load_serialized(&path, index)
+                        geometry::load_serialized_full(&path, index).map(|(m, a)| {
+                            attributes = a;
+                            m
+                        })
                     }
                 }
                 .map_err(|e| p.error("filename", "cannot load the mesh").caused_by(e))?;
@@ -89,18 +100,25 @@ impl<'d> Ctx<'d> {
                     mesh.clear_normals();
                 }
                 let smooth = !face_normals && mesh.normals().is_empty();
-                Source::Mesh { mesh, smooth }
+                Source::Mesh {
+                    mesh,
+                    attributes,
+                    smooth,
+                }
             }
             "rectangle" => Source::Mesh {
                 mesh: geometry::rectangle_mesh(),
+                attributes: Vec::new(),
                 smooth: false,
             },
             "cube" => Source::Mesh {
                 mesh: geometry::cube_mesh(),
+                attributes: Vec::new(),
                 smooth: false,
             },
             "disk" => Source::Mesh {
                 mesh: geometry::disk_mesh(geometry::ROUND_SEGMENTS),
+                attributes: Vec::new(),
                 smooth: false,
             },
             "cylinder" => {
@@ -114,6 +132,7 @@ impl<'d> Ctx<'d> {
                     .map_err(|e| p.object_error(format!("{owner}: the mesh {e}")))?;
                 Source::Mesh {
                     mesh,
+                    attributes: Vec::new(),
                     smooth: false,
                 }
             }
@@ -167,8 +186,14 @@ impl<'d> Ctx<'d> {
                 format!("{owner} is not valid after its to_world: {e}"),
             )
         };
+        let mut attributes = Vec::new();
         let geometry = match source {
-            Source::Mesh { mut mesh, smooth } => {
+            Source::Mesh {
+                mut mesh,
+                attributes: a,
+                smooth,
+            } => {
+                attributes = a;
                 mesh.transform_keep_winding(&to_world)
                     .map_err(|e| overflow(&ShapeError::Mesh(e)))?;
                 if smooth {
@@ -200,13 +225,41 @@ impl<'d> Ctx<'d> {
                 }
             }
         };
-        let bsdf = match bsdf {
+        let bsdf_at = bsdf.as_ref().map_or(node.pos, |b| b.1);
+        let mut bsdf = match bsdf {
             Some((b, _)) => b,
             // Mitsuba's default (`render/shape.cpp`): diffuse 0.5, but
             // black for an emitter, so lights do not reflect.
             None if area.is_some() => Bsdf::Diffuse(Diffuse { albedo: Rgb::ZERO }),
             None => Bsdf::default(),
         };
+        // Mesh attribute textures read this shape's data.
+        let indices = match &geometry {
+            Geometry::Mesh(m) => m.indices(),
+            Geometry::Sphere(_) => &[],
+        };
+        let mut unbound = None;
+        bsdf.for_each_texture_mut(&mut |t| {
+            if let Some(a) = t.mesh_attribute_mut() {
+                if let Err(e) = a.bind(&attributes, indices) {
+                    unbound.get_or_insert(e);
+                }
+            }
+        });
+        if let Some(e) = unbound {
+            return Err(self.err(
+                bsdf_at,
+                format!(
+                    "a mesh_attribute texture of this BSDF cannot be read on {owner}: {e}{}",
+                    if matches!(geometry, Geometry::Mesh(_)) && !matches!(ty, "ply" | "serialized")
+                    {
+                        " (lente reads mesh attributes from PLY and serialized files)"
+                    } else {
+                        ""
+                    }
+                ),
+            ));
+        }
         Ok(ShapeDesc {
             geometry,
             bsdf,

@@ -8,7 +8,9 @@ use crate::load::props::{Props, Value};
 use crate::load::xml::{describe, SceneNode};
 use crate::load::SceneError;
 use crate::math::Transform;
-use crate::texture::{BitmapTexture, Checkerboard, FilterType, Texture, UvTransform, WrapMode};
+use crate::texture::{
+    BitmapTexture, Checkerboard, FilterType, MeshAttributeTexture, Texture, UvTransform, WrapMode,
+};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -25,16 +27,17 @@ impl<'d> Ctx<'d> {
                     "srgb",
                     "bitmap",
                     "checkerboard",
+                    "mesh_attribute",
                     "blackbody",
                     "regular",
                     "irregular",
                     "d65",
                 ],
-                &["mesh_attribute", "volume"],
+                &["volume"],
             )
             .map_err(|mut e| {
                 e.message
-                    .push_str(" (lente's textures: bitmap, checkerboard, uniform, srgb; spectra: blackbody, regular, irregular, d65)");
+                    .push_str(" (lente's textures: bitmap, checkerboard, mesh_attribute, uniform, srgb; spectra: blackbody, regular, irregular, d65)");
                 e
             })?;
         let owner = describe(node);
@@ -59,6 +62,25 @@ impl<'d> Ctx<'d> {
                 color1: constant(&mut p, "color1", 0.2)?,
                 to_uv: to_uv(&mut p)?,
             })),
+            "mesh_attribute" => {
+                let name = p.require_string("name")?;
+                if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+                    return Err(p.error(
+                        "name",
+                        format!(
+                            "a mesh attribute's 'name' starts with 'vertex_' or 'face_' \
+                             (e.g. vertex_color), found '{name}'"
+                        ),
+                    ));
+                }
+                let scale = p.get_float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(p.error("scale", format!("'scale' must be finite, found {scale}")));
+                }
+                Value::Texture(Texture::MeshAttribute(Box::new(MeshAttributeTexture::new(
+                    name, scale,
+                ))))
+            }
             _ => Value::Texture(Texture::Bitmap(self.bitmap(&mut p)?)),
         };
         p.finish(&mut self.warnings);
