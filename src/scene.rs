@@ -32,6 +32,8 @@ pub struct Scene {
     pub camera: Camera,
     pub geometry: Vec<Geometry>,
     pub bsdfs: Vec<Bsdf>,
+    /// For each shape, whether its BSDF reads dp/du and dp/dv (bump maps).
+    pub differentials: Vec<bool>,
     /// For each shape, the index of its area emitter.
     pub shape_emitter: Vec<Option<u32>>,
     pub emitters: Vec<Emitter>,
@@ -98,10 +100,12 @@ impl Scene {
         } else {
             Camera::new(desc.camera)?
         };
+        let differentials = bsdfs.iter().map(Bsdf::needs_differentials).collect();
         Ok(Scene {
             camera,
             geometry,
             bsdfs,
+            differentials,
             shape_emitter,
             emitters,
             infinite,
@@ -110,6 +114,21 @@ impl Scene {
             bounds,
             scene_radius,
         })
+    }
+
+    /// Where the BSDF of the shape hit is read: uv, triangle and
+    /// barycentrics, and for bump maps dp/du, dp/dv and the geometric
+    /// normal in the shading frame.
+    #[inline]
+    pub fn surface_point(&self, its: &Intersection) -> crate::texture::SurfacePoint {
+        let mut at = its.surface_point();
+        if self.differentials[its.shape as usize] {
+            let (dp_du, dp_dv) = self.geometry[its.shape as usize].dpdu_dpdv(its);
+            at.dp_du = its.shading.to_local(dp_du);
+            at.dp_dv = its.shading.to_local(dp_dv);
+            at.ng = its.shading.to_local(its.ng);
+        }
+        at
     }
 
     /// The shading point `p` with normal `n` as the light choice sees it.

@@ -4,6 +4,7 @@
 //! the direction the path arrived from, `wo` the sampled continuation).
 
 mod blend;
+mod bump_map;
 mod conductor;
 mod dielectric;
 mod diffuse;
@@ -30,6 +31,7 @@ use crate::math::{Vec2, Vec3};
 use crate::texture::SurfacePoint;
 
 pub use blend::Blend;
+pub use bump_map::BumpMap;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
@@ -83,6 +85,9 @@ pub enum Bsdf {
     /// Mitsuba's `normalmap`: a nested BSDF in a frame tilted by a
     /// texture (boxed: rare).
     NormalMap(Box<NormalMap>),
+    /// Mitsuba's `bumpmap`: a nested BSDF in the frame of a surface
+    /// displaced by a texture (boxed: rare).
+    BumpMap(Box<BumpMap>),
     /// A model with textured parameters (boxed: rare, and large).
     Textured(Box<Textured>),
 }
@@ -274,6 +279,23 @@ impl Bsdf {
         )?)))
     }
 
+    /// `nested` on a surface bumped by `height` (see [`BumpMap::new`]).
+    pub fn bump_map(
+        height: crate::texture::Texture,
+        scale: f32,
+        nested: Bsdf,
+        flip_invalid_normals: bool,
+        use_shadowing_function: bool,
+    ) -> Result<Bsdf, BsdfError> {
+        Ok(Bsdf::BumpMap(Box::new(BumpMap::new(
+            height,
+            scale,
+            nested,
+            flip_invalid_normals,
+            use_shadowing_function,
+        )?)))
+    }
+
     /// `base` with textured parameters (see [`Textured::new`]); no
     /// textures gives `base` itself.
     pub fn textured(
@@ -304,11 +326,29 @@ impl Bsdf {
                 f(&mut b.normals);
                 b.nested.for_each_texture_mut(f);
             }
+            Bsdf::BumpMap(b) => {
+                f(&mut b.height);
+                b.nested.for_each_texture_mut(f);
+            }
             Bsdf::TwoSided(b) => {
                 b.front.for_each_texture_mut(f);
                 b.back.for_each_texture_mut(f);
             }
             _ => {}
+        }
+    }
+
+    /// True if the BSDF (or one nested in it) reads dp/du and dp/dv from
+    /// its [`SurfacePoint`] (bump maps); the renderer computes them only
+    /// for such shapes.
+    pub fn needs_differentials(&self) -> bool {
+        match self {
+            Bsdf::BumpMap(_) => true,
+            Bsdf::Mask(b) => b.nested.needs_differentials(),
+            Bsdf::Blend(b) => b.first.needs_differentials() || b.second.needs_differentials(),
+            Bsdf::NormalMap(b) => b.nested.needs_differentials(),
+            Bsdf::TwoSided(b) => b.front.needs_differentials() || b.back.needs_differentials(),
+            _ => false,
         }
     }
 
@@ -324,6 +364,7 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
             Bsdf::Blend(b) => b.first.has_transmission() || b.second.has_transmission(),
             Bsdf::NormalMap(b) => b.nested.has_transmission(),
+            Bsdf::BumpMap(b) => b.nested.has_transmission(),
             Bsdf::Textured(b) => b.base().has_transmission(),
             _ => false,
         }
@@ -342,6 +383,7 @@ impl Bsdf {
             Bsdf::Mask(b) => b.nested.is_specular(),
             Bsdf::Blend(b) => b.first.is_specular() && b.second.is_specular(),
             Bsdf::NormalMap(b) => b.nested.is_specular(),
+            Bsdf::BumpMap(b) => b.nested.is_specular(),
             Bsdf::Textured(b) => b.base().is_specular(),
             _ => false,
         }
@@ -366,6 +408,7 @@ impl Bsdf {
                 }
             }
             Bsdf::NormalMap(b) => b.nested.albedo(),
+            Bsdf::BumpMap(b) => b.nested.albedo(),
             Bsdf::Textured(b) => b.base().albedo(),
             _ => None,
         }
@@ -389,6 +432,7 @@ impl Bsdf {
             Bsdf::Mask(b) => b.eval(at, wi, wo),
             Bsdf::Blend(b) => b.eval(at, wi, wo),
             Bsdf::NormalMap(b) => b.eval(at, wi, wo),
+            Bsdf::BumpMap(b) => b.eval(at, wi, wo),
             Bsdf::Textured(b) => b.eval(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -413,6 +457,7 @@ impl Bsdf {
             Bsdf::Mask(b) => b.pdf(at, wi, wo),
             Bsdf::Blend(b) => b.pdf(at, wi, wo),
             Bsdf::NormalMap(b) => b.pdf(at, wi, wo),
+            Bsdf::BumpMap(b) => b.pdf(at, wi, wo),
             Bsdf::Textured(b) => b.pdf(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -447,6 +492,7 @@ impl Bsdf {
             Bsdf::Mask(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Blend(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::NormalMap(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::BumpMap(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Textured(b) => b.sample(at, wi, u, u_lobe),
         }
     }

@@ -73,53 +73,86 @@ impl NormalMap {
         tilted_frame(n)
     }
 
-    /// The factor between the nested BSDF's value in the tilted frame and
-    /// this one's: its cosine over ours, times the shadowing term; `None`
-    /// where `wo` and its tilted image lie on opposite sides.
-    #[inline]
-    fn factor(&self, f: &Frame, wo: Vec3, pwo: Vec3) -> Option<f32> {
-        if wo.z * pwo.z <= 0.0 {
-            return None;
-        }
-        let shadow = if self.use_shadowing_function {
-            shadow_terminator(f.n, wo)
-        } else {
-            1.0
-        };
-        Some(shadow * pwo.z.abs() / wo.z.abs())
-    }
-
     pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
         let f = self.frame(at, wi);
-        let pwo = f.to_local(wo);
-        match self.factor(&f, wo, pwo) {
-            Some(k) => self.nested.eval(at, f.to_local(wi), pwo) * k,
-            None => Rgb::ZERO,
-        }
+        eval_tilted(&self.nested, &f, self.use_shadowing_function, at, wi, wo)
     }
 
     pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
-        let f = self.frame(at, wi);
-        let pwo = f.to_local(wo);
-        if wo.z * pwo.z <= 0.0 {
-            return 0.0;
-        }
-        self.nested.pdf(at, f.to_local(wi), pwo)
+        pdf_tilted(&self.nested, &self.frame(at, wi), at, wi, wo)
     }
 
     pub fn sample(&self, at: SurfacePoint, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         let f = self.frame(at, wi);
-        let mut s = self.nested.sample(at, f.to_local(wi), u, u_lobe)?;
-        let pwo = s.wo;
-        s.wo = f.to_world(pwo);
-        if s.wo.z * pwo.z <= 0.0 {
-            return None;
-        }
-        if self.use_shadowing_function {
-            s.weight *= shadow_terminator(f.n, s.wo);
-        }
-        Some(s)
+        sample_tilted(
+            &self.nested,
+            &f,
+            self.use_shadowing_function,
+            at,
+            wi,
+            u,
+            u_lobe,
+        )
     }
+}
+
+/// `nested`'s value seen in the tilted frame `f` (local to the shading
+/// frame), as this frame's BSDF: its cosine over ours, times the shadowing
+/// term; zero where `wo` and its tilted image lie on opposite sides.
+/// Shared by `normalmap` and `bumpmap`, which differ only in the frame.
+#[inline]
+pub(super) fn eval_tilted(
+    nested: &Bsdf,
+    f: &Frame,
+    shadowing: bool,
+    at: SurfacePoint,
+    wi: Vec3,
+    wo: Vec3,
+) -> Rgb {
+    let pwo = f.to_local(wo);
+    if wo.z * pwo.z <= 0.0 {
+        return Rgb::ZERO;
+    }
+    let shadow = if shadowing {
+        shadow_terminator(f.n, wo)
+    } else {
+        1.0
+    };
+    nested.eval(at, f.to_local(wi), pwo) * (shadow * pwo.z.abs() / wo.z.abs())
+}
+
+/// `nested`'s density in the tilted frame `f` (see [`eval_tilted`]).
+#[inline]
+pub(super) fn pdf_tilted(nested: &Bsdf, f: &Frame, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
+    let pwo = f.to_local(wo);
+    if wo.z * pwo.z <= 0.0 {
+        return 0.0;
+    }
+    nested.pdf(at, f.to_local(wi), pwo)
+}
+
+/// A sample of `nested` in the tilted frame `f` (see [`eval_tilted`]).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn sample_tilted(
+    nested: &Bsdf,
+    f: &Frame,
+    shadowing: bool,
+    at: SurfacePoint,
+    wi: Vec3,
+    u: Vec2,
+    u_lobe: f32,
+) -> Option<BsdfSample> {
+    let mut s = nested.sample(at, f.to_local(wi), u, u_lobe)?;
+    let pwo = s.wo;
+    s.wo = f.to_world(pwo);
+    if s.wo.z * pwo.z <= 0.0 {
+        return None;
+    }
+    if shadowing {
+        s.weight *= shadow_terminator(f.n, s.wo);
+    }
+    Some(s)
 }
 
 /// The frame around a tilted normal `n` (not necessarily unit) whose s

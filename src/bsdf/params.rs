@@ -28,6 +28,8 @@ pub enum BsdfParam {
     Weight,
     /// A `normalmap`'s normals.
     NormalMap,
+    /// A `bumpmap`'s scale (and its texture).
+    BumpScale,
 }
 
 /// BSDF parameters that describe no BSDF. Each message completes a

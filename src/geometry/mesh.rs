@@ -297,6 +297,29 @@ impl TriangleMesh {
         self.dpdu_with(tri, b - a, c - a)
     }
 
+    /// dp/du and dp/dv of a triangle (from its uvs; the edges p1 - p0 and
+    /// p2 - p0 when the mesh has none, as Mitsuba parameterises it by
+    /// barycentrics): how far the surface moves per unit of u and v, which
+    /// bump maps need. Zero when the uvs are degenerate.
+    pub fn dpdu_dpdv(&self, tri: usize) -> (Vec3, Vec3) {
+        let [a, b, c] = self.vertices(tri);
+        let (dp0, dp1) = (b - a, c - a);
+        if self.uvs.is_empty() {
+            return (dp0, dp1);
+        }
+        let [i0, i1, i2] = self.indices[tri].map(|i| i as usize);
+        let duv0 = self.uvs[i1] - self.uvs[i0];
+        let duv1 = self.uvs[i2] - self.uvs[i0];
+        let det = duv0.x * duv1.y - duv0.y * duv1.x;
+        if det == 0.0 || !det.is_finite() {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        (
+            (dp0 * duv1.y - dp1 * duv0.y) / det,
+            (dp1 * duv0.x - dp0 * duv1.x) / det,
+        )
+    }
+
     /// [`TriangleMesh::dpdu`] given the triangle's edges p1 - p0, p2 - p0.
     fn dpdu_with(&self, tri: usize, dp0: Vec3, dp1: Vec3) -> Vec3 {
         if self.uvs.is_empty() {

@@ -72,6 +72,14 @@ impl Geometry {
         its
     }
 
+    /// dp/du and dp/dv at a hit on this shape (world space).
+    pub fn dpdu_dpdv(&self, its: &Intersection) -> (Vec3, Vec3) {
+        match self {
+            Geometry::Mesh(m) => m.dpdu_dpdv(its.prim as usize),
+            Geometry::Sphere(s) => s.dpdu_dpdv((its.p - s.center).normalize_or_zero()),
+        }
+    }
+
     /// Applies a transform in place (meshes bake it; spheres need a similarity).
     pub fn transform(&mut self, t: &Transform) -> Result<(), ShapeError> {
         match self {
@@ -181,6 +189,7 @@ impl Intersection {
             uv: self.uv,
             prim: self.prim,
             bary: self.bary,
+            ..Default::default()
         }
     }
 

@@ -101,6 +101,24 @@ impl Sphere {
         self.axis.cross(n)
     }
 
+    /// dp/du and dp/dv at the point with outward normal `n`, as Mitsuba's
+    /// sphere has them: u = azimuth / 2pi about `axis`, v = polar angle /
+    /// pi, so dp/du = 2pi r (axis x n) and dp/dv = pi r (cos(theta) times
+    /// the horizontal direction of n, minus sin(theta) axis).
+    pub fn dpdu_dpdv(&self, n: Vec3) -> (Vec3, Vec3) {
+        let r = self.radius;
+        let cos = n.dot(self.axis);
+        let horizontal = n - self.axis * cos;
+        let sin = horizontal.length();
+        let dpdu = self.axis.cross(n) * (2.0 * PI * r);
+        let dpdv = if sin > 0.0 {
+            (horizontal * (cos / sin) - self.axis * sin) * (PI * r)
+        } else {
+            Vec3::ZERO
+        };
+        (dpdu, dpdv)
+    }
+
     pub fn bounds(&self) -> Aabb {
         Aabb {
             min: self.center - Vec3::splat(self.radius),

@@ -146,6 +146,7 @@ pub fn li(
         }
 
         let bsdf = &scene.bsdfs[its.shape as usize];
+        let sp = scene.surface_point(&its);
         let frame = its.shading;
         let wi = frame.to_local(wi_world);
 
@@ -155,10 +156,10 @@ pub fn li(
             if let Some((ls, pchoice)) = super::sample_light(scene, its.p, &prev_at, sampler, which)
             {
                 let wo = frame.to_local(ls.wi);
-                let f = bsdf.eval(its.surface_point(), wi, wo);
+                let f = bsdf.eval(sp, wi, wo);
                 if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {
                     let w = if strategy == Strategy::Mis && !ls.delta {
-                        power_heuristic(ls.pdf * pchoice, bsdf.pdf(its.surface_point(), wi, wo))
+                        power_heuristic(ls.pdf * pchoice, bsdf.pdf(sp, wi, wo))
                     } else {
                         1.0
                     };
@@ -170,7 +171,7 @@ pub fn li(
         // Continue the path by sampling the BSDF.
         let u = sampler.next_2d();
         let u_lobe = sampler.next_1d();
-        let Some(bs) = bsdf.sample(its.surface_point(), wi, u, u_lobe) else {
+        let Some(bs) = bsdf.sample(sp, wi, u, u_lobe) else {
             break;
         };
         let wo_world = frame.to_world(bs.wo);

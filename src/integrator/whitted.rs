@@ -29,6 +29,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
             }
         }
         let bsdf = &scene.bsdfs[its.shape as usize];
+        let sp = scene.surface_point(&its);
         let wi = its.shading.to_local(wi_world);
         if !bsdf.is_specular() {
             // One emitter sample, chosen by what it can deliver here.
@@ -37,7 +38,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
                 super::sample_light(scene, its.p, &at, sampler, LightPdf::Complete)
             {
                 let wo = its.shading.to_local(ls.wi);
-                let f = bsdf.eval(its.surface_point(), wi, wo);
+                let f = bsdf.eval(sp, wi, wo);
                 if f != Rgb::ZERO && scene.unoccluded(&its, &ls) {
                     l += beta * f * wo.z.abs() * ls.weight / p;
                 }
@@ -47,12 +48,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         if sampler.next_1d() >= CONTINUE {
             return l;
         }
-        let Some(bs) = bsdf.sample(
-            its.surface_point(),
-            wi,
-            sampler.next_2d(),
-            sampler.next_1d(),
-        ) else {
+        let Some(bs) = bsdf.sample(sp, wi, sampler.next_2d(), sampler.next_1d()) else {
             return l;
         };
         beta *= bs.weight / CONTINUE;

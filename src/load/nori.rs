@@ -986,7 +986,8 @@ fn nori_bsdf_name(ty: &str, param: BsdfParam) -> &'static str {
         | BsdfParam::Nested
         | BsdfParam::Opacity
         | BsdfParam::Weight
-        | BsdfParam::NormalMap => "",
+        | BsdfParam::NormalMap
+        | BsdfParam::BumpScale => "",
     }
 }
 

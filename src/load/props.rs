@@ -181,6 +181,16 @@ impl<'a> Props<'a> {
             .map(|p| p.value.kind())
     }
 
+    /// The names of the properties given as textures, in file order
+    /// (`bumpmap` takes its one texture under any name).
+    pub fn texture_names(&self) -> Vec<String> {
+        self.props
+            .iter()
+            .filter(|p| p.value.kind() == Kind::Texture)
+            .map(|p| p.name.clone())
+            .collect()
+    }
+
     pub fn owner(&self) -> &str {
         &self.owner
     }

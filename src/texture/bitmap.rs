@@ -8,7 +8,7 @@
 use std::sync::Arc;
 
 use super::UvTransform;
-use crate::color::Rgb;
+use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
 use crate::math::Vec2;
 
@@ -171,6 +171,39 @@ impl BitmapTexture {
                 top * (1.0 - ty) + bottom * ty
             }
         }
+    }
+}
+
+impl BitmapTexture {
+    /// The gradient of [`crate::texture::Texture::eval_1`] (the luminance)
+    /// with respect to the hit's (u, v), as Mitsuba 3.9.1's bitmap
+    /// `eval_1_grad`: the bilinear patch's slopes, taken through `to_uv`
+    /// and scaled by the resolution; zero for nearest-neighbour lookups.
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        if self.filter == FilterType::Nearest {
+            return Vec2::ZERO;
+        }
+        let img = &*self.image;
+        let st = self.to_uv.apply(uv);
+        let (w, h) = (img.width, img.height);
+        let px = bounded(st.x * w as f32 - 0.5);
+        let py = bounded(st.y * h as f32 - 0.5);
+        let (fx, fy) = (px.floor(), py.floor());
+        let (tx, ty) = (px - fx, py - fy);
+        let (ix, iy) = (fx as i64, fy as i64);
+        let x0 = self.wrap.wrap(ix, w);
+        let x1 = self.wrap.wrap(ix.saturating_add(1), w);
+        let y0 = self.wrap.wrap(iy, h);
+        let y1 = self.wrap.wrap(iy.saturating_add(1), h);
+        let f = |x, y| luminance(img.texel(x, y));
+        let (f00, f10, f01, f11) = (f(x0, y0), f(x1, y0), f(x0, y1), f(x1, y1));
+        let dx = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
+        let dy = (1.0 - tx) * (f01 - f00) + tx * (f11 - f10);
+        let m = &self.to_uv;
+        Vec2::new(
+            (m.row0[0] * dx + m.row1[0] * dy) * w as f32,
+            (m.row0[1] * dx + m.row1[1] * dy) * h as f32,
+        )
     }
 }
 

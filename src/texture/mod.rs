@@ -12,7 +12,7 @@ pub use checkerboard::Checkerboard;
 pub use mesh_attribute::{BindError, MeshAttributeTexture};
 
 use crate::color::{luminance, Rgb};
-use crate::math::Vec2;
+use crate::math::{Vec2, Vec3};
 
 /// Where a texture (or a BSDF with textures) is read at a hit: its (u, v)
 /// and, for per-vertex and per-face mesh data, its triangle and the
@@ -23,6 +23,12 @@ pub struct SurfacePoint {
     pub uv: Vec2,
     pub prim: u32,
     pub bary: Vec2,
+    /// dp/du, dp/dv and the geometric normal in the local shading frame,
+    /// for bump maps; zero unless the shape's BSDF asks for them
+    /// ([`crate::bsdf::Bsdf::needs_differentials`]).
+    pub dp_du: Vec3,
+    pub dp_dv: Vec3,
+    pub ng: Vec3,
 }
 
 impl From<Vec2> for SurfacePoint {
@@ -30,8 +36,7 @@ impl From<Vec2> for SurfacePoint {
     fn from(uv: Vec2) -> SurfacePoint {
         SurfacePoint {
             uv,
-            prim: 0,
-            bary: Vec2::ZERO,
+            ..SurfacePoint::default()
         }
     }
 }
@@ -77,6 +82,18 @@ impl Texture {
             Texture::Checkerboard(t) => t.eval_1(at.uv),
             // One channel is stored in all three; three read as luminance.
             Texture::MeshAttribute(t) => luminance(t.eval(at)),
+        }
+    }
+
+    /// The gradient of [`Texture::eval_1`] with respect to (u, v), for bump
+    /// maps: a bilinear bitmap's slopes; zero for the rest, whose values
+    /// are constant or piecewise constant (Mitsuba has no gradient for
+    /// them either).
+    #[inline]
+    pub fn eval_1_grad(&self, at: impl Into<SurfacePoint>) -> Vec2 {
+        match self {
+            Texture::Bitmap(t) => t.eval_1_grad(at.into().uv),
+            _ => Vec2::ZERO,
         }
     }
 

@@ -24,6 +24,8 @@ folder; files go next to this script). Plain Python, no packages:
   triangles only) of one weight, on a gentle hump, binary little-endian,
   with per-vertex colours as float `r g b` and a per-face `weight_0`: the
   mesh_attribute scene's `vertex_color` and `face_weight`;
+- height.png: a 32 x 32 8-bit greyscale height field (read raw) of rings
+  and a ramp, the bump map of bumpmap.xml;
 - normals.png: a 32 x 32 8-bit RGB normal map (read raw: colour c is the
   normal 2c - 1) of a field of round bumps, tilted up to ~50 degrees.
 """
@@ -253,7 +255,20 @@ def attributes():
         out.write(header.encode() + body)
 
 
+def height():
+    rows = []
+    for y in range(32):
+        row = []
+        for x in range(32):
+            r = math.hypot(x - 15.5, y - 15.5)
+            h = 0.5 + 0.35 * math.sin(r * 0.9) + 0.1 * (x / 31 - 0.5)
+            row.append(int(round(255 * min(max(h, 0), 1))))
+        rows.append(row)
+    png("height.png", 32, 32, 1, rows)
+
+
 if __name__ == "__main__":
+    height()
     attributes()
     normals()
     tiles()

@@ -6,7 +6,7 @@
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
-//! normalmap), texture (checkerboard, mesh_attribute,
+//! normalmap, bumpmap), texture (checkerboard, mesh_attribute,
 //! bitmap) and emitter (envmap, constant, area, point, spot, directional) that
 //! lente reads from Mitsuba files.
 //!
@@ -145,6 +145,12 @@ const CASES: &[Case] = &[
     Case {
         file: "env_elevation.xml",
         covers: "envmap varying with the elevation (Mitsuba's pole-to-pole rows), seen directly; sphere, rectangle; diffuse, roughconductor GGX (Al)",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "bumpmap.xml",
+        covers: "bumpmap: a raw greyscale bitmap's bilinear slopes over roughplastic on a rectangle and over diffuse on a sphere (to_uv scaled), named arbitrarily; area, point and constant lights",
         spp: 192,
         renders: 16,
     },

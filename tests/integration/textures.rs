@@ -224,6 +224,7 @@ fn mesh_attributes_are_read_at_the_hit() {
             uv: Vec2::ZERO,
             prim: tri as u32,
             bary,
+            ..Default::default()
         };
         let c = &attributes[0].values;
         let expect = (c[i0] * 0.5 + c[i1] * 0.2 + c[i2] * 0.3) * 0.5;

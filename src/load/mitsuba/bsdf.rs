@@ -38,6 +38,7 @@ fn param_name(ty: &str, param: BsdfParam) -> &'static str {
         BsdfParam::Opacity => "opacity",
         BsdfParam::Weight => "weight",
         BsdfParam::NormalMap => "normalmap",
+        BsdfParam::BumpScale => "scale",
     }
 }
 
@@ -69,11 +70,11 @@ impl<'d> Ctx<'d> {
                 "mask",
                 "blendbsdf",
                 "normalmap",
+                "bumpmap",
             ],
             &[
                 "principled",
                 "principledthin",
-                "bumpmap",
                 "hair",
                 "measured",
                 "pplastic",
@@ -191,6 +192,27 @@ impl<'d> Ctx<'d> {
                 let [first, second] = self.nested_pair(node, &owner, &children)?;
                 Bsdf::blend(weight, first, second)
             }
+            "bumpmap" => {
+                // Its one texture, under whatever name the file gives it.
+                let names = p.texture_names();
+                let height = match names.as_slice() {
+                    [name] => p.get_texture(name, Rgb::ZERO)?,
+                    [] => {
+                        return Err(self.err(
+                            node.pos,
+                            format!("{owner} needs a nested <texture> (the height, e.g. a bitmap)"),
+                        ))
+                    }
+                    [_, second, ..] => {
+                        return Err(p.error(second, format!("{owner} takes one nested <texture>")))
+                    }
+                };
+                let scale = p.get_float("scale", 1.0)?;
+                let flip = p.get_bool("flip_invalid_normals", true)?;
+                let shadowing = p.get_bool("use_shadowing_function", true)?;
+                let nested = self.one_nested(node, &owner, &children)?;
+                Bsdf::bump_map(height, scale, nested, flip, shadowing)
+            }
             "normalmap" => {
                 let Some(normals) = p.opt_texture("normalmap")? else {
                     return Err(self.err(
@@ -217,7 +239,10 @@ impl<'d> Ctx<'d> {
                 };
                 p.param_error(name, &e)
             })?;
-        if !matches!(ty, "twosided" | "mask" | "blendbsdf" | "normalmap") {
+        if !matches!(
+            ty,
+            "twosided" | "mask" | "blendbsdf" | "normalmap" | "bumpmap"
+        ) {
             self.no_children(&children, &owner)?;
         }
         p.finish(&mut self.warnings);
