@@ -428,7 +428,7 @@ fn emitters() {
     assert!(e("<emitter type=\"area\"/>")
         .message
         .contains("inside a <shape>"));
-    assert!(e("<emitter type=\"spot\"/>")
+    assert!(e("<emitter type=\"projector\"/>")
         .message
         .contains("not supported"));
     assert!(

@@ -483,10 +483,10 @@ fn reference_errors() {
         &["reference to itself"],
     );
     assert_err(
-        &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"mesh_attribute\" name=\"reflectance\"/></bsdf></shape>"),
+        &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"volume\" name=\"reflectance\"/></bsdf></shape>"),
         4,
         58,
-        &["mesh_attribute", "lente's textures: bitmap, checkerboard"],
+        &["volume", "lente's textures: bitmap, checkerboard"],
     );
     assert_err(
         &scene("<shape type=\"sphere\"><bsdf type=\"diffuse\">\n<texture type=\"uniform\"/></bsdf></shape>"),
