@@ -76,6 +76,7 @@ impl Scene {
             match e {
                 Emitter::Point(light) => bounds = bounds.extend(light.position),
                 Emitter::Spot(light) => bounds = bounds.extend(light.position),
+                Emitter::Projector(light) => bounds = bounds.extend(light.position),
                 _ => {}
             }
         }

@@ -67,6 +67,13 @@ impl LightBounds {
                 axis: s.axis,
                 cos_theta_o: s.cos_cutoff(),
             }),
+            Emitter::Projector(p) => Some(LightBounds {
+                centre: p.position,
+                radius: 0.0,
+                power,
+                axis: p.axis,
+                cos_theta_o: p.cos_cone(),
+            }),
             Emitter::Area(a) => match &ctx.shapes[a.shape as usize] {
                 Geometry::Sphere(s) => Some(LightBounds::omni(s.center, s.radius, power)),
                 Geometry::Mesh(m) => {

@@ -7,6 +7,7 @@ mod directional;
 mod envmap;
 mod light_choice;
 mod point;
+mod projector;
 pub mod sky;
 mod spot;
 
@@ -16,6 +17,7 @@ pub use directional::DirectionalLight;
 pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, LightPdf, TexelRows};
 pub use light_choice::{ChoicePoint, LightBounds, LightChoice, EXHAUSTIVE_MAX};
 pub use point::PointLight;
+pub use projector::{Projector, ProjectorError};
 pub use spot::{SpotError, SpotLight};
 
 use crate::color::Rgb;
@@ -30,6 +32,8 @@ pub enum Emitter {
     Point(PointLight),
     /// Mitsuba's `spot` (boxed: rare, and it may hold a texture).
     Spot(Box<SpotLight>),
+    /// Mitsuba's `projector` (boxed: rare, and it holds a texture).
+    Projector(Box<Projector>),
     Directional(DirectionalLight),
     Constant(ConstantLight),
     /// An image-based light at infinity.
@@ -119,6 +123,7 @@ impl Emitter {
             Emitter::Area(_) => "area",
             Emitter::Point(_) => "point",
             Emitter::Spot(_) => "spot",
+            Emitter::Projector(_) => "projector",
             Emitter::Directional(_) => "directional",
             Emitter::Constant(_) => "constant",
             Emitter::Environment(_) => "environment",
@@ -140,7 +145,7 @@ impl Emitter {
     pub fn is_delta(&self) -> bool {
         matches!(
             self,
-            Emitter::Point(_) | Emitter::Spot(_) | Emitter::Directional(_)
+            Emitter::Point(_) | Emitter::Spot(_) | Emitter::Projector(_) | Emitter::Directional(_)
         )
     }
 
@@ -150,6 +155,7 @@ impl Emitter {
             Emitter::Area(e) => e.power(ctx),
             Emitter::Point(e) => e.power(),
             Emitter::Spot(e) => e.power(),
+            Emitter::Projector(e) => e.power(),
             Emitter::Directional(e) => e.power(ctx),
             Emitter::Constant(e) => e.power(ctx),
             Emitter::Environment(e) => {
@@ -192,6 +198,7 @@ impl Emitter {
             Emitter::Area(e) => e.sample(ctx, p_ref, u, u1),
             Emitter::Point(e) => e.sample(p_ref),
             Emitter::Spot(e) => e.sample(p_ref),
+            Emitter::Projector(e) => e.sample(p_ref),
             Emitter::Directional(e) => e.sample(ctx, p_ref),
             Emitter::Constant(e) => e.sample(ctx, p_ref, u),
             Emitter::Environment(e) => {
@@ -214,7 +221,10 @@ impl Emitter {
     ) -> f32 {
         match self {
             Emitter::Area(e) => e.pdf(ctx, p_ref, wi, at),
-            Emitter::Point(_) | Emitter::Spot(_) | Emitter::Directional(_) => 0.0,
+            Emitter::Point(_)
+            | Emitter::Spot(_)
+            | Emitter::Projector(_)
+            | Emitter::Directional(_) => 0.0,
             Emitter::Constant(e) => e.pdf(wi),
             Emitter::Environment(e) => e.pdf(wi, which),
         }

@@ -7,7 +7,8 @@
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
 //! normalmap, bumpmap), texture (checkerboard, mesh_attribute,
-//! bitmap) and emitter (envmap, constant, area, point, spot, directional) that
+//! bitmap) and emitter (envmap, constant, area, point, spot, projector,
+//! directional) that
 //! lente reads from Mitsuba files.
 //!
 //! # The statistic
@@ -175,6 +176,12 @@ const CASES: &[Case] = &[
     Case {
         file: "spot.xml",
         covers: "spot: beam width and cutoff (the linear falloff), Mitsuba's default beam width with a projected sRGB bitmap, tilted; diffuse, roughconductor",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "projector.xml",
+        covers: "projector: a 2:1 sRGB bitmap with fov and scale, tilted; a constant irradiance with the default focal length; diffuse, roughconductor",
         spp: 192,
         renders: 16,
     },

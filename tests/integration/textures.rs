@@ -287,3 +287,29 @@ fn a_polygons_face_attribute_covers_its_triangles() {
     let w: Vec<f32> = a[1].values.iter().map(|v| v.x).collect();
     assert_eq!(w, [0.25, 0.25, 0.75]);
 }
+
+/// A projector's image sets its aspect ratio (tiles.png is 16 x 8: the
+/// projection is half as high as wide), and a negative scale is refused
+/// at the property.
+#[test]
+fn projector_images_set_the_projections_shape() {
+    use lente::emitter::Emitter;
+    let desc = load(
+        r#"<emitter type="projector">
+             <texture type="bitmap" name="irradiance"><string name="filename" value="tiles.png"/></texture>
+             <float name="fov" value="40"/>
+           </emitter>"#,
+    );
+    let [Emitter::Projector(p)] = desc.scene.emitters.as_slice() else {
+        panic!("{:?}", desc.scene.emitters)
+    };
+    let t = 20f32.to_radians().tan();
+    // The corner of the image: (t, t / 2) at z = 1.
+    let corner = (1.0 + t * t * 1.25f32).sqrt().recip();
+    assert!((p.cos_cone() - corner).abs() < 1e-6);
+    // Inside the image, just below its top edge, and just above it.
+    let at = |y: f32| p.sample(Vec3::new(0.0, y, 1.0)).is_some();
+    assert!(at(0.49 * t) && !at(0.51 * t));
+    let e = load_err(r#"<emitter type="projector"><float name="scale" value="-1"/></emitter>"#);
+    assert!(e.contains("'scale'") || e.contains("scale"), "{e}");
+}

@@ -1,10 +1,10 @@
-//! Emitters: area, point, spot, directional, constant and envmap.
+//! Emitters: area, point, spot, projector, directional, constant and envmap.
 
 use super::Ctx;
 use crate::color::{Rgb, SpectrumUse};
 use crate::emitter::{
-    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight, SpotError,
-    SpotLight, TexelRows,
+    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight, Projector,
+    ProjectorError, SpotError, SpotLight, TexelRows,
 };
 use crate::load::objects::{self, EnvMapNames, EnvMapSpec, Texels};
 use crate::load::props::Props;
@@ -37,15 +37,16 @@ impl<'d> Ctx<'d> {
     pub(super) fn emitter(&mut self, node: &'d SceneNode, in_shape: bool) -> Result<EmitterDesc> {
         let ty = self.object_type(
             node,
-            &["area", "point", "spot", "directional", "constant", "envmap"],
             &[
+                "area",
+                "point",
+                "spot",
                 "projector",
-                "sunsky",
-                "sky",
-                "sun",
-                "directionalarea",
-                "smootharea",
+                "directional",
+                "constant",
+                "envmap",
             ],
+            &["sunsky", "sky", "sun", "directionalarea", "smootharea"],
         )?;
         let owner = format!("<emitter type=\"{ty}\">");
         super::MITSUBA.check_emitter_place(self.file(), node, ty, in_shape)?;
@@ -122,6 +123,36 @@ impl<'d> Ctx<'d> {
                 )?;
                 EmitterDesc::Free {
                     emitter: Emitter::Spot(Box::new(light)),
+                    environment: false,
+                }
+            }
+            "projector" => {
+                let to_world = p.get_transform("to_world", Transform::IDENTITY)?;
+                let irradiance = p.get_texture("irradiance", Rgb::ONE)?;
+                if matches!(irradiance, Texture::MeshAttribute(_)) {
+                    return Err(p.error(
+                        "irradiance",
+                        "'irradiance' cannot be a mesh_attribute: a projector has no mesh",
+                    ));
+                }
+                let scale = p.get_float("scale", 1.0)?;
+                // The image's shape sets the field of view's (Mitsuba reads
+                // a constant as 1 x 1).
+                let aspect = match &irradiance {
+                    Texture::Bitmap(b) => b.image().width() as f64 / b.image().height() as f64,
+                    _ => 1.0,
+                };
+                let (fov_x, _) = super::sensor::horizontal_fov(&mut p, aspect)?;
+                let light = Projector::new(&to_world, irradiance, scale, fov_x, aspect as f32)
+                    .map_err(|e| match e {
+                        ProjectorError::Scale(_) => p.param_error("scale", &e),
+                        ProjectorError::Emitter(EmitterError::Radiance(_)) => {
+                            p.param_error("irradiance", &e)
+                        }
+                        _ => p.param_error("to_world", &e),
+                    })?;
+                EmitterDesc::Free {
+                    emitter: Emitter::Projector(Box::new(light)),
                     environment: false,
                 }
             }

@@ -299,7 +299,7 @@ impl<'d> Ctx<'d> {
 /// The horizontal field of view in degrees from `fov` + `fov_axis` or
 /// `focal_length` (Mitsuba's `parse_fov` in `render/sensor.cpp`; `aspect`
 /// is width / height).
-fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<(f32, FovAxis)> {
+pub(super) fn horizontal_fov(p: &mut Props, aspect: f64) -> Result<(f32, FovAxis)> {
     if p.has("fov") && p.has("focal_length") {
         return Err(p.error(
             "focal_length",
