@@ -21,7 +21,7 @@ SECONDS_EACH="${1:-60}"
 shift || true
 TARGETS=("$@")
 if [ ${#TARGETS[@]} -eq 0 ]; then
-    TARGETS=(nori_scene mitsuba_scene nori_test obj ply serialized hdr pfm exr png jpeg)
+    TARGETS=(nori_scene mitsuba_scene nori_test obj ply serialized hdr pfm exr png jpeg bmp)
 fi
 SANITIZER="${FUZZ_SANITIZER:-none}"
 
@@ -55,7 +55,7 @@ seed_target() {
     ply) seed "$1" $(git ls-files '*.ply') ;;
     serialized) seed "$1" $(git ls-files '*.serialized') ;;
     pfm) seed "$1" $(git ls-files '*.pfm') ;;
-    hdr | exr | png | jpeg) seed "$1" fuzz/seeds/"$1"/* ;;
+    hdr | exr | png | jpeg | bmp) seed "$1" fuzz/seeds/"$1"/* ;;
     *)
         echo "unknown fuzz target '$1'" >&2
         exit 2

@@ -31,10 +31,11 @@ pub enum Target {
     Exr,
     Png,
     Jpeg,
+    Bmp,
 }
 
 impl Target {
-    pub const ALL: [Target; 11] = [
+    pub const ALL: [Target; 12] = [
         Target::NoriScene,
         Target::MitsubaScene,
         Target::NoriTest,
@@ -46,6 +47,7 @@ impl Target {
         Target::Exr,
         Target::Png,
         Target::Jpeg,
+        Target::Bmp,
     ];
 
     /// The cargo-fuzz target's name (and its folders' names).
@@ -62,6 +64,7 @@ impl Target {
             Target::Exr => "exr",
             Target::Png => "png",
             Target::Jpeg => "jpeg",
+            Target::Bmp => "bmp",
         }
     }
 
@@ -131,6 +134,7 @@ pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
         Target::Exr => decode_image(bytes, "exr").map(drop).map_err(|e| e.0),
         Target::Png => decode_image(bytes, "png").map(drop).map_err(|e| e.0),
         Target::Jpeg => decode_image(bytes, "jpg").map(drop).map_err(|e| e.0),
+        Target::Bmp => decode_image(bytes, "bmp").map(drop).map_err(|e| e.0),
     }
 }
 
@@ -157,6 +161,8 @@ mod tests {
             (Target::Ply, "scenes/mitsuba/gem.ply"),
             (Target::Serialized, "tests/conformance/gems.serialized"),
             (Target::Pfm, "scenes/mitsuba/sky.pfm"),
+            (Target::Bmp, "fuzz/seeds/bmp/small.bmp"),
+            (Target::Bmp, "fuzz/seeds/bmp/palette.bmp"),
         ];
         for (target, file) in cases {
             let bytes = std::fs::read(root.join(file)).unwrap();

@@ -73,9 +73,10 @@ enum Format {
     Pfm,
     Png,
     Jpeg,
+    Bmp,
 }
 
-const SUPPORTED: &str = ".exr, .hdr, .pfm, .png (.jpg/.jpeg to read)";
+const SUPPORTED: &str = ".exr, .hdr, .pfm, .png (.jpg/.jpeg and .bmp to read)";
 
 impl Format {
     fn from_path(path: &Path) -> Result<Format, ImageError> {
@@ -94,6 +95,7 @@ impl Format {
             "pfm" => Ok(Format::Pfm),
             "png" => Ok(Format::Png),
             "jpg" | "jpeg" => Ok(Format::Jpeg),
+            "bmp" => Ok(Format::Bmp),
             _ => Err(ImageError::new(
                 path,
                 format!("unsupported image extension '.{ext}' (supported: {SUPPORTED})"),
@@ -123,6 +125,8 @@ pub(crate) struct RawImage {
 /// - PFM: colour (`PF`) or greyscale (`Pf`), either byte order.
 /// - PNG: 8 or 16 bit, any colour type; decoded from sRGB to linear.
 /// - JPEG: baseline or progressive; decoded from sRGB to linear.
+/// - BMP: the bit depths and compressions the `image` crate reads;
+///   decoded from sRGB to linear.
 ///
 /// Negative texels are clamped to zero with one warning that counts them;
 /// NaN or infinite texels and empty images are errors.
@@ -159,6 +163,7 @@ fn decode(
         Format::Pfm => pfm::decode(bytes),
         Format::Png => png::decode(bytes, transfer),
         Format::Jpeg => png::decode_jpeg(bytes, transfer),
+        Format::Bmp => png::decode_bmp(bytes, transfer),
     }?;
     finish(raw)
 }
@@ -260,6 +265,9 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
         Format::Png => png::encode(image),
         Format::Jpeg => Err(Malformed::from(
             "lente writes no JPEG (lossy); use .png, .exr, .hdr or .pfm",
+        )),
+        Format::Bmp => Err(Malformed::from(
+            "lente reads BMP but writes none; use .png, .exr, .hdr or .pfm",
         )),
     }
     .map_err(|m| ImageError::new(path, m.0))?;
@@ -373,6 +381,27 @@ pub(crate) mod test_util {
 mod tests {
     use super::test_util::test_image;
     use super::*;
+
+    #[test]
+    fn bmp_is_decoded_from_srgb_or_raw_with_its_rows_from_the_top() {
+        // Red on the top row, a grey of 128 below.
+        let mut img = image::RgbImage::from_pixel(4, 2, image::Rgb([128, 128, 128]));
+        for x in 0..4 {
+            img.put_pixel(x, 0, image::Rgb([255, 0, 0]));
+        }
+        let mut bytes = Vec::new();
+        image::codecs::bmp::BmpEncoder::new(&mut bytes)
+            .encode(img.as_raw(), 4, 2, image::ExtendedColorType::Rgb8)
+            .unwrap();
+        let (srgb, _) = decode(&bytes, Format::Bmp, Transfer::Srgb).unwrap();
+        let (raw, _) = decode(&bytes, Format::Bmp, Transfer::Raw).unwrap();
+        assert_eq!((srgb.width, srgb.height), (4, 2));
+        assert_eq!(srgb.pixels[0], crate::color::Rgb::new(1.0, 0.0, 0.0));
+        let v = raw.pixels[4].x;
+        assert!((v - 128.0 / 255.0).abs() < 1e-6, "{v}");
+        assert!((srgb.pixels[4].x - crate::color::srgb_decode(v)).abs() < 1e-6);
+        assert!(decode(&bytes[..20], Format::Bmp, Transfer::Srgb).is_err());
+    }
 
     #[test]
     fn jpeg_is_decoded_from_srgb_or_raw() {

@@ -1,4 +1,4 @@
-//! PNG and JPEG through the `image` crate: any bit depth and colour type
+//! PNG, JPEG and BMP through the `image` crate: any bit depth and colour type
 //! in, decoded from sRGB to linear unless the caller asks for the raw
 //! values (Mitsuba's `raw` textures); alpha ignored. 8-bit sRGB RGB PNG out.
 
@@ -41,6 +41,15 @@ pub(super) fn decode_jpeg(bytes: &[u8], transfer: Transfer) -> Result<RawImage, 
         .set_limits(limits())
         .map_err(|e| format!("cannot decode JPEG: {e}"))?;
     finish_ldr(decoder, "JPEG", transfer)
+}
+
+pub(super) fn decode_bmp(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
+    let mut decoder = image::codecs::bmp::BmpDecoder::new(Cursor::new(bytes))
+        .map_err(|e| format!("cannot decode BMP: {e}"))?;
+    decoder
+        .set_limits(limits())
+        .map_err(|e| format!("cannot decode BMP: {e}"))?;
+    finish_ldr(decoder, "BMP", transfer)
 }
 
 /// Checks the header's size before the pixels are decoded, then converts.
