@@ -62,6 +62,26 @@ fn radiance(value: Rgb) -> Result<Rgb, EmitterError> {
     }
 }
 
+/// Where a light that shines along its local +z stands (spot,
+/// projector): its `to_world`'s origin, its unit +z in the world, and the
+/// inverse of its linear part (directions into the light's frame).
+/// `Err(Some(origin))` for an origin that is not finite, `Err(None)` for a
+/// degenerate transform.
+fn placement(
+    to_world: &crate::math::Transform,
+) -> Result<(Vec3, Vec3, crate::math::Mat3), Option<Vec3>> {
+    let position = to_world.point(Vec3::ZERO);
+    if !position.is_finite() {
+        return Err(Some(position));
+    }
+    let axis = to_world.vector(Vec3::Z).normalize_or_zero();
+    let to_local = to_world.inverse().linear();
+    if axis == Vec3::ZERO || !to_local.is_finite() {
+        return Err(None);
+    }
+    Ok((position, axis, to_local))
+}
+
 /// A light sample as seen from a reference point.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {

@@ -47,15 +47,10 @@ impl Projector {
         fov_x_deg: f32,
         aspect: f32,
     ) -> Result<Projector, ProjectorError> {
-        let position = to_world.point(Vec3::ZERO);
-        if !position.is_finite() {
-            return Err(EmitterError::Position(position).into());
-        }
-        let axis = to_world.vector(Vec3::Z).normalize_or_zero();
-        let to_local = to_world.inverse().linear();
-        if axis == Vec3::ZERO || !to_local.is_finite() {
-            return Err(ProjectorError::ToWorld);
-        }
+        let (position, axis, to_local) = super::placement(to_world).map_err(|e| match e {
+            Some(p) => EmitterError::Position(p).into(),
+            None => ProjectorError::ToWorld,
+        })?;
         if !(scale >= 0.0 && scale.is_finite()) {
             return Err(ProjectorError::Scale(scale));
         }

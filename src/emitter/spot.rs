@@ -62,15 +62,10 @@ impl SpotLight {
                 cutoff: cutoff_deg,
             });
         }
-        let position = to_world.point(Vec3::ZERO);
-        if !position.is_finite() {
-            return Err(EmitterError::Position(position).into());
-        }
-        let axis = to_world.vector(Vec3::Z).normalize_or_zero();
-        let to_local = to_world.inverse().linear();
-        if axis == Vec3::ZERO || !to_local.is_finite() {
-            return Err(SpotError::ToWorld);
-        }
+        let (position, axis, to_local) = super::placement(to_world).map_err(|e| match e {
+            Some(p) => EmitterError::Position(p).into(),
+            None => SpotError::ToWorld,
+        })?;
         if let Some(t) = &texture {
             if !t.max_value().is_finite() {
                 return Err(SpotError::Texture(t.max_value()));

@@ -157,20 +157,31 @@ impl BitmapTexture {
                 img.texel(x, y)
             }
             FilterType::Bilinear => {
-                let px = bounded(uv.x * w as f32 - 0.5);
-                let py = bounded(uv.y * h as f32 - 0.5);
-                let (fx, fy) = (px.floor(), py.floor());
-                let (tx, ty) = (px - fx, py - fy);
-                let (ix, iy) = (fx as i64, fy as i64);
-                let x0 = self.wrap.wrap(ix, w);
-                let x1 = self.wrap.wrap(ix.saturating_add(1), w);
-                let y0 = self.wrap.wrap(iy, h);
-                let y1 = self.wrap.wrap(iy.saturating_add(1), h);
+                let ([x0, x1, y0, y1], tx, ty) = self.bilinear_cell(uv);
                 let top = img.texel(x0, y0) * (1.0 - tx) + img.texel(x1, y0) * tx;
                 let bottom = img.texel(x0, y1) * (1.0 - tx) + img.texel(x1, y1) * tx;
                 top * (1.0 - ty) + bottom * ty
             }
         }
+    }
+
+    /// The four texels a bilinear lookup at `st` (after `to_uv`) mixes,
+    /// as columns x0, x1 and rows y0, y1 (wrapped), and the weights of
+    /// x1 and y1.
+    #[inline]
+    fn bilinear_cell(&self, st: Vec2) -> ([usize; 4], f32, f32) {
+        let (w, h) = (self.image.width, self.image.height);
+        let px = bounded(st.x * w as f32 - 0.5);
+        let py = bounded(st.y * h as f32 - 0.5);
+        let (fx, fy) = (px.floor(), py.floor());
+        let (ix, iy) = (fx as i64, fy as i64);
+        let cell = [
+            self.wrap.wrap(ix, w),
+            self.wrap.wrap(ix.saturating_add(1), w),
+            self.wrap.wrap(iy, h),
+            self.wrap.wrap(iy.saturating_add(1), h),
+        ];
+        (cell, px - fx, py - fy)
     }
 }
 
@@ -184,17 +195,8 @@ impl BitmapTexture {
             return Vec2::ZERO;
         }
         let img = &*self.image;
-        let st = self.to_uv.apply(uv);
         let (w, h) = (img.width, img.height);
-        let px = bounded(st.x * w as f32 - 0.5);
-        let py = bounded(st.y * h as f32 - 0.5);
-        let (fx, fy) = (px.floor(), py.floor());
-        let (tx, ty) = (px - fx, py - fy);
-        let (ix, iy) = (fx as i64, fy as i64);
-        let x0 = self.wrap.wrap(ix, w);
-        let x1 = self.wrap.wrap(ix.saturating_add(1), w);
-        let y0 = self.wrap.wrap(iy, h);
-        let y1 = self.wrap.wrap(iy.saturating_add(1), h);
+        let ([x0, x1, y0, y1], tx, ty) = self.bilinear_cell(self.to_uv.apply(uv));
         let f = |x, y| luminance(img.texel(x, y));
         let (f00, f10, f01, f11) = (f(x0, y0), f(x1, y0), f(x0, y1), f(x1, y1));
         let dx = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
