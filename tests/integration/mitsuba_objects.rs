@@ -428,7 +428,7 @@ fn emitters() {
     assert!(e("<emitter type=\"area\"/>")
         .message
         .contains("inside a <shape>"));
-    assert!(e("<emitter type=\"projector\"/>")
+    assert!(e("<emitter type=\"sunsky\"/>")
         .message
         .contains("not supported"));
     assert!(
