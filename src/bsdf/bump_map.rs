@@ -1,18 +1,14 @@
-//! Mitsuba's `bumpmap`: a nested BSDF in the shading frame of a surface
+//! Mitsuba's `bumpmap`: the tilt of a [`super::Tilted`] BSDF from a surface
 //! displaced along its normal by `scale` times a texture's value (read as
 //! a number). As in Mitsuba 3.9.1: dp/du and dp/dv gain the texture's
-//! slopes along the normal, the bumped normal is their cross product
-//! (turned to the geometric normal's side), mirrored when it faces away
-//! from `wi` (`flip_invalid_normals`), with Estevez et al.'s shadowing
-//! term (`use_shadowing_function`). dp/du, dp/dv and the geometric normal
-//! come in the [`SurfacePoint`] (local to the shading frame): the renderer
-//! computes them for shapes whose BSDF needs them.
+//! slopes along the normal, and the bumped normal is their cross product,
+//! turned to the geometric normal's side; the tilted frame's s axis
+//! follows dp/du. dp/du, dp/dv and the geometric normal come in the
+//! [`SurfacePoint`] (local to the shading frame): the renderer computes
+//! them for shapes whose BSDF needs them.
 
-use super::normal_map::{eval_tilted, pdf_tilted, sample_tilted, tilted_frame};
 use super::params::BsdfError;
-use super::{Bsdf, BsdfSample};
-use crate::color::Rgb;
-use crate::math::{Frame, Vec2, Vec3};
+use crate::math::Vec3;
 use crate::texture::{SurfacePoint, Texture};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -20,91 +16,47 @@ pub struct BumpMap {
     /// Displacement, read as a number (`Texture::eval_1` and its gradient).
     pub height: Texture,
     pub scale: f32,
-    pub nested: Bsdf,
-    pub flip_invalid_normals: bool,
-    pub use_shadowing_function: bool,
 }
 
 impl BumpMap {
-    pub fn new(
-        height: Texture,
-        scale: f32,
-        nested: Bsdf,
-        flip_invalid_normals: bool,
-        use_shadowing_function: bool,
-    ) -> Result<BumpMap, BsdfError> {
+    /// The texture's values and `scale` must be finite.
+    pub fn new(height: Texture, scale: f32) -> Result<BumpMap, BsdfError> {
         if !height.max_value().is_finite() || !scale.is_finite() {
             return Err(BsdfError::NotPositive {
                 param: super::BsdfParam::BumpScale,
                 value: scale,
             });
         }
-        Ok(BumpMap {
-            height,
-            scale,
-            nested,
-            flip_invalid_normals,
-            use_shadowing_function,
-        })
+        Ok(BumpMap { height, scale })
     }
 
-    /// The bumped frame in the local shading frame at `at`, seen from
-    /// `wi` (the unbumped frame where the differentials are missing or
-    /// degenerate).
+    /// The bumped normal at `at` (not normalised), on the geometric
+    /// normal's side; zero where the differentials are missing or
+    /// degenerate (the frame is then left untilted).
     #[inline]
-    fn frame(&self, at: SurfacePoint, wi: Vec3) -> Frame {
+    pub fn normal(&self, at: SurfacePoint) -> Vec3 {
         let grad = self.height.eval_1_grad(at) * self.scale;
         // The shading normal is +z here.
         let dp_du = Vec3::new(at.dp_du.x, at.dp_du.y, grad.x);
         let dp_dv = Vec3::new(at.dp_dv.x, at.dp_dv.y, grad.y);
-        let mut n = dp_du.cross(dp_dv).normalize_or_zero();
-        if n == Vec3::ZERO || !n.is_finite() {
-            return tilted_frame(Vec3::Z);
+        let n = dp_du.cross(dp_dv);
+        if !n.is_finite() {
+            Vec3::ZERO
+        } else if at.ng.dot(n) < 0.0 {
+            -n
+        } else {
+            n
         }
-        if at.ng.dot(n) < 0.0 {
-            n = -n;
-        }
-        if self.flip_invalid_normals && wi.z * wi.dot(n) <= 0.0 {
-            n = Vec3::new(-n.x, -n.y, n.z);
-        }
-        let s = (at.dp_du - n * n.dot(at.dp_du)).normalize_or_zero();
-        if s == Vec3::ZERO {
-            return tilted_frame(n);
-        }
-        Frame {
-            s,
-            t: n.cross(s),
-            n,
-        }
-    }
-
-    pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
-        let f = self.frame(at, wi);
-        eval_tilted(&self.nested, &f, self.use_shadowing_function, at, wi, wo)
-    }
-
-    pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
-        pdf_tilted(&self.nested, &self.frame(at, wi), at, wi, wo)
-    }
-
-    pub fn sample(&self, at: SurfacePoint, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
-        let f = self.frame(at, wi);
-        sample_tilted(
-            &self.nested,
-            &f,
-            self.use_shadowing_function,
-            at,
-            wi,
-            u,
-            u_lobe,
-        )
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::{Bsdf, Tilt, Tilted};
+    use crate::color::Rgb;
     use crate::image::Bitmap;
+    use crate::math::Vec2;
     use crate::texture::{BitmapTexture, FilterType, TextureImage, UvTransform, WrapMode};
     use std::sync::Arc;
 
@@ -137,7 +89,12 @@ mod tests {
     #[test]
     fn the_bumped_normal_leans_against_the_slope() {
         assert_eq!(ramp().eval_1_grad(Vec2::new(0.5, 0.5)), Vec2::new(2.0, 0.0));
-        let b = BumpMap::new(ramp(), 0.25, Bsdf::default(), true, true).unwrap();
+        let b = Tilted {
+            tilt: Tilt::BumpMap(BumpMap::new(ramp(), 0.25).unwrap()),
+            nested: Bsdf::default(),
+            flip_invalid_normals: true,
+            use_shadowing_function: true,
+        };
         let wi = Vec3::new(0.0, 0.3, 1.0).normalize();
         let f = b.frame(flat(Vec2::new(0.5, 0.5)), wi);
         // dp/du + 0.5 z crossed with dp/dv: (-0.5, 0, 1).

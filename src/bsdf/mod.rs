@@ -24,6 +24,7 @@ mod rough_substrate;
 mod schlick_conductor;
 mod textured;
 mod thin_dielectric;
+mod tilted;
 mod two_sided;
 
 use crate::color::Rgb;
@@ -53,6 +54,7 @@ pub use rough_substrate::RoughSubstrate;
 pub use schlick_conductor::SchlickConductor;
 pub use textured::Textured;
 pub use thin_dielectric::ThinDielectric;
+pub use tilted::{Tilt, Tilted};
 pub use two_sided::TwoSided;
 
 /// The closed set of BSDFs lente renders, one model per file; each is
@@ -82,12 +84,9 @@ pub enum Bsdf {
     Mask(Box<Mask>),
     /// Mitsuba's `blendbsdf`: a weighted mix of two BSDFs (boxed: rare).
     Blend(Box<Blend>),
-    /// Mitsuba's `normalmap`: a nested BSDF in a frame tilted by a
-    /// texture (boxed: rare).
-    NormalMap(Box<NormalMap>),
-    /// Mitsuba's `bumpmap`: a nested BSDF in the frame of a surface
-    /// displaced by a texture (boxed: rare).
-    BumpMap(Box<BumpMap>),
+    /// Mitsuba's `normalmap` and `bumpmap`: a nested BSDF in a frame
+    /// tilted by a texture (boxed: rare).
+    Tilted(Box<Tilted>),
     /// A model with textured parameters (boxed: rare, and large).
     Textured(Box<Textured>),
 }
@@ -271,12 +270,12 @@ impl Bsdf {
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
     ) -> Result<Bsdf, BsdfError> {
-        Ok(Bsdf::NormalMap(Box::new(NormalMap::new(
-            normals,
+        Ok(Bsdf::Tilted(Box::new(Tilted {
+            tilt: Tilt::NormalMap(NormalMap::new(normals)?),
             nested,
             flip_invalid_normals,
             use_shadowing_function,
-        )?)))
+        })))
     }
 
     /// `nested` on a surface bumped by `height` (see [`BumpMap::new`]).
@@ -287,13 +286,12 @@ impl Bsdf {
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
     ) -> Result<Bsdf, BsdfError> {
-        Ok(Bsdf::BumpMap(Box::new(BumpMap::new(
-            height,
-            scale,
+        Ok(Bsdf::Tilted(Box::new(Tilted {
+            tilt: Tilt::BumpMap(BumpMap::new(height, scale)?),
             nested,
             flip_invalid_normals,
             use_shadowing_function,
-        )?)))
+        })))
     }
 
     /// `base` with textured parameters (see [`Textured::new`]); no
@@ -322,12 +320,8 @@ impl Bsdf {
                 b.first.for_each_texture_mut(f);
                 b.second.for_each_texture_mut(f);
             }
-            Bsdf::NormalMap(b) => {
-                f(&mut b.normals);
-                b.nested.for_each_texture_mut(f);
-            }
-            Bsdf::BumpMap(b) => {
-                f(&mut b.height);
+            Bsdf::Tilted(b) => {
+                f(b.texture_mut());
                 b.nested.for_each_texture_mut(f);
             }
             Bsdf::TwoSided(b) => {
@@ -343,10 +337,9 @@ impl Bsdf {
     /// for such shapes.
     pub fn needs_differentials(&self) -> bool {
         match self {
-            Bsdf::BumpMap(_) => true,
             Bsdf::Mask(b) => b.nested.needs_differentials(),
             Bsdf::Blend(b) => b.first.needs_differentials() || b.second.needs_differentials(),
-            Bsdf::NormalMap(b) => b.nested.needs_differentials(),
+            Bsdf::Tilted(b) => matches!(b.tilt, Tilt::BumpMap(_)) || b.nested.needs_differentials(),
             Bsdf::TwoSided(b) => b.front.needs_differentials() || b.back.needs_differentials(),
             _ => false,
         }
@@ -363,8 +356,7 @@ impl Bsdf {
             | Bsdf::Mask(_) => true,
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
             Bsdf::Blend(b) => b.first.has_transmission() || b.second.has_transmission(),
-            Bsdf::NormalMap(b) => b.nested.has_transmission(),
-            Bsdf::BumpMap(b) => b.nested.has_transmission(),
+            Bsdf::Tilted(b) => b.nested.has_transmission(),
             Bsdf::Textured(b) => b.base().has_transmission(),
             _ => false,
         }
@@ -382,8 +374,7 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.front.is_specular() && b.back.is_specular(),
             Bsdf::Mask(b) => b.nested.is_specular(),
             Bsdf::Blend(b) => b.first.is_specular() && b.second.is_specular(),
-            Bsdf::NormalMap(b) => b.nested.is_specular(),
-            Bsdf::BumpMap(b) => b.nested.is_specular(),
+            Bsdf::Tilted(b) => b.nested.is_specular(),
             Bsdf::Textured(b) => b.base().is_specular(),
             _ => false,
         }
@@ -407,8 +398,7 @@ impl Bsdf {
                     (a, c) => a.or(c),
                 }
             }
-            Bsdf::NormalMap(b) => b.nested.albedo(),
-            Bsdf::BumpMap(b) => b.nested.albedo(),
+            Bsdf::Tilted(b) => b.nested.albedo(),
             Bsdf::Textured(b) => b.base().albedo(),
             _ => None,
         }
@@ -431,8 +421,7 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.eval(at, wi, wo),
             Bsdf::Mask(b) => b.eval(at, wi, wo),
             Bsdf::Blend(b) => b.eval(at, wi, wo),
-            Bsdf::NormalMap(b) => b.eval(at, wi, wo),
-            Bsdf::BumpMap(b) => b.eval(at, wi, wo),
+            Bsdf::Tilted(b) => b.eval(at, wi, wo),
             Bsdf::Textured(b) => b.eval(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -456,8 +445,7 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.pdf(at, wi, wo),
             Bsdf::Mask(b) => b.pdf(at, wi, wo),
             Bsdf::Blend(b) => b.pdf(at, wi, wo),
-            Bsdf::NormalMap(b) => b.pdf(at, wi, wo),
-            Bsdf::BumpMap(b) => b.pdf(at, wi, wo),
+            Bsdf::Tilted(b) => b.pdf(at, wi, wo),
             Bsdf::Textured(b) => b.pdf(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -491,8 +479,7 @@ impl Bsdf {
             Bsdf::TwoSided(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Mask(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Blend(b) => b.sample(at, wi, u, u_lobe),
-            Bsdf::NormalMap(b) => b.sample(at, wi, u, u_lobe),
-            Bsdf::BumpMap(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::Tilted(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Textured(b) => b.sample(at, wi, u, u_lobe),
         }
     }
