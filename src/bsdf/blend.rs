@@ -38,12 +38,22 @@ impl Blend {
     }
 
     pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
-        let w = self.w(at);
-        self.first.eval(at, wi, wo) * (1.0 - w) + self.second.eval(at, wi, wo) * w
+        self.eval_with(self.w(at), at, wi, wo)
     }
 
     pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
-        let w = self.w(at);
+        self.pdf_with(self.w(at), at, wi, wo)
+    }
+
+    /// [`Blend::eval`] with the weight already read.
+    #[inline]
+    fn eval_with(&self, w: f32, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
+        self.first.eval(at, wi, wo) * (1.0 - w) + self.second.eval(at, wi, wo) * w
+    }
+
+    /// [`Blend::pdf`] with the weight already read.
+    #[inline]
+    fn pdf_with(&self, w: f32, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
         self.first.pdf(at, wi, wo) * (1.0 - w) + self.second.pdf(at, wi, wo) * w
     }
 
@@ -61,11 +71,12 @@ impl Blend {
             s.pdf *= p;
             return Some(s);
         }
-        let pdf = self.pdf(at, wi, s.wo);
+        // The mixture's value and density, the weight read once.
+        let pdf = self.pdf_with(w, at, wi, s.wo);
         if pdf <= 0.0 {
             return None;
         }
-        s.weight = self.eval(at, wi, s.wo) * s.wo.z.abs() / pdf;
+        s.weight = self.eval_with(w, at, wi, s.wo) * s.wo.z.abs() / pdf;
         s.pdf = pdf;
         Some(s)
     }
