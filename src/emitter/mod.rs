@@ -104,6 +104,22 @@ pub struct LightSample {
 }
 
 impl LightSample {
+    /// A sample of a light at the point `p` (a delta in position: point,
+    /// spot, projector), reached along the unit `wi` at `dist`, with
+    /// `weight` = its intensity towards the reference point / dist².
+    fn at_point(p: Vec3, wi: Vec3, dist: f32, weight: Rgb) -> Self {
+        LightSample {
+            wi,
+            p,
+            err: Vec3::ZERO,
+            n: Vec3::ZERO,
+            dist,
+            weight,
+            pdf: 0.0,
+            delta: true,
+        }
+    }
+
     /// A sample of a light at infinity in direction `wi` (the point is put
     /// beyond the scene's bounding sphere, for shadow rays).
     fn at_infinity(ctx: &EmitterContext, p_ref: Vec3, wi: Vec3, weight: Rgb, pdf: f32) -> Self {

@@ -34,15 +34,11 @@ impl PointLight {
             return None;
         }
         let dist = d2.sqrt();
-        Some(LightSample {
-            wi: to / dist,
-            p: self.position,
-            err: Vec3::ZERO,
-            n: Vec3::ZERO,
+        Some(LightSample::at_point(
+            self.position,
+            to / dist,
             dist,
-            weight: self.intensity / d2,
-            pdf: 0.0,
-            delta: true,
-        })
+            self.intensity / d2,
+        ))
     }
 }

@@ -103,16 +103,12 @@ impl Projector {
         if e == Rgb::ZERO || cos.is_nan() || cos <= 0.0 {
             return None;
         }
-        Some(LightSample {
+        Some(LightSample::at_point(
+            self.position,
             wi,
-            p: self.position,
-            err: Vec3::ZERO,
-            n: Vec3::ZERO,
             dist,
-            weight: e * (PI * self.scale / (local.z * local.z * cos)),
-            pdf: 0.0,
-            delta: true,
-        })
+            e * (PI * self.scale / (local.z * local.z * cos)),
+        ))
     }
 }
 

@@ -133,16 +133,12 @@ impl SpotLight {
         if intensity == Rgb::ZERO {
             return None;
         }
-        Some(LightSample {
+        Some(LightSample::at_point(
+            self.position,
             wi,
-            p: self.position,
-            err: Vec3::ZERO,
-            n: Vec3::ZERO,
             dist,
-            weight: intensity / d2,
-            pdf: 0.0,
-            delta: true,
-        })
+            intensity / d2,
+        ))
     }
 }
 
