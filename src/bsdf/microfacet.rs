@@ -85,20 +85,6 @@ impl Microfacet {
         } else {
             warp::square_to_cosine_hemisphere(u)
         };
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let p = self.pdf(wi, wo);
-        if p <= 0.0 {
-            return None;
-        }
-        let weight = self.eval(wi, wo) * wo.z / p;
-        Some(BsdfSample {
-            wo,
-            weight,
-            pdf: p,
-            specular: false,
-            eta: 1.0,
-        })
+        BsdfSample::smooth_reflection(wo, self.pdf(wi, wo), || self.eval(wi, wo))
     }
 }

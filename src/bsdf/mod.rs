@@ -106,6 +106,25 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
+impl BsdfSample {
+    /// A sample `wo` of a smooth reflection lobe with density `pdf`: its
+    /// weight f(wo) cos / pdf (`f` is evaluated only for a kept sample);
+    /// `None` below the horizon or where the density vanishes.
+    #[inline]
+    fn smooth_reflection(wo: Vec3, pdf: f32, f: impl FnOnce() -> Rgb) -> Option<BsdfSample> {
+        if wo.z <= 0.0 || pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: f() * wo.z / pdf,
+            pdf,
+            specular: false,
+            eta: 1.0,
+        })
+    }
+}
+
 impl Default for Bsdf {
     /// Nori's and Mitsuba's default: diffuse, albedo 0.5.
     fn default() -> Self {

@@ -89,16 +89,6 @@ impl RoughSubstrate {
         } else {
             warp::square_to_cosine_hemisphere(u)
         };
-        let pdf = self.pdf(wi, wo);
-        if wo.z <= 0.0 || pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: self.eval(wi, wo) * wo.z / pdf,
-            pdf,
-            specular: false,
-            eta: 1.0,
-        })
+        BsdfSample::smooth_reflection(wo, self.pdf(wi, wo), || self.eval(wi, wo))
     }
 }

@@ -52,17 +52,7 @@ impl SchlickConductor {
             return None;
         }
         let wo = reflect(wi, warp::square_to_beckmann(u, self.alpha));
-        let pdf = self.pdf(wi, wo);
-        if wo.z <= 0.0 || pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: self.eval(wi, wo) * wo.z / pdf,
-            pdf,
-            specular: false,
-            eta: 1.0,
-        })
+        BsdfSample::smooth_reflection(wo, self.pdf(wi, wo), || self.eval(wi, wo))
     }
 }
 
