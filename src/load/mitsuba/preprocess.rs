@@ -429,8 +429,10 @@ fn uv_offsets_to_transform(node: &mut SceneNode) {
     // Translations first: each later operation applies after the ones before.
     ops.sort_by_key(|c| c.tag != "translate");
     let first = ops[0].pos;
+    // `at` counts the other children before the first of them, so it is
+    // where the transform takes their place.
     node.children.insert(
-        at.min(node.children.len()),
+        at,
         SceneNode {
             tag: "transform".to_string(),
             pos: first,
