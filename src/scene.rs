@@ -5,7 +5,7 @@ use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::color::Rgb;
 use crate::emitter::{AreaLight, Emitter, EmitterContext, LightChoice};
-use crate::geometry::{Bvh, Geometry, Intersection};
+use crate::geometry::{Bvh, BvhHit, Geometry, Instance, Intersection};
 use crate::math::{Aabb, Ray, Vec3};
 
 /// A shape as a scene file describes it.
@@ -24,12 +24,18 @@ pub struct SceneDesc {
     pub shapes: Vec<ShapeDesc>,
     /// Emitters that are not attached to shapes (point, constant, environment).
     pub emitters: Vec<Emitter>,
+    /// Shape groups (Mitsuba's `shapegroup`): shapes that appear only where
+    /// instances place them, in the groups' own space, never emitters.
+    pub groups: Vec<Vec<ShapeDesc>>,
+    /// Placements of the groups.
+    pub instances: Vec<Instance>,
 }
 
 /// The world, ready to render: geometry and its BVH, BSDFs, emitters and
 /// the camera. What to compute from it is a [`crate::render::RenderJob`].
 pub struct Scene {
     pub camera: Camera,
+    /// The top-level shapes, then each group's shapes (in the group's space).
     pub geometry: Vec<Geometry>,
     pub bsdfs: Vec<Bsdf>,
     /// For each shape, whether its BSDF reads dp/du and dp/dv (bump maps).
@@ -55,7 +61,29 @@ impl Scene {
         let mut bsdfs = Vec::new();
         let mut shape_emitter = Vec::new();
         let mut emitters = Vec::new();
-        for (i, s) in desc.shapes.into_iter().enumerate() {
+        let top = desc.shapes.len();
+        let mut group_ranges = Vec::new();
+        for (g, group) in desc.groups.iter().enumerate() {
+            if let Some(k) = group.iter().position(|s| s.area_radiance.is_some()) {
+                return Err(BuildError::EmitterInGroup { group: g, shape: k });
+            }
+            let start = group_ranges
+                .last()
+                .map_or(top, |r: &std::ops::Range<usize>| r.end);
+            group_ranges.push(start..start + group.len());
+        }
+        if let Some(i) = desc
+            .instances
+            .iter()
+            .position(|i| i.group as usize >= desc.groups.len())
+        {
+            return Err(BuildError::NoSuchGroup(i));
+        }
+        let all = desc
+            .shapes
+            .into_iter()
+            .chain(desc.groups.into_iter().flatten());
+        for (i, s) in all.enumerate() {
             geometry.push(s.geometry);
             bsdfs.push(s.bsdf);
             let emitter = match s.area_radiance {
@@ -70,7 +98,7 @@ impl Scene {
             shape_emitter.push(emitter);
         }
         emitters.extend(desc.emitters);
-        let bvh = Bvh::build(&geometry);
+        let bvh = Bvh::build_instanced(&geometry, top, &group_ranges, desc.instances);
         let mut bounds = bvh.bounds();
         for e in &emitters {
             match e {
@@ -124,7 +152,18 @@ impl Scene {
     pub fn surface_point(&self, its: &Intersection) -> crate::texture::SurfacePoint {
         let mut at = its.surface_point();
         if self.differentials[its.shape as usize] {
-            let (dp_du, dp_dv) = self.geometry[its.shape as usize].dpdu_dpdv(its);
+            let shape = &self.geometry[its.shape as usize];
+            let (dp_du, dp_dv) = if its.instance == BvhHit::NO_INSTANCE {
+                shape.dpdu_dpdv(its)
+            } else {
+                let to_world = self.bvh.instance(its.instance).to_world;
+                let local = Intersection {
+                    p: to_world.inverse().point(its.p),
+                    ..*its
+                };
+                let (du, dv) = shape.dpdu_dpdv(&local);
+                (to_world.vector(du), to_world.vector(dv))
+            };
             at.dp_du = its.shading.to_local(dp_du);
             at.dp_dv = its.shading.to_local(dp_dv);
             at.ng = its.shading.to_local(its.ng);
@@ -149,7 +188,7 @@ impl Scene {
     /// Closest surface along the ray.
     pub fn intersect(&self, ray: &Ray) -> Option<Intersection> {
         let hit = self.bvh.intersect(ray)?;
-        Some(self.geometry[hit.shape as usize].intersection(ray, &hit))
+        Some(hit_intersection(&self.bvh, &self.geometry, ray, &hit))
     }
 
     /// True if something blocks the segment between two points, each moved
@@ -207,6 +246,23 @@ pub enum BuildError {
     NothingToFocusOn,
     #[error("the area light on shape {0}: its radiance {1}")]
     AreaLight(usize, crate::emitter::EmitterError),
+    #[error("shape {shape} of shape group {group} is an emitter; groups cannot hold emitters")]
+    EmitterInGroup { group: usize, shape: usize },
+    #[error("instance {0} places a shape group that does not exist")]
+    NoSuchGroup(usize),
+}
+
+/// The world-space surface point of a BVH hit (through its instance's
+/// transform if it has one).
+fn hit_intersection(bvh: &Bvh, geometry: &[Geometry], ray: &Ray, hit: &BvhHit) -> Intersection {
+    let shape = &geometry[hit.shape as usize];
+    if hit.instance == BvhHit::NO_INSTANCE {
+        shape.intersection(ray, hit)
+    } else {
+        let instance = bvh.instance(hit.instance);
+        let local = shape.intersection(&instance.to_local(ray), hit);
+        instance.to_world(&local, hit.instance)
+    }
 }
 
 impl From<crate::camera::CameraError> for BuildError {
@@ -229,7 +285,7 @@ fn autofocus(
     let centre = crate::math::Vec2::new(0.5 * params.width as f32, 0.5 * params.height as f32);
     let ray = pinhole.generate_ray(centre, crate::math::Vec2::ZERO);
     let hit = bvh.intersect(&ray).ok_or(BuildError::NothingToFocusOn)?;
-    let p = geometry[hit.shape as usize].intersection(&ray, &hit).p;
+    let p = hit_intersection(bvh, geometry, &ray, &hit).p;
     params.focal_distance = params.to_world.inverse().point(p).z;
     params.autofocus = false;
     Ok(params)

@@ -1,5 +1,7 @@
-//! One BVH over every triangle and sphere of the scene: built by obvhs
-//! (compressed wide BVH), traversed with our own watertight triangle test.
+//! The scene's BVHs, built by obvhs (compressed wide BVHs) and traversed
+//! with our own watertight triangle test: one over the top-level triangles,
+//! spheres and instances, and one per shape group, which each instance
+//! traverses in its own space (instanced, not copied).
 
 use std::time::{Duration, Instant};
 
@@ -8,13 +10,14 @@ use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
-use super::{Geometry, Sphere};
+use super::{Geometry, Instance, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
 
 /// A primitive with its data copied in BVH order, so traversal touches one
 /// contiguous array of 48-byte records: a triangle's vertices by
 /// coordinate in lanes 0-2 ([`PackedTriangle`]); lane 3 of `xs` holds, as
-/// bits, 0 for a triangle or 1 + the index of a sphere in `Bvh::spheres`.
+/// bits, 0 for a triangle, 1 + the index of a sphere in `Bvh::spheres`, or
+/// [`INSTANCE_BIT`] | the index of an instance in `Bvh::instances`.
 #[derive(Clone, Copy, Debug)]
 struct Prim {
     xs: Vec4,
@@ -31,20 +34,20 @@ impl Prim {
         }
     }
 
-    fn sphere(index: u32) -> Prim {
+    fn tagged(bits: u32) -> Prim {
         Prim {
-            xs: Vec4::new(0.0, 0.0, 0.0, f32::from_bits(index + 1)),
+            xs: Vec4::new(0.0, 0.0, 0.0, f32::from_bits(bits)),
             ys: Vec4::ZERO,
             zs: Vec4::ZERO,
         }
     }
 
-    /// The sphere's index, or None for a triangle.
     #[inline]
-    fn sphere_index(&self) -> Option<usize> {
+    fn kind(&self) -> PrimKind {
         match self.xs.w.to_bits() {
-            0 => None,
-            i => Some(i as usize - 1),
+            0 => PrimKind::Triangle,
+            i if i & INSTANCE_BIT != 0 => PrimKind::Instance((i & !INSTANCE_BIT) as usize),
+            i => PrimKind::Sphere(i as usize - 1),
         }
     }
 
@@ -56,6 +59,15 @@ impl Prim {
             Vec3A::from_vec4(self.zs),
         )
     }
+}
+
+/// Marks an instance primitive in lane 3 of [`Prim::xs`].
+const INSTANCE_BIT: u32 = 1 << 31;
+
+enum PrimKind {
+    Triangle,
+    Sphere(usize),
+    Instance(usize),
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -82,6 +94,23 @@ pub struct BvhHit {
     /// Barycentrics of vertices 1 and 2 (triangles only).
     pub b1: f32,
     pub b2: f32,
+    /// The instance hit, or [`BvhHit::NO_INSTANCE`] for a top-level shape.
+    pub instance: u32,
+}
+
+impl BvhHit {
+    pub const NO_INSTANCE: u32 = u32::MAX;
+
+    fn none(tmax: f32) -> BvhHit {
+        BvhHit {
+            t: tmax,
+            shape: 0,
+            index: 0,
+            b1: 0.0,
+            b2: 0.0,
+            instance: BvhHit::NO_INSTANCE,
+        }
+    }
 }
 
 /// The scene's acceleration structure.
@@ -91,20 +120,53 @@ pub struct Bvh {
     /// The spheres, in the order of their primitives' indices.
     spheres: Vec<Sphere>,
     refs: Vec<PrimRef>,
+    /// Placed shape groups (top level only).
+    instances: Vec<Instance>,
+    /// One BVH per shape group, in the space its instances map from.
+    groups: Vec<Bvh>,
     bounds: Aabb,
     /// Wall time spent building.
     pub build_time: Duration,
 }
 
 impl Bvh {
+    /// One BVH over all `shapes` (shape indices are their positions).
     pub fn build(shapes: &[Geometry]) -> Bvh {
+        Bvh::build_instanced(shapes, shapes.len(), &[], Vec::new())
+    }
+
+    /// The scene's BVH: over `shapes[..top]` and the `instances`, each of
+    /// which traverses the BVH of its group, built over `shapes[group]`
+    /// (hits report indices into `shapes` throughout).
+    pub fn build_instanced(
+        shapes: &[Geometry],
+        top: usize,
+        groups: &[std::ops::Range<usize>],
+        instances: Vec<Instance>,
+    ) -> Bvh {
+        let start = Instant::now();
+        let groups: Vec<Bvh> = groups
+            .iter()
+            .map(|r| Bvh::build_over(shapes, r.clone(), Vec::new(), Vec::new()))
+            .collect();
+        let mut bvh = Bvh::build_over(shapes, 0..top, instances, groups);
+        bvh.build_time = start.elapsed();
+        bvh
+    }
+
+    fn build_over(
+        shapes: &[Geometry],
+        range: std::ops::Range<usize>,
+        instances: Vec<Instance>,
+        groups: Vec<Bvh>,
+    ) -> Bvh {
         let start = Instant::now();
         let mut prims = Vec::new();
         let mut spheres = Vec::new();
         let mut refs = Vec::new();
         let mut boxes = Vec::new();
         let mut bounds = Aabb::EMPTY;
-        for (si, g) in shapes.iter().enumerate() {
+        for (si, g) in shapes.iter().enumerate().take(range.end).skip(range.start) {
             match g {
                 Geometry::Mesh(m) => {
                     for ti in 0..m.triangle_count() {
@@ -117,7 +179,7 @@ impl Bvh {
                     }
                 }
                 Geometry::Sphere(s) => {
-                    prims.push(Prim::sphere(spheres.len() as u32));
+                    prims.push(Prim::tagged(spheres.len() as u32 + 1));
                     spheres.push(*s);
                     refs.push(PrimRef {
                         shape: si as u32,
@@ -127,15 +189,26 @@ impl Bvh {
                 }
             }
         }
+        for (i, inst) in instances.iter().enumerate() {
+            let b = inst.world_bounds(groups[inst.group as usize].bounds);
+            // An empty group places nothing.
+            if !b.is_empty() {
+                prims.push(Prim::tagged(INSTANCE_BIT | i as u32));
+                refs.push(PrimRef { shape: 0, index: 0 });
+                boxes.push(b);
+            }
+        }
         for b in &boxes {
             bounds = bounds.union(*b);
         }
-        if prims.is_empty() {
+        if prims.is_empty() || bounds.is_empty() {
             return Bvh {
                 bvh: None,
                 prims,
                 spheres,
                 refs,
+                instances,
+                groups,
                 bounds,
                 build_time: start.elapsed(),
             };
@@ -171,6 +244,8 @@ impl Bvh {
             prims,
             spheres,
             refs,
+            instances,
+            groups,
             bounds,
             build_time: start.elapsed(),
         }
@@ -184,6 +259,16 @@ impl Bvh {
         self.prims.len()
     }
 
+    /// The instance a hit's `instance` field names.
+    pub fn instance(&self, index: u32) -> &Instance {
+        &self.instances[index as usize]
+    }
+
+    /// Number of placed shape groups.
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
+    }
+
     fn oray(ray: &Ray) -> obvhs::ray::Ray {
         obvhs::ray::Ray::new(Vec3A::from(ray.o), Vec3A::from(ray.d), ray.tmin, ray.tmax)
     }
@@ -192,45 +277,51 @@ impl Bvh {
     pub fn intersect(&self, ray: &Ray) -> Option<BvhHit> {
         let bvh = self.bvh.as_ref()?;
         let shear = RayShear::new(ray.o, ray.d);
-        let mut best = BvhHit {
-            t: ray.tmax,
-            shape: 0,
-            index: 0,
-            b1: 0.0,
-            b2: 0.0,
-        };
+        let mut best = BvhHit::none(ray.tmax);
         let mut hit = obvhs::ray::RayHit::none();
         let o = ray.o;
         let d = ray.d;
         let found = bvh.ray_traverse(Self::oray(ray), &mut hit, |r, id| {
             let prim = &self.prims[id];
-            match prim.sphere_index() {
-                None => match intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax) {
-                    Some((t, b1, b2)) => {
-                        best = BvhHit {
+            let found = match prim.kind() {
+                PrimKind::Triangle => {
+                    intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax).map(
+                        |(t, b1, b2)| BvhHit {
                             t,
                             shape: self.refs[id].shape,
                             index: self.refs[id].index,
                             b1,
                             b2,
-                        };
-                        t
-                    }
-                    None => f32::INFINITY,
-                },
-                Some(si) => match self.spheres[si].intersect(o, d, r.tmin, r.tmax) {
-                    Some(t) => {
-                        best = BvhHit {
+                            instance: BvhHit::NO_INSTANCE,
+                        },
+                    )
+                }
+                PrimKind::Sphere(si) => {
+                    self.spheres[si]
+                        .intersect(o, d, r.tmin, r.tmax)
+                        .map(|t| BvhHit {
                             t,
                             shape: self.refs[id].shape,
-                            index: 0,
-                            b1: 0.0,
-                            b2: 0.0,
-                        };
-                        t
-                    }
-                    None => f32::INFINITY,
-                },
+                            ..BvhHit::none(t)
+                        })
+                }
+                PrimKind::Instance(ii) => {
+                    let inst = &self.instances[ii];
+                    let local = inst.to_local(&Ray::with_range(o, d, r.tmin, r.tmax));
+                    self.groups[inst.group as usize]
+                        .intersect(&local)
+                        .map(|h| BvhHit {
+                            instance: ii as u32,
+                            ..h
+                        })
+                }
+            };
+            match found {
+                Some(h) => {
+                    best = h;
+                    h.t
+                }
+                None => f32::INFINITY,
             }
         });
         if found {
@@ -250,12 +341,24 @@ impl Bvh {
         let d = ray.d;
         !bvh.ray_traverse_miss(Self::oray(ray), |r, id| {
             let prim = &self.prims[id];
-            match prim.sphere_index() {
-                None => intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax)
-                    .map_or(f32::INFINITY, |(t, _, _)| t),
-                Some(si) => self.spheres[si]
+            match prim.kind() {
+                PrimKind::Triangle => {
+                    intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax)
+                        .map_or(f32::INFINITY, |(t, _, _)| t)
+                }
+                PrimKind::Sphere(si) => self.spheres[si]
                     .intersect(o, d, r.tmin, r.tmax)
                     .unwrap_or(f32::INFINITY),
+                PrimKind::Instance(ii) => {
+                    let inst = &self.instances[ii];
+                    let local = inst.to_local(&Ray::with_range(o, d, r.tmin, r.tmax));
+                    if self.groups[inst.group as usize].occluded(&local) {
+                        // Any hit in range ends the any-hit traversal.
+                        r.tmin.max(0.0)
+                    } else {
+                        f32::INFINITY
+                    }
+                }
             }
         })
     }

@@ -355,6 +355,7 @@ impl TriangleMesh {
             uv,
             bary: Vec2::new(hit.b1, hit.b2),
             shape: 0,
+            instance: super::BvhHit::NO_INSTANCE,
             prim: hit.index,
         }
     }

@@ -2,6 +2,7 @@
 
 mod attribute;
 mod bvh;
+mod instance;
 mod mesh;
 mod obj;
 mod ply;
@@ -12,6 +13,7 @@ mod triangle;
 
 pub use attribute::MeshAttribute;
 pub use bvh::{Bvh, BvhHit};
+pub use instance::Instance;
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
 pub use ply::{load_ply, load_ply_full, parse_ply, parse_ply_full};
@@ -57,7 +59,8 @@ impl Geometry {
         }
     }
 
-    /// The surface point of a BVH hit on this shape.
+    /// The surface point of a BVH hit on this shape, in the shape's own
+    /// space (the group's, for an instance: see [`Instance::to_world`]).
     pub fn intersection(&self, ray: &Ray, hit: &BvhHit) -> Intersection {
         let mut its = match self {
             Geometry::Mesh(m) => m.intersection(hit),
@@ -177,6 +180,8 @@ pub struct Intersection {
     pub bary: Vec2,
     /// Index of the shape in the scene.
     pub shape: u32,
+    /// The instance hit ([`BvhHit::NO_INSTANCE`] for a top-level shape).
+    pub instance: u32,
     /// Triangle index within its mesh (0 for spheres).
     pub prim: u32,
 }

@@ -96,9 +96,10 @@ impl Sphere {
     }
 
     /// dp/du at the point with outward normal `n`: around the polar axis
-    /// (zero at the poles).
+    /// (zero at the poles), the way u grows from `x_axis` to `y_axis`
+    /// (against `axis x n` when a mirror made the frame left-handed).
     pub fn dpdu(&self, n: Vec3) -> Vec3 {
-        self.axis.cross(n)
+        self.x_axis.cross(self.y_axis).cross(n)
     }
 
     /// dp/du and dp/dv at the point with outward normal `n`, as Mitsuba's
@@ -110,7 +111,7 @@ impl Sphere {
         let cos = n.dot(self.axis);
         let horizontal = n - self.axis * cos;
         let sin = horizontal.length();
-        let dpdu = self.axis.cross(n) * (2.0 * PI * r);
+        let dpdu = self.dpdu(n) * (2.0 * PI * r);
         let dpdv = if sin > 0.0 {
             (horizontal * (cos / sin) - self.axis * sin) * (PI * r)
         } else {
@@ -202,6 +203,7 @@ impl Sphere {
             uv,
             bary: Vec2::ZERO,
             shape: 0,
+            instance: super::BvhHit::NO_INSTANCE,
             prim: 0,
         }
     }

@@ -325,6 +325,8 @@ impl<'a> Ctx<'a> {
                 camera,
                 shapes,
                 emitters,
+                groups: Vec::new(),
+                instances: Vec::new(),
             },
             job: RenderJob {
                 integrator,

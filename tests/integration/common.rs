@@ -290,6 +290,8 @@ pub fn desc(camera: CameraParams, integrator: Integrator) -> TestDesc {
             camera,
             shapes: Vec::new(),
             emitters: Vec::new(),
+            groups: Vec::new(),
+            instances: Vec::new(),
         },
         integrator,
     }

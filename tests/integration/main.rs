@@ -21,6 +21,7 @@ mod envmap_integrators;
 mod furnace;
 mod geometry;
 mod hostile_inputs;
+mod instancing;
 mod lights;
 mod microfacet;
 mod mitsuba_conformance;

@@ -2,7 +2,8 @@
 //! rendered by both renderers and compared statistically.
 //!
 //! Together the scenes cover every sensor (perspective, thinlens), shape
-//! (obj, ply, sphere, rectangle, cube, disk, cylinder), BSDF (diffuse,
+//! (obj, ply, sphere, rectangle, cube, disk, cylinder, shapegroup and
+//! instance), BSDF (diffuse,
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
@@ -182,6 +183,12 @@ const CASES: &[Case] = &[
     Case {
         file: "projector.xml",
         covers: "projector: a 2:1 sRGB bitmap with fov and scale, tilted; a constant irradiance with the default focal length; diffuse, roughconductor",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "instancing.xml",
+        covers: "shapegroup and instance: a group of an OBJ (roughconductor), a sphere (checkerboard uvs) and a rectangle (bumpmap over roughplastic) placed as it is, rotated and scaled unevenly, and mirrored; area, point and constant lights",
         spp: 192,
         renders: 16,
     },

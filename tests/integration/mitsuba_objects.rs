@@ -126,10 +126,10 @@ fn shape_errors() {
         &["nope.obj"],
     );
     assert_err(
-        &scene("<shape type=\"shapegroup\"/>"),
+        &scene("<shape type=\"sdfgrid\"/>"),
         4,
         14,
-        &["shapegroup", "not supported", "ply"],
+        &["sdfgrid", "not supported", "ply"],
     );
     assert_err(&scene("<shape type=\"serialized\"/>"), 4, 1, &["filename"]);
     assert_err(

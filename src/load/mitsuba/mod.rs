@@ -22,6 +22,7 @@
 
 mod bsdf;
 mod emitter;
+mod instancing;
 mod integrator;
 mod preprocess;
 mod sensor;
@@ -42,7 +43,7 @@ use super::reader::{self, Dialect, LookAtError};
 use super::xml::{describe, Pos, SceneNode};
 use super::{SceneError, SceneFile, Warning};
 use crate::integrator::{Integrator, PathParams, Strategy};
-use crate::math::{Frame, Mat4, Vec3};
+use crate::math::{Aabb, Frame, Mat4, Vec3};
 use crate::render::RenderJob;
 use crate::scene::SceneDesc;
 
@@ -214,6 +215,8 @@ struct Ctx<'d> {
     built: bsdf::BuiltBsdfs,
     /// Images read for textures, shared between textures naming one file.
     texture_images: crate::load::objects::TextureImages,
+    /// Shape groups built so far.
+    groups: instancing::ShapeGroups,
 }
 
 impl<'d> Ctx<'d> {
@@ -230,6 +233,7 @@ impl<'d> Ctx<'d> {
             depth: 0,
             built: bsdf::BuiltBsdfs::default(),
             texture_images: Default::default(),
+            groups: Default::default(),
         };
         for item in items {
             ctx.cur = item.file;
@@ -507,6 +511,7 @@ impl<'d> Ctx<'d> {
         let mut sensors: Vec<(SensorDesc, Pos)> = Vec::new();
         let mut integrator: Option<(Integrator, Pos)> = None;
         let mut shapes = Vec::new();
+        let mut instances = Vec::new();
         let mut emitters = Vec::new();
         let mut environment: Option<(usize, Pos)> = None;
         let mut definitions: Vec<Child<'d>> = Vec::new();
@@ -552,6 +557,13 @@ impl<'d> Ctx<'d> {
                     }
                     let i = self.enter(&child, |c| c.integrator(child.node))?;
                     integrator = Some((i, child.at));
+                }
+                "shape" if child.node.attr_value("type") == Some("shapegroup") => {
+                    // Built where first met; unused groups are still checked.
+                    self.enter(&child, |c| c.shape_group(child.node))?;
+                }
+                "shape" if child.node.attr_value("type") == Some("instance") => {
+                    instances.push(self.enter(&child, |c| c.instance(child.node))?);
                 }
                 "shape" => {
                     let s = self.enter(&child, |c| c.shape(child.node))?;
@@ -669,7 +681,18 @@ impl<'d> Ctx<'d> {
                     "the scene has no <sensor>; using Mitsuba's default: a perspective camera \
                      (fov 45) looking down +z at the whole scene",
                 );
-                (default_sensor(&shapes), root_pos)
+                let groups = &self.groups.shapes;
+                let bounds = shapes
+                    .iter()
+                    .map(|s| s.geometry.bounds())
+                    .chain(instances.iter().map(|i: &crate::geometry::Instance| {
+                        let group = groups[i.group as usize]
+                            .iter()
+                            .fold(Aabb::EMPTY, |b, s| b.union(s.geometry.bounds()));
+                        i.world_bounds(group)
+                    }))
+                    .fold(Aabb::EMPTY, Aabb::union);
+                (default_sensor(bounds), root_pos)
             }
             _ => {
                 if sensors.len() > 1 {
@@ -701,6 +724,8 @@ impl<'d> Ctx<'d> {
                 camera: sensor.camera,
                 shapes,
                 emitters,
+                groups: std::mem::take(&mut self.groups.shapes),
+                instances,
             },
             job: RenderJob {
                 integrator,

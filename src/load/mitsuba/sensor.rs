@@ -8,7 +8,6 @@ use crate::load::props::{int_in, Kind, Props};
 use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
 use crate::math::{Aabb, Mat4, Transform, Vec3};
-use crate::scene::ShapeDesc;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -399,10 +398,7 @@ fn mitsuba_gaussian(stddev: f32) -> Filter {
 /// Mitsuba's camera for a scene without a sensor (`render/scene.cpp`): fov
 /// 45 along x, looking down +z from in front of the bounding box, centred
 /// on it and far enough back to see all of it.
-pub(super) fn default_sensor(shapes: &[ShapeDesc]) -> SensorDesc {
-    let bounds = shapes
-        .iter()
-        .fold(Aabb::EMPTY, |b, s| b.union(s.geometry.bounds()));
+pub(super) fn default_sensor(bounds: Aabb) -> SensorDesc {
     let mut camera = CameraParams {
         width: 768,
         height: 576,

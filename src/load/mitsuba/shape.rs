@@ -35,8 +35,6 @@ impl<'d> Ctx<'d> {
                 "cylinder",
             ],
             &[
-                "shapegroup",
-                "instance",
                 "bsplinecurve",
                 "linearcurve",
                 "sdfgrid",
