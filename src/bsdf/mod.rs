@@ -17,6 +17,7 @@ mod normal_map;
 mod params;
 mod plastic;
 pub mod presets;
+mod principled;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
@@ -47,6 +48,7 @@ pub use normal_map::NormalMap;
 pub use params::{BsdfError, BsdfParam};
 pub use plastic::Plastic;
 pub use presets::{conductor_preset, ior_preset};
+pub use principled::{specular_to_eta, Principled};
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
@@ -87,6 +89,8 @@ pub enum Bsdf {
     /// Mitsuba's `normalmap` and `bumpmap`: a nested BSDF in a frame
     /// tilted by a texture (boxed: rare).
     Tilted(Box<Tilted>),
+    /// Mitsuba's `principled` (the Disney BSDF; boxed: large).
+    Principled(Box<Principled>),
     /// A model with textured parameters (boxed: rare, and large).
     Textured(Box<Textured>),
 }
@@ -330,6 +334,7 @@ impl Bsdf {
     pub fn for_each_texture_mut(&mut self, f: &mut dyn FnMut(&mut crate::texture::Texture)) {
         match self {
             Bsdf::Textured(b) => b.textures_mut().iter_mut().for_each(|(_, t)| f(t)),
+            Bsdf::Principled(b) => b.textures_mut().for_each(f),
             Bsdf::Mask(b) => {
                 f(&mut b.opacity);
                 b.nested.for_each_texture_mut(f);
@@ -373,6 +378,7 @@ impl Bsdf {
             // Light passes through a mask's holes (Mitsuba counts its null
             // lobe as transmission too: twosided refuses a mask).
             | Bsdf::Mask(_) => true,
+            Bsdf::Principled(b) => b.spec_trans.is_some(),
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
             Bsdf::Blend(b) => b.first.has_transmission() || b.second.has_transmission(),
             Bsdf::Tilted(b) => b.nested.has_transmission(),
@@ -408,6 +414,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughPlastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughSubstrate(b) => Some(b.kd),
+            Bsdf::Principled(b) => Some(b.base_color.mean()),
             Bsdf::TwoSided(b) => b.front.albedo(),
             Bsdf::Mask(b) => b.nested.albedo(),
             Bsdf::Blend(b) => {
@@ -441,6 +448,7 @@ impl Bsdf {
             Bsdf::Mask(b) => b.eval(at, wi, wo),
             Bsdf::Blend(b) => b.eval(at, wi, wo),
             Bsdf::Tilted(b) => b.eval(at, wi, wo),
+            Bsdf::Principled(b) => b.eval(at, wi, wo),
             Bsdf::Textured(b) => b.eval(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -465,6 +473,7 @@ impl Bsdf {
             Bsdf::Mask(b) => b.pdf(at, wi, wo),
             Bsdf::Blend(b) => b.pdf(at, wi, wo),
             Bsdf::Tilted(b) => b.pdf(at, wi, wo),
+            Bsdf::Principled(b) => b.pdf(at, wi, wo),
             Bsdf::Textured(b) => b.pdf(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -499,6 +508,7 @@ impl Bsdf {
             Bsdf::Mask(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Blend(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Tilted(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::Principled(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Textured(b) => b.sample(at, wi, u, u_lobe),
         }
     }

@@ -22,7 +22,7 @@ pub struct RoughDielectric {
 
 /// `v` with the sign of `s` (Mitsuba's mulsign: +1 for s >= 0).
 #[inline]
-fn mulsign(v: Vec3, s: f32) -> Vec3 {
+pub(super) fn mulsign(v: Vec3, s: f32) -> Vec3 {
     if s >= 0.0 {
         v
     } else {
@@ -146,12 +146,9 @@ impl RoughDielectric {
         let (wo, weight, lobe_pdf, eta) = if is_reflection {
             (reflect(wi, m), self.specular_reflectance, f, 1.0)
         } else {
-            // Refraction about m; eta_ti = n_t / n_i in the direction of travel.
             let inv = 1.0 / eta_ti;
-            let ct = if dim >= 0.0 { -cos_t } else { cos_t };
-            let wo = (m * (dim * inv + ct) - wi * inv).normalize();
             (
-                wo,
+                refract_about(wi, m, dim, cos_t, eta_ti),
                 self.specular_transmittance * (inv * inv),
                 1.0 - f,
                 eta_ti,
@@ -190,4 +187,14 @@ impl RoughDielectric {
             eta,
         })
     }
+}
+
+/// `wi` refracted about the microfacet normal `m` (`dim` = wi . m), given
+/// the transmitted cosine and `eta_ti` = n_t / n_i in the direction of
+/// travel, as [`fresnel_dielectric`] returns them.
+#[inline]
+pub(super) fn refract_about(wi: Vec3, m: Vec3, dim: f32, cos_t: f32, eta_ti: f32) -> Vec3 {
+    let inv = 1.0 / eta_ti;
+    let ct = if dim >= 0.0 { -cos_t } else { cos_t };
+    (m * (dim * inv + ct) - wi * inv).normalize()
 }

@@ -4,7 +4,7 @@
 //! anisotropic, with and without visible-normal sampling, near-mirror
 //! roughness (on finer grids), grazing incidence, dielectrics from outside
 //! and inside; the smooth lobe of plastic; roughplastic; twosided from
-//! below. Plus the
+//! below; principled (every lobe, transmission from both sides). Plus the
 //! tests that this test rejects wrong pdfs.
 
 use crate::common::UV0;
@@ -100,7 +100,7 @@ fn grazing_inside() -> Vec3 {
 }
 
 /// Total number of chi-square tests that must pass, across this file.
-const FAMILY: usize = 44;
+const FAMILY: usize = 48;
 
 #[test]
 fn rough_conductor_sampling_matches_pdf() {
@@ -568,6 +568,113 @@ fn nori_fork_bsdf_sampling_matches_pdf() {
         ),
     ];
     run(&cases, FAMILY, 6000);
+}
+
+/// Mitsuba's principled with numbers for its parameters (None: absent).
+fn principled(roughness: f32, extra: &[(&str, f32)], eta: f32) -> lente::bsdf::Principled {
+    use lente::texture::Texture;
+    let get = |name: &str| {
+        extra
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, v)| Texture::Constant(Rgb::splat(v)))
+    };
+    lente::bsdf::Principled {
+        base_color: Texture::Constant(Rgb::new(0.7, 0.4, 0.2)),
+        roughness: Texture::Constant(Rgb::splat(roughness)),
+        anisotropic: get("anisotropic"),
+        spec_trans: get("spec_trans"),
+        sheen: get("sheen"),
+        sheen_tint: get("sheen_tint"),
+        flatness: get("flatness"),
+        spec_tint: get("spec_tint"),
+        metallic: get("metallic"),
+        clearcoat: get("clearcoat"),
+        clearcoat_gloss: get("clearcoat_gloss").unwrap_or(Texture::Constant(Rgb::ZERO)),
+        eta,
+        spec_rate: 1.0,
+        clearcoat_rate: 1.0,
+        diffuse_rate: 1.0,
+    }
+}
+
+/// Principled: diffuse, clearcoat and specular lobes from outside, with
+/// anisotropy; transmission from outside and inside; a near-mirror
+/// clearcoat on a finer grid. And every sample's weight is eval cos / pdf
+/// of the whole mixture, with pdf() its density.
+#[test]
+fn principled_sampling_matches_pdf() {
+    let every = [
+        ("metallic", 0.4),
+        ("clearcoat", 0.8),
+        ("clearcoat_gloss", 0.5),
+        ("sheen", 0.5),
+        ("anisotropic", 0.7),
+        ("spec_tint", 0.3),
+    ];
+    let glass = [("spec_trans", 0.8), ("metallic", 0.1)];
+    let boxed = |p| Bsdf::Principled(Box::new(p));
+    let cases = [
+        case(
+            "principled, every reflection lobe",
+            boxed(principled(0.4, &every, 1.5)),
+            dir(40.0, 30.0, false),
+            40,
+            80,
+        ),
+        case(
+            "principled transmission from outside, grazing",
+            boxed(principled(0.3, &glass, 1.45)),
+            dir(75.0, 100.0, false),
+            40,
+            80,
+        ),
+        case(
+            "principled transmission from inside",
+            boxed(principled(0.35, &glass, 1.45)),
+            dir(30.0, 250.0, true),
+            40,
+            80,
+        ),
+        case(
+            "principled glossy clearcoat",
+            boxed(principled(
+                0.2,
+                &[("clearcoat", 1.0), ("clearcoat_gloss", 0.9)],
+                1.5,
+            )),
+            dir(20.0, 0.0, false),
+            80,
+            120,
+        ),
+    ];
+    run(&cases, FAMILY, 7000);
+
+    let mut s = lente::sampling::Sampler::new(3, 3);
+    for c in &cases {
+        let mut n = 0;
+        for _ in 0..20_000 {
+            let Some(x) = c.bsdf.sample(UV0, c.wi, s.next_2d(), s.next_1d()) else {
+                continue;
+            };
+            n += 1;
+            let pdf = c.bsdf.pdf(UV0, c.wi, x.wo);
+            let expect = c.bsdf.eval(UV0, c.wi, x.wo) * x.wo.z.abs() / pdf;
+            assert!(
+                (x.pdf - pdf).abs() <= 1e-4 * pdf,
+                "{}: pdf {} vs {pdf}",
+                c.name,
+                x.pdf
+            );
+            assert!(
+                (x.weight - expect).abs().max_element() <= 1e-4 * expect.max_element(),
+                "{}: weight {} vs {expect}",
+                c.name,
+                x.weight
+            );
+        }
+        assert!(n > 10_000, "{}: only {n} samples", c.name);
+    }
 }
 
 #[test]

@@ -7,7 +7,7 @@
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
-//! normalmap, bumpmap), texture (checkerboard, mesh_attribute,
+//! normalmap, bumpmap, principled), texture (checkerboard, mesh_attribute,
 //! bitmap) and emitter (envmap, constant, area, point, spot, projector,
 //! directional) that
 //! lente reads from Mitsuba files.
@@ -189,6 +189,12 @@ const CASES: &[Case] = &[
     Case {
         file: "instancing.xml",
         covers: "shapegroup and instance: a group of an OBJ (roughconductor), a sphere (checkerboard uvs) and a rectangle (bumpmap over roughplastic) placed as it is, rotated and scaled unevenly, and mirrored; area, point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "principled.xml",
+        covers: "principled: a checkerboard base colour with metallic and spec_tint; sheen, sheen_tint and flatness; clearcoat with gloss and specular; anisotropic with a textured metallic; spec_trans with eta; area, point and constant lights",
         spp: 192,
         renders: 16,
     },

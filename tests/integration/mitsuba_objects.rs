@@ -735,9 +735,46 @@ fn bsdfs() {
     assert!(e("<shape type=\"sphere\"><bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/></bsdf></shape>")
         .contains("beckmann or ggx"));
     assert!(
-        e("<shape type=\"sphere\"><bsdf type=\"principled\"/></shape>").contains("not supported")
+        e("<shape type=\"sphere\"><bsdf type=\"principledthin\"/></shape>")
+            .contains("not supported")
     );
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"principled\"><float name=\"eta\" value=\"1.4\"/><float name=\"specular\" value=\"0.5\"/></bsdf></shape>")
+        .contains("not both"));
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"principled\"><float name=\"specular\" value=\"13\"/></bsdf></shape>")
+        .contains("below 12.5"));
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"principled\"><float name=\"eta\" value=\"-1\"/></bsdf></shape>")
+        .contains("positive"));
     assert!(e("<shape type=\"sphere\"><bsdf type=\"twosided\"/></shape>").contains("nested"));
+}
+
+/// `principled`: Mitsuba's defaults (base colour and roughness 0.5,
+/// specular 0.5 as an IOR), parameters given as zero are absent (its
+/// has_* flags), textures kept; eta = 1 with transmission is nudged.
+#[test]
+fn principled_parameters() {
+    use lente::bsdf::Principled;
+    use lente::texture::Texture;
+    let get = |body: &str| -> Principled {
+        let (desc, _) = load(&scene(&format!("<shape type=\"sphere\">{body}</shape>")));
+        match &desc.scene.shapes[0].bsdf {
+            Bsdf::Principled(p) => (**p).clone(),
+            b => panic!("not principled: {b:?}"),
+        }
+    };
+    let p = get(r#"<bsdf type="principled"/>"#);
+    assert_eq!(p.base_color, Texture::Constant(Rgb::splat(0.5)));
+    assert_eq!(p.roughness, Texture::Constant(Rgb::splat(0.5)));
+    // specular 0.5: R0 = 0.04, eta = 1.5.
+    close_f(p.eta, 1.5, 1e-5);
+    assert!(p.metallic.is_none() && p.spec_trans.is_none() && p.clearcoat.is_none());
+    let p = get(
+        r#"<bsdf type="principled"><float name="metallic" value="0"/><float name="sheen" value="0.3"/>
+           <texture type="checkerboard" name="clearcoat"/><float name="spec_trans" value="1"/><float name="eta" value="1"/></bsdf>"#,
+    );
+    assert!(p.metallic.is_none());
+    assert_eq!(p.sheen, Some(Texture::Constant(Rgb::splat(0.3))));
+    assert!(matches!(p.clearcoat, Some(Texture::Checkerboard(_))));
+    close_f(p.eta, 1.001, 1e-6);
 }
 
 /// `mask`: opacity (0.5) as a number, colour or texture over one nested

@@ -1,5 +1,6 @@
 //! BSDFs: Mitsuba's diffuse, dielectrics, conductors, plastics and
-//! twosided, with Mitsuba's names and defaults (`bsdfs/*.cpp`), built by
+//! twosided, the wrappers (mask, blendbsdf, normalmap, bumpmap) and
+//! principled, with Mitsuba's names and defaults (`bsdfs/*.cpp`), built by
 //! lente's own checked constructors of the same models.
 
 use std::collections::HashMap;
@@ -7,7 +8,7 @@ use std::collections::HashMap;
 use super::{Child, Ctx};
 use crate::bsdf::presets::{conductor_preset_names, ior_preset_names};
 use crate::bsdf::{conductor_preset, ior_preset, Bsdf, BsdfError, BsdfParam};
-use crate::bsdf::{MicrofacetType, Roughness};
+use crate::bsdf::{MicrofacetType, Principled, Roughness};
 use crate::color::{Rgb, SpectrumUse};
 use crate::load::props::{Kind, Props};
 use crate::load::xml::{describe, SceneNode};
@@ -71,9 +72,9 @@ impl<'d> Ctx<'d> {
                 "blendbsdf",
                 "normalmap",
                 "bumpmap",
+                "principled",
             ],
             &[
-                "principled",
                 "principledthin",
                 "hair",
                 "measured",
@@ -228,6 +229,7 @@ impl<'d> Ctx<'d> {
                 let nested = self.one_nested(node, &owner, &children)?;
                 Bsdf::normal_map(normals, nested, flip, shadowing)
             }
+            "principled" => Ok(principled(&mut p)?),
             _ => self.two_sided(node, &owner, &children)?,
         };
         let bsdf = built
@@ -465,4 +467,84 @@ fn roughness(p: &mut Props, tex: &mut Textures<'_>) -> Result<Roughness> {
         alpha_v,
         sample_visible: p.get_bool("sample_visible", true)?,
     })
+}
+
+/// Mitsuba 3's `principled` (`bsdfs/principled.cpp`): its parameters,
+/// each a number or a texture, with its defaults; `eta` or `specular`
+/// (not both) sets the IOR.
+fn principled(p: &mut Props) -> Result<Bsdf> {
+    // Mitsuba's has_* flags: given and not the number zero.
+    let opt = |p: &mut Props, name: &str| -> Result<Option<Texture>> {
+        Ok(p.opt_texture(name)?
+            .filter(|t| *t != Texture::Constant(Rgb::ZERO)))
+    };
+    let spec_trans = opt(p, "spec_trans")?;
+    let eta = match (p.has("eta"), p.has("specular")) {
+        (true, true) => {
+            return Err(p.error(
+                "specular",
+                "give either 'eta' or 'specular' (the IOR), not both",
+            ))
+        }
+        (true, false) => {
+            let eta = p.require_float("eta")?;
+            if eta <= 0.0 {
+                return Err(p.error("eta", format!("'eta' must be positive, found {eta}")));
+            }
+            // eta = 1 is not plausible for transmission (Mitsuba's nudge).
+            if spec_trans.is_some() && eta == 1.0 {
+                1.001
+            } else {
+                eta
+            }
+        }
+        (false, _) => {
+            let specular = p.get_float("specular", 0.5)?;
+            if !(0.0..12.5).contains(&specular) {
+                return Err(p.error(
+                    "specular",
+                    format!("'specular' must be at least 0 and below 12.5 (an IOR of infinity), found {specular}"),
+                ));
+            }
+            let specular = if spec_trans.is_some() && specular == 0.0 {
+                1e-3
+            } else {
+                specular
+            };
+            crate::bsdf::specular_to_eta(specular)
+        }
+    };
+    let rate = |p: &mut Props, name: &str| -> Result<f32> {
+        let r = p.get_float(name, 1.0)?;
+        if r < 0.0 {
+            return Err(p.error(name, format!("'{name}' must not be negative, found {r}")));
+        }
+        Ok(r)
+    };
+    let spec_rate = rate(p, "main_specular_sampling_rate")?;
+    let clearcoat_rate = rate(p, "clearcoat_sampling_rate")?;
+    let diffuse_rate = rate(p, "diffuse_reflectance_sampling_rate")?;
+    if spec_rate <= 0.0 {
+        return Err(p.error(
+            "main_specular_sampling_rate",
+            "'main_specular_sampling_rate' must be positive (the specular lobe is always there)",
+        ));
+    }
+    Ok(Bsdf::Principled(Box::new(Principled {
+        base_color: p.get_texture("base_color", Rgb::splat(0.5))?,
+        roughness: p.get_texture("roughness", Rgb::splat(0.5))?,
+        anisotropic: opt(p, "anisotropic")?,
+        spec_trans,
+        sheen: opt(p, "sheen")?,
+        sheen_tint: opt(p, "sheen_tint")?,
+        flatness: opt(p, "flatness")?,
+        spec_tint: opt(p, "spec_tint")?,
+        metallic: opt(p, "metallic")?,
+        clearcoat: opt(p, "clearcoat")?,
+        clearcoat_gloss: p.get_texture("clearcoat_gloss", Rgb::ZERO)?,
+        eta,
+        spec_rate,
+        clearcoat_rate,
+        diffuse_rate,
+    })))
 }
