@@ -13,8 +13,11 @@ use crate::math::{Aabb, Ray, Vec3};
 pub struct ShapeDesc {
     pub geometry: Geometry,
     pub bsdf: Bsdf,
-    /// Radiance if the shape is an area light.
+    /// Radiance if the shape is an area light (a texture's mean when
+    /// `area_texture` is set).
     pub area_radiance: Option<Rgb>,
+    /// Radiance varying over the surface (Mitsuba's textured `area`).
+    pub area_texture: Option<crate::texture::Texture>,
 }
 
 /// The world a scene file describes, before acceleration structures.
@@ -88,8 +91,11 @@ impl Scene {
             bsdfs.push(s.bsdf);
             let emitter = match s.area_radiance {
                 Some(radiance) => {
-                    let light = AreaLight::new(i as u32, radiance)
-                        .map_err(|e| BuildError::AreaLight(i, e))?;
+                    let light = match s.area_texture {
+                        Some(t) => AreaLight::textured(i as u32, t),
+                        None => AreaLight::new(i as u32, radiance),
+                    }
+                    .map_err(|e| BuildError::AreaLight(i, e))?;
                     emitters.push(Emitter::Area(light));
                     Some((emitters.len() - 1) as u32)
                 }

@@ -3,13 +3,15 @@
 //! cone they subtend. Meshes pick a triangle by area, then sample the solid
 //! angle it subtends (spherical-triangle sampling) where that is neither
 //! tiny nor near a hemisphere, its area elsewhere; points inside a sphere
-//! sample its area.
+//! sample its area. The radiance may be a texture read at the point's uv
+//! (it is not importance-sampled: the density is the geometry's).
 
 use super::{EmitterContext, EmitterError, LightHit, LightSample};
 use crate::color::{luminance, Rgb};
 use crate::geometry::{Geometry, SurfaceSample, TriangleMesh};
 use crate::math::{Vec2, Vec3, PI};
 use crate::sampling::spherical_triangle::{self, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
+use crate::texture::{SurfacePoint, Texture};
 
 /// The solid angle triangle `tri` of `m` subtends from `p_ref` and the
 /// unit directions to its vertices, if it is sampled by solid angle from
@@ -36,11 +38,15 @@ fn spherical(m: &TriangleMesh, tri: usize, p_ref: Vec3) -> Option<([Vec3; 3], f3
     ((MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&omega)).then_some((dirs, omega))
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct AreaLight {
     /// Index of the shape in the scene.
     pub shape: u32,
+    /// The radiance, or a textured radiance's mean (for the light's power).
     pub radiance: Rgb,
+    /// Radiance varying over the surface, read at the point's uv (Mitsuba's
+    /// `radiance` texture).
+    pub texture: Option<Texture>,
 }
 
 impl AreaLight {
@@ -49,6 +55,43 @@ impl AreaLight {
         Ok(AreaLight {
             shape,
             radiance: super::radiance(radiance)?,
+            texture: None,
+        })
+    }
+
+    /// Radiance from a texture (its mean finite and not negative).
+    pub fn textured(shape: u32, texture: Texture) -> Result<AreaLight, EmitterError> {
+        Ok(AreaLight {
+            shape,
+            radiance: super::radiance(texture.mean())?,
+            texture: Some(texture),
+        })
+    }
+
+    /// The radiance leaving the front side at a surface point.
+    #[inline]
+    pub fn radiance_at(&self, at: impl Into<SurfacePoint>) -> Rgb {
+        match &self.texture {
+            None => self.radiance,
+            Some(t) => t.eval(at),
+        }
+    }
+
+    /// [`AreaLight::radiance_at`] a sampled point (its uv found only for a
+    /// texture).
+    fn radiance_of(&self, ctx: &EmitterContext, s: &SurfaceSample) -> Rgb {
+        let Some(t) = &self.texture else {
+            return self.radiance;
+        };
+        let uv = match &ctx.shapes[self.shape as usize] {
+            Geometry::Mesh(m) => m.shading(s.prim as usize, s.bary.x, s.bary.y).1,
+            Geometry::Sphere(sp) => sp.normal_uv(s.p).1,
+        };
+        t.eval(SurfacePoint {
+            uv,
+            prim: s.prim,
+            bary: s.bary,
+            ..Default::default()
         })
     }
 
@@ -67,7 +110,7 @@ impl AreaLight {
             Geometry::Mesh(m) => {
                 let (tri, p_tri) = m.choose_triangle(u1);
                 if let Some((dirs, omega)) = spherical(m, tri, p_ref) {
-                    return self.sample_spherical(m, tri, p_ref, dirs, p_tri / omega, u);
+                    return self.sample_spherical(ctx, m, tri, p_ref, dirs, p_tri / omega, u);
                 }
                 let b = crate::sampling::warp::square_to_uniform_triangle(u);
                 m.surface_point(tri, b.x, b.y)
@@ -77,7 +120,7 @@ impl AreaLight {
                 Some(cone) => {
                     let (s, pdf) = sp.sample_cone(p_ref, &cone, u);
                     let to = s.p - p_ref;
-                    return Some(self.light_sample(&s, to.normalize(), to.length(), pdf));
+                    return Some(self.light_sample(ctx, &s, to.normalize(), to.length(), pdf));
                 }
                 None => sp.sample_area(u),
             },
@@ -93,19 +136,26 @@ impl AreaLight {
         if cos_l <= 0.0 {
             return None;
         }
-        Some(self.light_sample(&s, wi, dist, s.pdf_area * d2 / cos_l))
+        Some(self.light_sample(ctx, &s, wi, dist, s.pdf_area * d2 / cos_l))
     }
 
     /// The light sample reaching the point `s` along the unit `wi` at
     /// distance `dist`, with solid-angle density `pdf`.
-    fn light_sample(&self, s: &SurfaceSample, wi: Vec3, dist: f32, pdf: f32) -> LightSample {
+    fn light_sample(
+        &self,
+        ctx: &EmitterContext,
+        s: &SurfaceSample,
+        wi: Vec3,
+        dist: f32,
+        pdf: f32,
+    ) -> LightSample {
         LightSample {
             wi,
             p: s.p,
             err: s.err,
             n: s.n,
             dist,
-            weight: self.radiance / pdf,
+            weight: self.radiance_of(ctx, s) / pdf,
             pdf,
             delta: false,
         }
@@ -114,8 +164,10 @@ impl AreaLight {
     /// A direction uniform over the solid angle of triangle `tri` (unit
     /// vertex directions `dirs` from `p_ref`), the point it reaches, and
     /// the solid-angle density `pdf` (triangle choice included).
+    #[allow(clippy::too_many_arguments)]
     fn sample_spherical(
         &self,
+        ctx: &EmitterContext,
         m: &TriangleMesh,
         tri: usize,
         p_ref: Vec3,
@@ -132,7 +184,7 @@ impl AreaLight {
         if dist <= 0.0 || to.dot(s.n) >= 0.0 || !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        Some(self.light_sample(&s, to / dist, dist, pdf))
+        Some(self.light_sample(ctx, &s, to / dist, dist, pdf))
     }
 
     /// Solid-angle density of [`AreaLight::sample`] from `p_ref` reaching

@@ -387,6 +387,8 @@ impl TriangleMesh {
             err,
             n,
             pdf_area: 1.0 / self.area,
+            prim: tri as u32,
+            bary: Vec2::new(b1, b2),
         }
     }
 

@@ -213,4 +213,8 @@ pub struct SurfaceSample {
     pub n: Vec3,
     /// Density with respect to area.
     pub pdf_area: f32,
+    /// The triangle and its barycentrics (zero on spheres): where a
+    /// textured emitter reads its radiance.
+    pub prim: u32,
+    pub bary: Vec2,
 }

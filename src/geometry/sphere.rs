@@ -251,6 +251,8 @@ impl Sphere {
             err: self.point_error(n),
             n,
             pdf_area: 0.0,
+            prim: 0,
+            bary: Vec2::ZERO,
         };
         (s, cone.pdf())
     }
@@ -263,6 +265,8 @@ impl Sphere {
             err: self.point_error(n),
             n,
             pdf_area: 1.0 / self.area(),
+            prim: 0,
+            bary: Vec2::ZERO,
         }
     }
 }

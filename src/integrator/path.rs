@@ -3,7 +3,7 @@
 
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
-use crate::emitter::{AreaLight, ChoicePoint, Emitter, LightHit};
+use crate::emitter::{ChoicePoint, Emitter, LightHit};
 use crate::geometry::Intersection;
 use crate::math::Ray;
 use crate::sampling::Sampler;
@@ -115,7 +115,7 @@ pub fn li(
         if let Some(ei) = scene.shape_emitter[its.shape as usize] {
             if count_emission(specular) && !(depth == 0 && params.hide_emitters) {
                 let e = &scene.emitters[ei as usize];
-                if let Emitter::Area(AreaLight { radiance, .. }) = e {
+                if let Emitter::Area(light) = e {
                     if its.ng.dot(wi_world) > 0.0 {
                         let w = if strategy == Strategy::Mis && !specular {
                             let pl = choice_pdf(scene, ei as usize, &prev_at)
@@ -134,7 +134,7 @@ pub fn li(
                         } else {
                             1.0
                         };
-                        l += beta * *radiance * w;
+                        l += beta * light.radiance_at(its.surface_point()) * w;
                     }
                 }
             }

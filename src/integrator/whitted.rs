@@ -3,7 +3,7 @@
 //! (continuing with probability 0.95).
 
 use crate::color::Rgb;
-use crate::emitter::{AreaLight, Emitter, LightPdf};
+use crate::emitter::{Emitter, LightPdf};
 use crate::math::Ray;
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -22,9 +22,9 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler) -> Rgb {
         };
         let wi_world = -ray.d;
         if let Some(ei) = scene.shape_emitter[its.shape as usize] {
-            if let Emitter::Area(AreaLight { radiance, .. }) = &scene.emitters[ei as usize] {
+            if let Emitter::Area(light) = &scene.emitters[ei as usize] {
                 if its.ng.dot(wi_world) > 0.0 {
-                    l += beta * *radiance;
+                    l += beta * light.radiance_at(its.surface_point());
                 }
             }
         }

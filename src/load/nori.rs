@@ -652,6 +652,7 @@ impl<'a> Ctx<'a> {
             geometry,
             bsdf: bsdf.map_or_else(Bsdf::default, |b| b.0),
             area_radiance: area.map(|a| a.0),
+            area_texture: None,
         })
     }
 

@@ -311,6 +311,7 @@ pub fn shape(geometry: Geometry, bsdf: Bsdf, radiance: Option<Rgb>) -> ShapeDesc
         geometry,
         bsdf,
         area_radiance: radiance,
+        area_texture: None,
     }
 }
 

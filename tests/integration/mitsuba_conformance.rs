@@ -8,7 +8,7 @@
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
 //! normalmap, bumpmap, principled), texture (checkerboard, mesh_attribute,
-//! bitmap) and emitter (envmap, constant, area, point, spot, projector,
+//! bitmap) and emitter (envmap, constant, area (also textured), point, spot, projector,
 //! directional) that
 //! lente reads from Mitsuba files.
 //!
@@ -201,6 +201,12 @@ const CASES: &[Case] = &[
     Case {
         file: "spectra.xml",
         covers: "spectra in RGB mode: wavelength:value lists as a reflectance, an area light's radiance and a roughconductor's eta/k; a .spd file; uniform spectra as a constant emitter's radiance and a plastic's reflectance",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "textured_area.xml",
+        covers: "area lights with texture radiance: an sRGB bitmap with to_uv on a rectangle, a checkerboard on a sphere, seen directly and through diffuse and roughconductor",
         spp: 192,
         renders: 16,
     },

@@ -24,12 +24,16 @@ const MITSUBA_ENVMAP_NAMES: EnvMapNames = EnvMapNames {
 
 /// An emitter read from the file, before it is placed.
 pub(super) enum EmitterDesc {
-    Area(Rgb),
-    Free { emitter: Emitter, environment: bool },
+    /// An area light's radiance: a colour (a constant texture) or a texture.
+    Area(crate::texture::Texture),
+    Free {
+        emitter: Emitter,
+        environment: bool,
+    },
 }
 
 impl<'d> Ctx<'d> {
-    /// Mitsuba's `emitters/`: area (radiance, default 1), point
+    /// Mitsuba's `emitters/`: area (radiance, default 1, or a texture), point
     /// (intensity, default 1; position or to_world), directional
     /// (irradiance, default 1; direction or to_world, default +z),
     /// constant (radiance, default 1), envmap (filename, scale, to_world;
@@ -68,7 +72,7 @@ impl<'d> Ctx<'d> {
                         "an area emitter takes no to_world: it inherits its shape's",
                     ));
                 }
-                EmitterDesc::Area(p.get_rgb_or_float("radiance", Rgb::ONE)?)
+                EmitterDesc::Area(p.get_texture("radiance", Rgb::ONE)?)
             }
             "point" => {
                 both(&p, "position", "to_world")?;

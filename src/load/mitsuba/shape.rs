@@ -14,6 +14,7 @@ use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
 use crate::math::{Transform, Vec3};
 use crate::scene::ShapeDesc;
+use crate::texture::Texture;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -139,7 +140,7 @@ impl<'d> Ctx<'d> {
         p.finish(&mut self.warnings);
 
         let mut bsdf: Option<(Bsdf, Pos)> = None;
-        let mut area: Option<(Rgb, Pos)> = None;
+        let mut area: Option<(Texture, Pos)> = None;
         for c in children {
             match c.node.tag.as_str() {
                 "bsdf" => {
@@ -258,10 +259,26 @@ impl<'d> Ctx<'d> {
                 ),
             ));
         }
+        let (area_radiance, area_texture) = match area {
+            None => (None, None),
+            Some((Texture::Constant(c), _)) => (Some(c), None),
+            Some((mut t, at)) => {
+                if let Some(a) = t.mesh_attribute_mut() {
+                    a.bind(&attributes, indices).map_err(|e| {
+                        self.err(
+                            at,
+                            format!("the area emitter's mesh_attribute radiance cannot be read on {owner}: {e}"),
+                        )
+                    })?;
+                }
+                (Some(t.mean()), Some(t))
+            }
+        };
         Ok(ShapeDesc {
             geometry,
             bsdf,
-            area_radiance: area.map(|a| a.0),
+            area_radiance,
+            area_texture,
         })
     }
 }
