@@ -69,6 +69,19 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
     }
 }
 
+/// Schlick's weight (1 − cos)^5, cos clipped to [0, 1].
+#[inline]
+pub(super) fn schlick_weight(cos: f32) -> f32 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    (m * m) * (m * m) * m
+}
+
+/// Schlick's Fresnel approximation: R0 + (1 − R0)(1 − cos)^5.
+#[inline]
+pub(super) fn schlick(r0: Rgb, cos: f32) -> Rgb {
+    r0 + (Rgb::ONE - r0) * schlick_weight(cos)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

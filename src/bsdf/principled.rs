@@ -12,6 +12,7 @@
 //! every sample's weight is eval / pdf of the whole mixture.
 
 use super::distribution::{MicrofacetDistribution, MicrofacetType};
+use super::fresnel::{schlick, schlick_weight};
 use super::rough_dielectric::{mulsign, refract_about};
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::{luminance, Rgb};
@@ -68,29 +69,21 @@ pub fn specular_to_eta(specular: f32) -> f32 {
     2.0 / (1.0 - (0.08 * specular).sqrt()) - 1.0
 }
 
-/// (1 - cos)^5, cos clipped to [0, 1].
-#[inline]
-fn schlick_weight(cos: f32) -> f32 {
-    let m = (1.0 - cos).clamp(0.0, 1.0);
-    let m2 = m * m;
-    m2 * m2 * m
-}
-
-/// Schlick's Fresnel with reflectance `r0` at normal incidence, past the
-/// critical angle on the denser side measured by the transmitted cosine.
-fn schlick(r0: Rgb, cos_i: f32, eta: f32) -> Rgb {
+/// Schlick's Fresnel with reflectance `r0` at normal incidence across an
+/// interface of relative IOR `eta`: from the denser side, measured by the
+/// transmitted cosine (Mitsuba's `calc_schlick`).
+fn schlick_across(r0: Rgb, cos_i: f32, eta: f32) -> Rgb {
     let (eta_it, eta_ti) = if cos_i >= 0.0 {
         (eta, 1.0 / eta)
     } else {
         (1.0 / eta, eta)
     };
-    let w = if eta_it > 1.0 {
-        schlick_weight(cos_i.abs())
+    if eta_it > 1.0 {
+        schlick(r0, cos_i.abs())
     } else {
         let cos_t2 = 1.0 - (1.0 - cos_i * cos_i) * eta_ti * eta_ti;
-        schlick_weight(cos_t2.max(0.0).sqrt())
-    };
-    r0 + (Rgb::ONE - r0) * w
+        schlick(r0, cos_t2.max(0.0).sqrt())
+    }
 }
 
 /// Schlick's R0 of an interface of relative IOR `eta`.
@@ -273,7 +266,7 @@ impl Principled {
             let fresnel = if front {
                 let mut schlick_part = Rgb::ZERO;
                 if self.metallic.is_some() {
-                    schlick_part += schlick(p.base_color, dih, self.eta) * p.metallic;
+                    schlick_part += schlick_across(p.base_color, dih, self.eta) * p.metallic;
                 }
                 let spec_tint = match &self.spec_tint {
                     Some(t) => {
@@ -281,7 +274,7 @@ impl Principled {
                         let eta_it = if dih >= 0.0 { self.eta } else { 1.0 / self.eta };
                         let r0 = tint(p.base_color) * r0_of(eta_it);
                         schlick_part +=
-                            schlick(r0, dih, self.eta) * ((1.0 - p.metallic) * spec_tint);
+                            schlick_across(r0, dih, self.eta) * ((1.0 - p.metallic) * spec_tint);
                         spec_tint
                     }
                     None => 0.0,
@@ -309,7 +302,7 @@ impl Principled {
 
         if self.clearcoat.is_some() && p.clearcoat > 0.0 && reflect_ok && front {
             let gtr1 = Gtr1::from_gloss(self.clearcoat_gloss.eval_1(at));
-            let f_cc = schlick(Rgb::splat(0.04), dih, self.eta).x;
+            let f_cc = schlick_across(Rgb::splat(0.04), dih, self.eta).x;
             let g_cc = smith_ggx1(wi, wh, 0.25) * smith_ggx1(wo, wh, 0.25);
             value += Rgb::splat(p.clearcoat * 0.25 * f_cc * gtr1.d(wh) * g_cc * cos_o.abs());
         }

@@ -10,6 +10,7 @@
 //! the mixture's density (the fork's choice of lobes; with the half-vector
 //! Jacobian its pdf omits).
 
+use super::fresnel::schlick_weight;
 use super::microfacet::smith_g1;
 use super::params::{self, BsdfError, BsdfParam};
 use super::{fresnel_dielectric, BsdfSample};
@@ -25,11 +26,6 @@ pub struct RoughSubstrate {
     pub kd: Rgb,
     /// 28 (1 − R0) / (23π): the diffuse term's constant without kd.
     diffuse_scale: f32,
-}
-
-#[inline]
-fn pow5(x: f32) -> f32 {
-    (x * x) * (x * x) * x
 }
 
 impl RoughSubstrate {
@@ -65,8 +61,9 @@ impl RoughSubstrate {
         let (f, _, _) = fresnel_dielectric(wh.dot(wi), self.eta);
         let g = smith_g1(wi, wh, self.alpha) * smith_g1(wo, wh, self.alpha);
         let coating = d * f * g / (4.0 * wi.z * wo.z);
-        let base =
-            self.diffuse_scale * (1.0 - pow5(1.0 - 0.5 * wi.z)) * (1.0 - pow5(1.0 - 0.5 * wo.z));
+        let base = self.diffuse_scale
+            * (1.0 - schlick_weight(0.5 * wi.z))
+            * (1.0 - schlick_weight(0.5 * wo.z));
         Rgb::splat(coating) + self.kd * base
     }
 

@@ -6,6 +6,7 @@
 //! Jacobian (the fork's own pdf omits it; its value is what a render
 //! converges to, so lente samples it correctly).
 
+use super::fresnel::schlick;
 use super::microfacet::smith_g1;
 use super::params::{self, BsdfError, BsdfParam};
 use super::BsdfSample;
@@ -54,12 +55,4 @@ impl SchlickConductor {
         let wo = reflect(wi, warp::square_to_beckmann(u, self.alpha));
         BsdfSample::smooth_reflection(wo, self.pdf(wi, wo), || self.eval(wi, wo))
     }
-}
-
-/// Schlick's Fresnel approximation: R0 + (1 − R0)(1 − cos)^5.
-#[inline]
-pub(super) fn schlick(r0: Rgb, cos: f32) -> Rgb {
-    let m = (1.0 - cos).clamp(0.0, 1.0);
-    let m5 = (m * m) * (m * m) * m;
-    r0 + (Rgb::ONE - r0) * m5
 }

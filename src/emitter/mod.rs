@@ -120,6 +120,25 @@ impl LightSample {
         }
     }
 
+    /// The sample of a light at the point `p` seen from `p_ref`, with the
+    /// intensity `intensity(wi)` gives towards it (None: nothing arrives);
+    /// None at `p_ref` itself.
+    #[inline]
+    fn from_point(
+        p: Vec3,
+        p_ref: Vec3,
+        intensity: impl FnOnce(Vec3) -> Option<Rgb>,
+    ) -> Option<Self> {
+        let to = p - p_ref;
+        let d2 = to.length_squared();
+        if d2 <= 0.0 {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let wi = to / dist;
+        Some(LightSample::at_point(p, wi, dist, intensity(wi)? / d2))
+    }
+
     /// A sample of a light at infinity in direction `wi` (the point is put
     /// beyond the scene's bounding sphere, for shadow rays).
     fn at_infinity(ctx: &EmitterContext, p_ref: Vec3, wi: Vec3, weight: Rgb, pdf: f32) -> Self {

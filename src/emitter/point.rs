@@ -28,17 +28,6 @@ impl PointLight {
     }
 
     pub fn sample(&self, p_ref: Vec3) -> Option<LightSample> {
-        let to = self.position - p_ref;
-        let d2 = to.length_squared();
-        if d2 <= 0.0 {
-            return None;
-        }
-        let dist = d2.sqrt();
-        Some(LightSample::at_point(
-            self.position,
-            to / dist,
-            dist,
-            self.intensity / d2,
-        ))
+        LightSample::from_point(self.position, p_ref, |_| Some(self.intensity))
     }
 }

@@ -122,23 +122,9 @@ impl SpotLight {
     }
 
     pub fn sample(&self, p_ref: Vec3) -> Option<LightSample> {
-        let to = self.position - p_ref;
-        let d2 = to.length_squared();
-        if d2 <= 0.0 {
-            return None;
-        }
-        let dist = d2.sqrt();
-        let wi = to / dist;
-        let intensity = self.intensity_towards(-wi);
-        if intensity == Rgb::ZERO {
-            return None;
-        }
-        Some(LightSample::at_point(
-            self.position,
-            wi,
-            dist,
-            intensity / d2,
-        ))
+        LightSample::from_point(self.position, p_ref, |wi| {
+            Some(self.intensity_towards(-wi)).filter(|i| *i != Rgb::ZERO)
+        })
     }
 }
 

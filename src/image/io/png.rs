@@ -35,21 +35,26 @@ pub(super) fn decode(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malfo
 }
 
 pub(super) fn decode_jpeg(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
-    let mut decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes))
-        .map_err(|e| format!("cannot decode JPEG: {e}"))?;
-    decoder
-        .set_limits(limits())
-        .map_err(|e| format!("cannot decode JPEG: {e}"))?;
-    finish_ldr(decoder, "JPEG", transfer)
+    let decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes));
+    finish_limited(decoder, "JPEG", transfer)
 }
 
 pub(super) fn decode_bmp(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
-    let mut decoder = image::codecs::bmp::BmpDecoder::new(Cursor::new(bytes))
-        .map_err(|e| format!("cannot decode BMP: {e}"))?;
-    decoder
-        .set_limits(limits())
-        .map_err(|e| format!("cannot decode BMP: {e}"))?;
-    finish_ldr(decoder, "BMP", transfer)
+    let decoder = image::codecs::bmp::BmpDecoder::new(Cursor::new(bytes));
+    finish_limited(decoder, "BMP", transfer)
+}
+
+/// A decoder whose limits are set after it is made (JPEG, BMP): sets them,
+/// then [`finish_ldr`].
+fn finish_limited(
+    decoder: image::ImageResult<impl ImageDecoder>,
+    format: &str,
+    transfer: Transfer,
+) -> Result<RawImage, Malformed> {
+    let cannot = |e: image::ImageError| format!("cannot decode {format}: {e}");
+    let mut decoder = decoder.map_err(cannot)?;
+    decoder.set_limits(limits()).map_err(cannot)?;
+    finish_ldr(decoder, format, transfer)
 }
 
 /// Checks the header's size before the pixels are decoded, then converts.

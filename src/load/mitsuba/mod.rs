@@ -681,17 +681,16 @@ impl<'d> Ctx<'d> {
                     "the scene has no <sensor>; using Mitsuba's default: a perspective camera \
                      (fov 45) looking down +z at the whole scene",
                 );
-                let groups = &self.groups.shapes;
-                let bounds = shapes
+                let bounds_of = |shapes: &[crate::scene::ShapeDesc]| {
+                    shapes
+                        .iter()
+                        .fold(Aabb::EMPTY, |b, s| b.union(s.geometry.bounds()))
+                };
+                let groups: Vec<Aabb> = self.groups.shapes.iter().map(|g| bounds_of(g)).collect();
+                let bounds = instances
                     .iter()
-                    .map(|s| s.geometry.bounds())
-                    .chain(instances.iter().map(|i: &crate::geometry::Instance| {
-                        let group = groups[i.group as usize]
-                            .iter()
-                            .fold(Aabb::EMPTY, |b, s| b.union(s.geometry.bounds()));
-                        i.world_bounds(group)
-                    }))
-                    .fold(Aabb::EMPTY, Aabb::union);
+                    .map(|i: &crate::geometry::Instance| i.world_bounds(groups[i.group as usize]))
+                    .fold(bounds_of(&shapes), Aabb::union);
                 (default_sensor(bounds), root_pos)
             }
             _ => {

@@ -232,30 +232,32 @@ impl<'d> Ctx<'d> {
             None if area.is_some() => Bsdf::Diffuse(Diffuse { albedo: Rgb::ZERO }),
             None => Bsdf::default(),
         };
-        // Mesh attribute textures read this shape's data.
+        // Mesh attribute textures (of the BSDF and of an area emitter's
+        // radiance) read this shape's data.
         let indices = match &geometry {
             Geometry::Mesh(m) => m.indices(),
             Geometry::Sphere(_) => &[],
         };
+        let bind = |t: &mut Texture| match t.mesh_attribute_mut() {
+            Some(a) => a.bind(&attributes, indices),
+            None => Ok(()),
+        };
+        let hint = if matches!(geometry, Geometry::Mesh(_)) && !matches!(ty, "ply" | "serialized") {
+            " (lente reads mesh attributes from PLY and serialized files)"
+        } else {
+            ""
+        };
         let mut unbound = None;
         bsdf.for_each_texture_mut(&mut |t| {
-            if let Some(a) = t.mesh_attribute_mut() {
-                if let Err(e) = a.bind(&attributes, indices) {
-                    unbound.get_or_insert(e);
-                }
+            if let Err(e) = bind(t) {
+                unbound.get_or_insert(e);
             }
         });
         if let Some(e) = unbound {
             return Err(self.err(
                 bsdf_at,
                 format!(
-                    "a mesh_attribute texture of this BSDF cannot be read on {owner}: {e}{}",
-                    if matches!(geometry, Geometry::Mesh(_)) && !matches!(ty, "ply" | "serialized")
-                    {
-                        " (lente reads mesh attributes from PLY and serialized files)"
-                    } else {
-                        ""
-                    }
+                    "a mesh_attribute texture of this BSDF cannot be read on {owner}: {e}{hint}"
                 ),
             ));
         }
@@ -263,14 +265,14 @@ impl<'d> Ctx<'d> {
             None => (None, None),
             Some((Texture::Constant(c), _)) => (Some(c), None),
             Some((mut t, at)) => {
-                if let Some(a) = t.mesh_attribute_mut() {
-                    a.bind(&attributes, indices).map_err(|e| {
-                        self.err(
-                            at,
-                            format!("the area emitter's mesh_attribute radiance cannot be read on {owner}: {e}"),
-                        )
-                    })?;
-                }
+                bind(&mut t).map_err(|e| {
+                    self.err(
+                        at,
+                        format!(
+                            "the area emitter's mesh_attribute radiance cannot be read on {owner}: {e}{hint}"
+                        ),
+                    )
+                })?;
                 (Some(t.mean()), Some(t))
             }
         };
