@@ -6,10 +6,11 @@
 use std::time::{Duration, Instant};
 
 use glam::{Vec3A, Vec4};
-use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
+use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
+use super::wide_bvh::WideBvh;
 use super::{Geometry, Instance, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
 
@@ -115,7 +116,7 @@ impl BvhHit {
 
 /// The scene's acceleration structure.
 pub struct Bvh {
-    bvh: Option<CwBvh>,
+    bvh: Option<WideBvh>,
     prims: Vec<Prim>,
     /// The spheres, in the order of their primitives' indices.
     spheres: Vec<Sphere>,
@@ -239,8 +240,19 @@ impl Bvh {
             .iter()
             .map(|&i| refs[i as usize])
             .collect();
+        let leaf_boxes: Vec<Aabb> = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let b = &oboxes[i as usize].0;
+                Aabb {
+                    min: Vec3::from(b.min),
+                    max: Vec3::from(b.max),
+                }
+            })
+            .collect();
         Bvh {
-            bvh: Some(bvh),
+            bvh: Some(WideBvh::from_cwbvh(&bvh, &leaf_boxes)),
             prims,
             spheres,
             refs,
@@ -269,23 +281,17 @@ impl Bvh {
         self.instances.len()
     }
 
-    fn oray(ray: &Ray) -> obvhs::ray::Ray {
-        obvhs::ray::Ray::new(Vec3A::from(ray.o), Vec3A::from(ray.d), ray.tmin, ray.tmax)
-    }
-
     /// Closest hit along the ray within its range.
     pub fn intersect(&self, ray: &Ray) -> Option<BvhHit> {
         let bvh = self.bvh.as_ref()?;
         let shear = RayShear::new(ray.o, ray.d);
         let mut best = BvhHit::none(ray.tmax);
-        let mut hit = obvhs::ray::RayHit::none();
-        let o = ray.o;
-        let d = ray.d;
-        let found = bvh.ray_traverse(Self::oray(ray), &mut hit, |r, id| {
+        let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
+        let found = bvh.closest(ray, |id, tmax| {
             let prim = &self.prims[id];
             let found = match prim.kind() {
                 PrimKind::Triangle => {
-                    intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax).map(
+                    intersect_triangle(&shear, &prim.packed_triangle(), tmin, tmax).map(
                         |(t, b1, b2)| BvhHit {
                             t,
                             shape: self.refs[id].shape,
@@ -298,7 +304,7 @@ impl Bvh {
                 }
                 PrimKind::Sphere(si) => {
                     self.spheres[si]
-                        .intersect(o, d, r.tmin, r.tmax)
+                        .intersect(o, d, tmin, tmax)
                         .map(|t| BvhHit {
                             t,
                             shape: self.refs[id].shape,
@@ -307,7 +313,7 @@ impl Bvh {
                 }
                 PrimKind::Instance(ii) => {
                     let inst = &self.instances[ii];
-                    let local = inst.to_local(&Ray::with_range(o, d, r.tmin, r.tmax));
+                    let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
                     self.groups[inst.group as usize]
                         .intersect(&local)
                         .map(|h| BvhHit {
@@ -316,13 +322,10 @@ impl Bvh {
                         })
                 }
             };
-            match found {
-                Some(h) => {
-                    best = h;
-                    h.t
-                }
-                None => f32::INFINITY,
-            }
+            found.map(|h| {
+                best = h;
+                h.t
+            })
         });
         if found {
             Some(best)
@@ -337,27 +340,18 @@ impl Bvh {
             return false;
         };
         let shear = RayShear::new(ray.o, ray.d);
-        let o = ray.o;
-        let d = ray.d;
-        !bvh.ray_traverse_miss(Self::oray(ray), |r, id| {
+        let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
+        bvh.any(ray, |id, tmax| {
             let prim = &self.prims[id];
             match prim.kind() {
                 PrimKind::Triangle => {
-                    intersect_triangle(&shear, &prim.packed_triangle(), r.tmin, r.tmax)
-                        .map_or(f32::INFINITY, |(t, _, _)| t)
+                    intersect_triangle(&shear, &prim.packed_triangle(), tmin, tmax).is_some()
                 }
-                PrimKind::Sphere(si) => self.spheres[si]
-                    .intersect(o, d, r.tmin, r.tmax)
-                    .unwrap_or(f32::INFINITY),
+                PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
                 PrimKind::Instance(ii) => {
                     let inst = &self.instances[ii];
-                    let local = inst.to_local(&Ray::with_range(o, d, r.tmin, r.tmax));
-                    if self.groups[inst.group as usize].occluded(&local) {
-                        // Any hit in range ends the any-hit traversal.
-                        r.tmin.max(0.0)
-                    } else {
-                        f32::INFINITY
-                    }
+                    let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
+                    self.groups[inst.group as usize].occluded(&local)
                 }
             }
         })

@@ -10,6 +10,7 @@ mod serialized;
 mod shapes;
 mod sphere;
 mod triangle;
+mod wide_bvh;
 
 pub use attribute::MeshAttribute;
 pub use bvh::{Bvh, BvhHit};

@@ -46,6 +46,7 @@ pub struct RayShear {
 }
 
 impl RayShear {
+    #[inline]
     pub fn new(o: Vec3, d: Vec3) -> RayShear {
         let a = d.abs();
         let kz = if a.x > a.y {
@@ -59,21 +60,28 @@ impl RayShear {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        let d = d.to_array();
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
+        let (kx, ky) = match kz {
+            0 => (1, 2),
+            1 => (2, 0),
+            _ => (0, 1),
+        };
+        let (kx, ky) = if d[kz] < 0.0 { (ky, kx) } else { (kx, ky) };
+        let unit = |k: usize| match k {
+            0 => Vec3::X,
+            1 => Vec3::Y,
+            _ => Vec3::Z,
+        };
+        let dz = d[kz];
+        let (sx, sy, sz) = (d[kx] / dz, d[ky] / dz, 1.0 / dz);
+        // Each row has a 1 (or sz) and at most one shear factor: the
+        // subtractions below are exact.
+        let (ex, ey, ez) = (unit(kx), unit(ky), unit(kz));
+        RayShear {
+            o,
+            rx: ex - ez * sx,
+            ry: ey - ez * sy,
+            rz: ez * sz,
         }
-        let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        let (mut rx, mut ry, mut rz) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 3]);
-        rx[kx] = 1.0;
-        rx[kz] = -sx;
-        ry[ky] = 1.0;
-        ry[kz] = -sy;
-        rz[kz] = sz;
-        let (rx, ry, rz) = (Vec3::from(rx), Vec3::from(ry), Vec3::from(rz));
-        RayShear { o, rx, ry, rz }
     }
 }
 
