@@ -87,7 +87,7 @@ impl RayShear {
 
 /// Returns (t, b1, b2) for a hit with t in (tmin, tmax); b1, b2 weight
 /// vertices 1 and 2.
-#[inline]
+#[inline(always)]
 pub fn intersect_triangle(
     shear: &RayShear,
     tri: &PackedTriangle,

@@ -75,6 +75,11 @@ impl Distribution1D {
 
     /// Picks a cell; returns (index, probability, u rescaled to [0,1) within the cell).
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        if self.func.len() == 1 {
+            // One cell (one light, a one-triangle mesh): what the general
+            // case computes, without the search.
+            return (0, 1.0, u.clamp(0.0, 1.0 - f32::EPSILON));
+        }
         let i = self.find(u);
         let p = self.discrete_pdf(i);
         let du = if p > 0.0 {
