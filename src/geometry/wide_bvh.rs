@@ -213,6 +213,50 @@ impl Stack {
     }
 }
 
+/// The children of `node` in `mask`: none, one (returned, to visit next),
+/// or several (all but the nearest pushed, farthest first, so they pop
+/// nearest first; the nearest returned).
+#[inline(always)]
+fn push_nearest_last(
+    stack: &mut Stack,
+    node: &WideNode,
+    mut mask: u32,
+    tnear: &[f32; 8],
+) -> Option<Entry> {
+    let entry = |slot: usize| Entry {
+        t: tnear[slot],
+        index: node.child[slot],
+        count: node.count[slot] as u32,
+    };
+    if mask == 0 {
+        return None;
+    }
+    let first = mask.trailing_zeros() as usize;
+    mask &= mask - 1;
+    if mask == 0 {
+        return Some(entry(first));
+    }
+    let mut hits = [entry(first); 8];
+    let mut n = 1;
+    while mask != 0 {
+        let slot = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let e = entry(slot);
+        // Insertion into `hits`, kept sorted farthest first.
+        let mut j = n;
+        while j > 0 && hits[j - 1].t < e.t {
+            hits[j] = hits[j - 1];
+            j -= 1;
+        }
+        hits[j] = e;
+        n += 1;
+    }
+    for h in &hits[..n - 1] {
+        stack.push(*h);
+    }
+    Some(hits[n - 1])
+}
+
 /// The 8-wide BVH over primitives `0..n` (in the order of the `CwBvh`'s
 /// `primitive_indices`, which the caller lays its primitives out in).
 pub struct WideBvh {
@@ -328,43 +372,8 @@ impl WideBvh {
                 continue;
             }
             let node = &self.nodes[e.index as usize];
-            let (mut mask, tnear) = T::test(node, &r, reach);
-            // One child hit: visit it next. Several: push them all and
-            // sort the pushed entries so the nearest is visited next and the
-            // rest are popped nearest first.
-            let entry = |slot: usize| Entry {
-                t: tnear[slot],
-                index: node.child[slot],
-                count: node.count[slot] as u32,
-            };
-            if mask == 0 {
-                continue;
-            }
-            let first = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            if mask == 0 {
-                next = Some(entry(first));
-                continue;
-            }
-            let mut hits = [entry(first); 8];
-            let mut n = 1;
-            while mask != 0 {
-                let slot = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let e = entry(slot);
-                // Insertion into `hits`, kept sorted farthest first.
-                let mut j = n;
-                while j > 0 && hits[j - 1].t < e.t {
-                    hits[j] = hits[j - 1];
-                    j -= 1;
-                }
-                hits[j] = e;
-                n += 1;
-            }
-            for h in &hits[..n - 1] {
-                stack.push(*h);
-            }
-            next = Some(hits[n - 1]);
+            let (mask, tnear) = T::test(node, &r, reach);
+            next = push_nearest_last(&mut stack, node, mask, &tnear);
         }
         found
     }
@@ -394,8 +403,10 @@ impl WideBvh {
         }
         let r = SlabRay::new(ray);
         let mut stack = Stack::new();
-        stack.push(self.root);
-        while let Some(e) = stack.pop() {
+        let mut next = Some(self.root);
+        // Nearest child first, as for the closest hit: near occluders end
+        // the search sooner.
+        while let Some(e) = next.take().or_else(|| stack.pop()) {
             if e.count > 0 {
                 for p in e.index..e.index + e.count {
                     if hit(p as usize, ray.tmax) {
@@ -405,16 +416,8 @@ impl WideBvh {
                 continue;
             }
             let node = &self.nodes[e.index as usize];
-            let (mut mask, _) = T::test(node, &r, ray.tmax);
-            while mask != 0 {
-                let slot = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                stack.push(Entry {
-                    t: 0.0,
-                    index: node.child[slot],
-                    count: node.count[slot] as u32,
-                });
-            }
+            let (mask, tnear) = T::test(node, &r, ray.tmax);
+            next = push_nearest_last(&mut stack, node, mask, &tnear);
         }
         false
     }
