@@ -79,7 +79,8 @@ fn samples_per_second(c: &mut Criterion) {
         let scene = Scene::new(loaded.scene).unwrap();
         let opts = RenderOptions {
             seed: 0,
-            progress: false,
+            progress: lente::progress::ProgressMode::Off,
+            abandon: None,
         };
         g.throughput(Throughput::Elements(128 * 128 * 4));
         g.bench_function(file, |b| {

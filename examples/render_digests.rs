@@ -32,7 +32,8 @@ fn render_small(mut file: SceneFile) -> Result<Bitmap, String> {
     let scene = Scene::new(file.scene).map_err(|e| e.to_string())?;
     let opts = RenderOptions {
         seed: SEED,
-        progress: false,
+        progress: lente::progress::ProgressMode::Off,
+        abandon: None,
     };
     Ok(render(&scene, &file.job, &opts, &AtomicBool::new(false)).image)
 }

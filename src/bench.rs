@@ -188,7 +188,8 @@ pub fn time_lente(
                 &job,
                 &RenderOptions {
                     seed,
-                    progress: false,
+                    progress: crate::progress::ProgressMode::Off,
+                    abandon: None,
                 },
                 &cancel,
             );

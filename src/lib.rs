@@ -15,6 +15,7 @@ pub mod limits;
 pub mod load;
 pub mod math;
 pub mod preview;
+pub mod progress;
 pub mod render;
 pub mod sampling;
 pub mod scene;

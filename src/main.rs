@@ -13,8 +13,10 @@ use std::io::IsTerminal;
 
 use lente::image::io::save_image;
 use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
+use lente::image::{prepare_output, Exposure, Look};
 use lente::load::{load_scene_with, SceneFile};
 use lente::preview::{Checkpointer, PreviewServer, PreviewState};
+use lente::progress::ProgressMode;
 use lente::render::{render_with_passes, PassInfo, RenderOptions};
 use lente::scene::Scene;
 
@@ -66,7 +68,7 @@ enum Command {
             allow_negative_numbers = true
         )]
         exposure: f32,
-        /// Tone mapping: clamp, reinhard or aces. PNG output is always
+        /// Tone mapping: clamp, reinhard, aces or filmic. PNG output is always
         /// tone mapped (default clamp); float outputs (EXR, HDR, PFM) only
         /// when this is given.
         #[arg(long)]
@@ -144,7 +146,9 @@ struct RenderArgs {
     /// Scene file (Nori or Mitsuba 3 XML; the dialect is detected).
     scene: PathBuf,
     /// Output path without extension (default: next to the scene file,
-    /// with its name). A given .exr or .png extension is dropped.
+    /// with its name). A given .exr or .png extension is dropped; a
+    /// folder (existing, or ending in /) gets the scene's name inside it.
+    /// Missing folders are created before rendering starts.
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Samples per pixel (overrides the scene's sampler).
@@ -160,9 +164,28 @@ struct RenderArgs {
     /// independent renders.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// No progress bar.
+    /// No progress report (the same as --progress none).
     #[arg(short, long)]
     quiet: bool,
+    /// Progress on stderr: a bar (on a terminal), plain lines (for logs),
+    /// or none. auto: the bar on a terminal, plain lines otherwise.
+    #[arg(long, value_enum, default_value_t = ProgressArg::Auto)]
+    progress: ProgressArg,
+    /// Seconds between plain progress lines.
+    #[arg(long, value_name = "SECONDS", default_value = "5", value_parser = parse_seconds)]
+    progress_every: Duration,
+    /// Exposure of the PNG in stops (2^STOPS), or auto (the image's
+    /// log-average luminance to middle grey). The EXR stays linear.
+    #[arg(
+        long,
+        value_name = "STOPS|auto",
+        default_value = "0",
+        allow_negative_numbers = true
+    )]
+    exposure: Exposure,
+    /// Tone mapping of the PNG: clamp, reinhard, aces or filmic.
+    #[arg(long, default_value = "clamp")]
+    tonemap: Tonemap,
     /// Serve a live preview page on 127.0.0.1:PORT (default 8642; 0 picks
     /// a free port) showing the image pass by pass. Put it after the scene
     /// file or write --preview=PORT.
@@ -180,6 +203,15 @@ struct RenderArgs {
     /// Set a Mitsuba scene parameter ($NAME), overriding its <default>.
     #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
     define: Vec<(String, String)>,
+}
+
+/// `--progress` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ProgressArg {
+    Auto,
+    Bar,
+    Plain,
+    None,
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
@@ -314,8 +346,21 @@ fn load(path: &Path, defines: &[(String, String)]) -> Result<SceneFile> {
 
 /// OUT without extension: the given path minus .exr/.png, or the scene
 /// file's path minus its extension.
+/// The outputs' path without extension: `-o` as given (less a .exr or
+/// .png extension), inside it with the scene's name when it is a folder
+/// (existing, or written with a trailing slash), else next to the scene.
 fn output_base(scene: &Path, output: Option<PathBuf>) -> PathBuf {
     match output {
+        Some(dir)
+            if dir.is_dir()
+                || dir
+                    .as_os_str()
+                    .to_string_lossy()
+                    .ends_with(['/', std::path::MAIN_SEPARATOR]) =>
+        {
+            let stem = scene.file_stem().unwrap_or(std::ffi::OsStr::new("render"));
+            dir.join(stem)
+        }
         Some(p) => {
             let ext = p
                 .extension()
@@ -346,11 +391,16 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         threads,
         seed,
         quiet,
+        progress,
+        progress_every,
+        exposure,
+        tonemap,
         preview,
         preview_linger,
         checkpoint,
         define,
     } = args;
+    let look = Look { exposure, tonemap };
     if let Some(0) = spp {
         bail!("--spp must be at least 1");
     }
@@ -370,9 +420,14 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let spp = job.spp;
     let scene = Scene::new(desc)?;
     let base = output_base(&scene_path, output);
+    let exr = with_ext(&base, "exr");
+    let png = with_ext(&base, "png");
     let (width, height) = (scene.camera.width(), scene.camera.height());
     lente::render::check_memory(width, height, lente::limits::available_memory())
         .map_err(anyhow::Error::msg)?;
+    // Before hours of rendering, not after.
+    prepare_output(&exr)?;
+    prepare_output(&png)?;
 
     let preview = match preview {
         Some(port) => {
@@ -383,9 +438,11 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         }
         None => None,
     };
-    let mut checkpointer = checkpoint.map(|every| Checkpointer::new(every, &base));
+    let mut checkpointer = checkpoint.map(|every| Checkpointer::new(every, &base, look));
 
     let cancel = Arc::new(AtomicBool::new(false));
+    // Set by a second Ctrl-C: units in flight stop where they are.
+    let hurry = Arc::new(AtomicBool::new(false));
     // Set while lingering after the render: Ctrl-C then just ends it.
     let lingering = Arc::new(AtomicBool::new(false));
     let stop_linger = Arc::new(AtomicBool::new(false));
@@ -394,22 +451,44 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         let lingering = lingering.clone();
         let stop_linger = stop_linger.clone();
         let presses = AtomicUsize::new(0);
-        // A second Ctrl-C quits at once.
+        let hurry = hurry.clone();
+        // A second Ctrl-C abandons the tiles in flight and gives the writes
+        // one second before quitting.
         let _ = ctrlc::set_handler(move || {
             if lingering.load(Ordering::SeqCst) {
                 stop_linger.store(true, Ordering::SeqCst);
                 return;
             }
             if presses.fetch_add(1, Ordering::SeqCst) > 0 {
-                std::process::exit(130);
+                if hurry.swap(true, Ordering::SeqCst) {
+                    std::process::exit(130);
+                }
+                eprintln!("\ninterrupted again: writing what is done (one second, then quitting)");
+                std::thread::spawn(|| {
+                    std::thread::sleep(Duration::from_secs(1));
+                    std::process::exit(130);
+                });
+                return;
             }
-            eprintln!("\ninterrupted: finishing the tiles in flight, then writing the partial image (Ctrl-C again to quit)");
+            eprintln!("\ninterrupted: finishing the tiles in flight, then writing the partial image (Ctrl-C again: stop at once and write it)");
             cancel.store(true, Ordering::SeqCst);
         });
     }
+    let progress = match (quiet, progress) {
+        (true, _) | (false, ProgressArg::None) => ProgressMode::Off,
+        (false, ProgressArg::Bar) => ProgressMode::Bar,
+        (false, ProgressArg::Plain) => ProgressMode::Plain {
+            every: progress_every,
+        },
+        (false, ProgressArg::Auto) if std::io::stderr().is_terminal() => ProgressMode::Bar,
+        (false, ProgressArg::Auto) => ProgressMode::Plain {
+            every: progress_every,
+        },
+    };
     let opts = RenderOptions {
         seed,
-        progress: !quiet && std::io::stderr().is_terminal(),
+        progress,
+        abandon: Some(hurry.clone()),
     };
     let threads = threads.unwrap_or_else(rayon::current_num_threads);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -439,10 +518,8 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     };
     let out = pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass));
 
-    let exr = with_ext(&base, "exr");
-    let png = with_ext(&base, "png");
     save_image(&exr, &out.image)?;
-    save_image(&png, &out.image)?;
+    look.save_png(&png, &out.image)?;
     let secs = out.elapsed.as_secs_f64();
     println!(
         "{}x{} pixels, {} spp{}, {} threads, {:.2} s, {:.3} M samples/s",

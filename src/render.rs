@@ -18,15 +18,15 @@
 //! the passes (live preview, checkpoints).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 use crate::image::{Bitmap, Film, FilmBlock, Filter};
 use crate::integrator::Integrator;
 use crate::math::Vec2;
+use crate::progress::{Progress, ProgressMode};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -55,8 +55,11 @@ pub struct RenderJob {
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
     pub seed: u64,
-    /// Show a progress bar on stderr.
-    pub progress: bool,
+    /// How to report progress (on stderr).
+    pub progress: ProgressMode,
+    /// When set, units in flight stop at their next row and are dropped
+    /// (a second Ctrl-C: the passes done so far are written at once).
+    pub abandon: Option<Arc<AtomicBool>>,
 }
 
 /// What a render produced.
@@ -146,17 +149,21 @@ pub fn work_units(tiles: &[Tile], s0: u32, s1: u32) -> Vec<WorkUnit> {
     units
 }
 
-/// Renders samples `s0..s1` of every pixel of one tile into a film block.
+/// Renders samples `s0..s1` of every pixel of one tile into a film block;
+/// `None` if `abandon` was set before the last row was done.
 pub fn render_tile(
     scene: &Scene,
     job: &RenderJob,
     tile: Tile,
-    s0: u32,
-    s1: u32,
+    (s0, s1): (u32, u32),
     seed: u64,
-) -> FilmBlock {
+    abandon: &AtomicBool,
+) -> Option<FilmBlock> {
     let mut block = FilmBlock::new(tile.x, tile.y, tile.w, tile.h, job.filter);
     for y in tile.y..tile.y + tile.h {
+        if abandon.load(Ordering::Relaxed) {
+            return None;
+        }
         for x in tile.x..tile.x + tile.w {
             for s in s0..s1 {
                 let mut sampler = Sampler::for_pixel_sample(seed, x, y, s);
@@ -168,21 +175,7 @@ pub fn render_tile(
             }
         }
     }
-    block
-}
-
-fn progress_bar(show: bool, total: u64) -> ProgressBar {
-    if !show {
-        return ProgressBar::hidden();
-    }
-    let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-    b.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] [{wide_bar}] {percent}% ({per_sec} samples) ETA {eta}",
-        )
-        .expect("valid progress template"),
-    );
-    b
+    Some(block)
 }
 
 /// Peak memory of a render per image pixel, an upper estimate: the film
@@ -227,15 +220,18 @@ pub fn render_with_passes(
     let start = Instant::now();
     let (w, h) = (scene.camera.width(), scene.camera.height());
     let tiles = tiles(w, h);
-    let total = w as u64 * h as u64 * job.spp as u64;
-    let bar = progress_bar(opts.progress, total);
+    let never = AtomicBool::new(false);
+    let abandon = opts.abandon.as_deref().unwrap_or(&never);
+    let passes = pass_schedule(job.spp);
+    let progress = Progress::new(opts.progress, w as u64 * h as u64, job.spp, passes.len());
     let samples = AtomicU64::new(0);
     let mut film = Film::new(w as usize, h as usize);
     let mut spp_done = 0;
-    for (s0, s1) in pass_schedule(job.spp) {
+    for (pass, &(s0, s1)) in passes.iter().enumerate() {
         if cancel.load(Ordering::Relaxed) {
             break;
         }
+        progress.start_pass(pass);
         let units = work_units(&tiles, s0, s1);
         let blocks: Mutex<Vec<Option<FilmBlock>>> = Mutex::new(vec![None; units.len()]);
         units.par_iter().enumerate().for_each(|(i, unit)| {
@@ -243,11 +239,13 @@ pub fn render_with_passes(
                 return;
             }
             let WorkUnit { tile, s0, s1 } = *unit;
-            let block = render_tile(scene, job, tile, s0, s1, opts.seed);
+            let Some(block) = render_tile(scene, job, tile, (s0, s1), opts.seed, abandon) else {
+                return;
+            };
             let n = (tile.w * tile.h) as u64 * (s1 - s0) as u64;
             samples.fetch_add(n, Ordering::Relaxed);
             blocks.lock().expect("no panics while holding the lock")[i] = Some(block);
-            bar.inc(n);
+            progress.add(n);
         });
         // Merge in unit order: the sum is then independent of scheduling.
         for b in blocks
@@ -270,7 +268,7 @@ pub fn render_with_passes(
             elapsed: start.elapsed(),
         });
     }
-    bar.finish_and_clear();
+    progress.finish();
     RenderOutput {
         image: film.to_bitmap(),
         spp: spp_done,

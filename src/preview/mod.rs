@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use crate::image::io::Malformed;
-use crate::image::{save_image, save_png_tonemapped, Bitmap, ImageError, Tonemap};
+use crate::image::{save_image, save_png_tonemapped, Bitmap, ImageError, Look, Tonemap};
 use crate::render::PassInfo;
 
 pub use server::{PreviewError, PreviewServer, DEFAULT_PORT};
@@ -278,6 +278,7 @@ pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, Malformed> {
 /// Writes the image in progress to the normal output paths every so often.
 pub struct Checkpointer {
     every: Duration,
+    look: Look,
     last: Duration,
     exr: PathBuf,
     png: PathBuf,
@@ -285,10 +286,12 @@ pub struct Checkpointer {
 
 impl Checkpointer {
     /// Checkpoints to `base.exr` and `base.png` when at least `every` has
-    /// passed (in render time) since the last one (or the start).
-    pub fn new(every: Duration, base: &Path) -> Checkpointer {
+    /// passed (in render time) since the last one (or the start); the PNG
+    /// seen with `look`.
+    pub fn new(every: Duration, base: &Path, look: Look) -> Checkpointer {
         Checkpointer {
             every,
+            look,
             last: Duration::ZERO,
             exr: with_ext(base, "exr"),
             png: with_ext(base, "png"),
@@ -305,7 +308,7 @@ impl Checkpointer {
         self.last = info.elapsed;
         let image = info.film.to_bitmap();
         save_image(&self.exr, &image)?;
-        save_image(&self.png, &image)?;
+        self.look.save_png(&self.png, &image)?;
         Ok(Some(info.spp_done))
     }
 
@@ -393,7 +396,11 @@ mod tests {
     fn checkpoints_when_due_but_not_on_the_last_pass() {
         let dir = tempfile::tempdir().unwrap();
         let film = Film::new(4, 2);
-        let mut c = Checkpointer::new(Duration::from_secs(1), &dir.path().join("out"));
+        let mut c = Checkpointer::new(
+            Duration::from_secs(1),
+            &dir.path().join("out"),
+            Look::default(),
+        );
         assert_eq!(c.after_pass(&info(&film, 1, 0.5)).unwrap(), None);
         assert!(!dir.path().join("out.exr").exists());
         assert_eq!(c.after_pass(&info(&film, 2, 1.0)).unwrap(), Some(2));
@@ -402,7 +409,7 @@ mod tests {
         assert_eq!(c.after_pass(&info(&film, 6, 2.0)).unwrap(), Some(6));
         assert_eq!(c.after_pass(&info(&film, 8, 9.0)).unwrap(), None);
         // Every pass when the interval is zero.
-        let mut c = Checkpointer::new(Duration::ZERO, &dir.path().join("z"));
+        let mut c = Checkpointer::new(Duration::ZERO, &dir.path().join("z"), Look::default());
         assert_eq!(c.after_pass(&info(&film, 1, 0.0)).unwrap(), Some(1));
         assert_eq!(c.after_pass(&info(&film, 2, 0.0)).unwrap(), Some(2));
     }

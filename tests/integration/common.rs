@@ -276,7 +276,8 @@ impl TestScene {
     pub fn render(&self, spp: u32, seed: u64) -> lente::image::Bitmap {
         let opts = lente::render::RenderOptions {
             seed,
-            progress: false,
+            progress: lente::progress::ProgressMode::Off,
+            abandon: None,
         };
         let never = std::sync::atomic::AtomicBool::new(false);
         lente::render::render(self, &job(self.integrator, spp), &opts, &never).image

@@ -26,7 +26,8 @@ fn render_tiny(label: &str, mut file: SceneFile) -> Bitmap {
         &file.job,
         &RenderOptions {
             seed: 0,
-            progress: false,
+            progress: lente::progress::ProgressMode::Off,
+            abandon: None,
         },
         &AtomicBool::new(false),
     );

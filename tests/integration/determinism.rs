@@ -46,7 +46,8 @@ fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente:
         .unwrap();
     let opts = RenderOptions {
         seed,
-        progress: false,
+        progress: lente::progress::ProgressMode::Off,
+        abandon: None,
     };
     let job = RenderJob {
         integrator: scene.integrator,
@@ -124,4 +125,24 @@ fn different_seeds_are_independent() {
     let shared = spearman(&diff(&a, &c), &diff(&a, &e));
     assert!(shared > 0.3, "shared-seed correlation only {shared}");
     let _ = Rgb::ZERO;
+}
+
+#[test]
+fn an_abandoned_unit_stops_at_once() {
+    // A second Ctrl-C sets `abandon`: a unit in flight stops at its next
+    // row and is dropped, however many samples it had left.
+    let scene = small_scene();
+    let job = RenderJob {
+        integrator: scene.integrator,
+        spp: 1_000_000,
+        filter: lente::image::Filter::default(),
+    };
+    let tile = lente::render::tiles(40, 30)[0];
+    let start = std::time::Instant::now();
+    let stop = AtomicBool::new(true);
+    assert!(lente::render::render_tile(&scene, &job, tile, (0, 1_000_000), 1, &stop).is_none());
+    assert!(start.elapsed() < std::time::Duration::from_secs(5));
+    let go = AtomicBool::new(false);
+    let block = lente::render::render_tile(&scene, &job, tile, (0, 1), 1, &go);
+    assert!(block.is_some());
 }

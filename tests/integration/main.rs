@@ -35,6 +35,7 @@ mod nori_testfiles;
 mod obj_loading;
 mod preview_cli;
 mod preview_e2e;
+mod render_cli;
 mod scene_errors;
 mod shading_frames;
 mod spectra;

@@ -348,7 +348,8 @@ fn lente_estimate(case: &Case, defines: &[(&str, &str)]) -> Estimate {
     for k in 0..n {
         let opts = RenderOptions {
             seed: k as u64 + 1,
-            progress: false,
+            progress: lente::progress::ProgressMode::Off,
+            abandon: None,
         };
         let img = render(&scene, &desc.job, &opts, &AtomicBool::new(false)).image;
         for (i, px) in pixels(&img).iter().enumerate() {

@@ -1149,7 +1149,8 @@ fn rendered_cbox_has_the_red_wall_on_the_left() {
     let scene = lente::scene::Scene::new(desc.scene).unwrap();
     let opts = RenderOptions {
         seed: 1,
-        progress: false,
+        progress: lente::progress::ProgressMode::Off,
+        abandon: None,
     };
     let job = lente::render::RenderJob {
         spp: 16,

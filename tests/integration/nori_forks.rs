@@ -107,7 +107,8 @@ fn render_image(desc: SceneFile) -> Bitmap {
         &job,
         &RenderOptions {
             seed: 7,
-            progress: false,
+            progress: lente::progress::ProgressMode::Off,
+            abandon: None,
         },
         &AtomicBool::new(false),
     )

@@ -146,7 +146,8 @@ fn point_scene(depth: f32, lens_radius: f32, focal: f32, aperture: Aperture) -> 
 fn render_image(scene: &Scene, spp: u32) -> Bitmap {
     let opts = RenderOptions {
         seed: 1,
-        progress: false,
+        progress: lente::progress::ProgressMode::Off,
+        abandon: None,
     };
     let job = job(path(Strategy::Mats), spp);
     render(scene, &job, &opts, &AtomicBool::new(false)).image

@@ -312,6 +312,42 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
     })
 }
 
+/// Makes sure `path` can be written before anything long is done to fill
+/// it: creates its missing folders, refuses a folder in its place, removes
+/// stale temporaries a killed run left beside it, and creates and deletes
+/// the temporary file [`save_image`] would write.
+pub fn prepare_output(path: &Path) -> Result<(), ImageError> {
+    let Some(name) = path.file_name() else {
+        return Err(ImageError::new(path, "not a file name"));
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    fs::create_dir_all(dir).map_err(|e| {
+        ImageError::new(
+            path,
+            format!("cannot create the output folder {}: {e}", dir.display()),
+        )
+    })?;
+    if path.is_dir() {
+        return Err(ImageError::new(path, "is a folder, not a file"));
+    }
+    remove_stale_temporaries(dir, &name.to_string_lossy());
+    let probe = dir.join(format!(
+        ".{}.tmp-{}-probe",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .map_err(|e| ImageError::new(path, format!("cannot write in {}: {e}", dir.display())))?;
+    let _ = fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Removes the temporary files a killed run left beside `dir/name`
 /// (`.NAME.tmp-PID-N`): those whose process is gone (where `/proc` tells)
 /// or, elsewhere, that are more than a day old. Others' files in flight
