@@ -240,14 +240,12 @@ fn convert_errors() {
     );
     assert!(!out.exists() && !jpg.exists() && !noext.exists());
     // Unknown operator: clap's error, non-zero.
-    let r = run(&[
-        "convert",
-        &exr,
-        out.to_str().unwrap(),
-        "--tonemap",
-        "agx",
-    ]);
+    let r = run(&["convert", &exr, out.to_str().unwrap(), "--tonemap", "agx"]);
     assert!(!r.status.success());
-    assert!(text(&r.stderr).contains("reinhard, aces, filmic"), "{}", text(&r.stderr));
+    assert!(
+        text(&r.stderr).contains("reinhard, aces, filmic"),
+        "{}",
+        text(&r.stderr)
+    );
     assert!(!out.exists());
 }
