@@ -13,7 +13,7 @@ use std::io::IsTerminal;
 
 use lente::image::io::save_image;
 use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
-use lente::image::{prepare_output, Exposure, Look};
+use lente::image::{prepare_output, Exposure, Look, MAX_EXPOSURE_STOPS};
 use lente::load::{load_scene_with, SceneFile};
 use lente::preview::{Checkpointer, PreviewServer, PreviewState};
 use lente::progress::ProgressMode;
@@ -344,8 +344,6 @@ fn load(path: &Path, defines: &[(String, String)]) -> Result<SceneFile> {
     Ok(file)
 }
 
-/// OUT without extension: the given path minus .exr/.png, or the scene
-/// file's path minus its extension.
 /// The outputs' path without extension: `-o` as given (less a .exr or
 /// .png extension), inside it with the scene's name when it is a folder
 /// (existing, or written with a trailing slash), else next to the scene.
@@ -474,21 +472,19 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             cancel.store(true, Ordering::SeqCst);
         });
     }
-    let progress = match (quiet, progress) {
-        (true, _) | (false, ProgressArg::None) => ProgressMode::Off,
-        (false, ProgressArg::Bar) => ProgressMode::Bar,
-        (false, ProgressArg::Plain) => ProgressMode::Plain {
-            every: progress_every,
-        },
-        (false, ProgressArg::Auto) if std::io::stderr().is_terminal() => ProgressMode::Bar,
-        (false, ProgressArg::Auto) => ProgressMode::Plain {
+    let progress = match progress {
+        _ if quiet => ProgressMode::Off,
+        ProgressArg::None => ProgressMode::Off,
+        ProgressArg::Bar => ProgressMode::Bar,
+        ProgressArg::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
+        ProgressArg::Plain | ProgressArg::Auto => ProgressMode::Plain {
             every: progress_every,
         },
     };
     let opts = RenderOptions {
         seed,
         progress,
-        abandon: Some(hurry.clone()),
+        abandon: Some(hurry),
     };
     let threads = threads.unwrap_or_else(rayon::current_num_threads);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -588,7 +584,7 @@ fn cmd_compare(image: &Path, reference: &Path, diff: Option<&Path>) -> Result<()
 }
 
 fn cmd_convert(input: &Path, output: &Path, exposure: f32, op: Option<Tonemap>) -> Result<()> {
-    if !exposure.is_finite() || exposure.abs() > 64.0 {
+    if !exposure.is_finite() || exposure.abs() > MAX_EXPOSURE_STOPS {
         bail!("--exposure must be a number of stops between -64 and 64, found {exposure}");
     }
     check_image_extension(output)?;

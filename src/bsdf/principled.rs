@@ -13,7 +13,7 @@
 
 use super::distribution::{MicrofacetDistribution, MicrofacetType};
 use super::fresnel::{schlick, schlick_weight};
-use super::rough_dielectric::{mulsign, refract_about};
+use super::rough_dielectric::{half_vector, mulsign, refract_about};
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::{luminance, Rgb};
 use crate::math::{reflect, Vec2, Vec3, INV_PI, PI};
@@ -222,21 +222,10 @@ impl Principled {
     /// The generalised half vector (outwards) and whether (wi, wo) is a
     /// reflection; None when grazing.
     fn half_vector(&self, wi: Vec3, wo: Vec3) -> Option<(Vec3, bool)> {
-        let (cos_i, cos_o) = (wi.z, wo.z);
-        if cos_i == 0.0 || cos_o == 0.0 {
+        if wo.z == 0.0 {
             return None;
         }
-        let reflect = cos_i * cos_o > 0.0;
-        let eta_path = if cos_i > 0.0 {
-            self.eta
-        } else {
-            1.0 / self.eta
-        };
-        let wh = (wi + wo * if reflect { 1.0 } else { eta_path }).normalize();
-        if !wh.is_finite() {
-            return None;
-        }
-        Some((mulsign(wh, wh.z), reflect))
+        half_vector(wi, wo, self.eta).map(|(wh, reflect, _)| (wh, reflect))
     }
 
     pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {

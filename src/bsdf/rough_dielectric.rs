@@ -30,6 +30,24 @@ pub(super) fn mulsign(v: Vec3, s: f32) -> Vec3 {
     }
 }
 
+/// The generalised half vector of (wi, wo) across an interface of relative
+/// IOR `eta` (outside over inside), turned to the outside; whether the pair
+/// is a reflection; and the relative IOR seen from wi's side. None for
+/// grazing `wi`.
+pub(super) fn half_vector(wi: Vec3, wo: Vec3, eta: f32) -> Option<(Vec3, bool, f32)> {
+    let (cos_i, cos_o) = (wi.z, wo.z);
+    if cos_i == 0.0 {
+        return None;
+    }
+    let reflect = cos_i * cos_o > 0.0;
+    let eta = if cos_i > 0.0 { eta } else { 1.0 / eta };
+    let m = (wi + wo * if reflect { 1.0 } else { eta }).normalize();
+    if !m.is_finite() {
+        return None;
+    }
+    Some((mulsign(m, m.z), reflect, eta))
+}
+
 impl RoughDielectric {
     /// Parameters (Mitsuba's names and defaults): `distribution`
     /// (beckmann), `alpha_u`, `alpha_v` (from `alpha`, 0.1), `int_ior`
@@ -66,29 +84,8 @@ impl RoughDielectric {
         }
     }
 
-    /// Generalised half vector of (wi, wo), in the upper hemisphere, and
-    /// whether the pair is a reflection; None for grazing `wi`.
-    fn half_vector(&self, wi: Vec3, wo: Vec3) -> Option<(Vec3, bool, f32)> {
-        let (cos_i, cos_o) = (wi.z, wo.z);
-        if cos_i == 0.0 {
-            return None;
-        }
-        let reflect = cos_i * cos_o > 0.0;
-        // Relative IOR across the interface, seen from wi's side.
-        let eta = if cos_i > 0.0 {
-            self.eta
-        } else {
-            1.0 / self.eta
-        };
-        let m = (wi + wo * if reflect { 1.0 } else { eta }).normalize();
-        if !m.is_finite() {
-            return None;
-        }
-        Some((mulsign(m, m.z), reflect, eta))
-    }
-
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        let Some((m, reflect, eta)) = self.half_vector(wi, wo) else {
+        let Some((m, reflect, eta)) = half_vector(wi, wo, self.eta) else {
             return Rgb::ZERO;
         };
         if wo.z == 0.0 {
@@ -113,7 +110,7 @@ impl RoughDielectric {
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some((m, reflect, eta)) = self.half_vector(wi, wo) else {
+        let Some((m, reflect, eta)) = half_vector(wi, wo, self.eta) else {
             return 0.0;
         };
         let (dim, dom) = (wi.dot(m), wo.dot(m));

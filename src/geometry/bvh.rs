@@ -214,18 +214,23 @@ impl Bvh {
                 build_time: start.elapsed(),
             };
         }
-        // obvhs's slab test is not conservatively rounded: a ray that meets a
-        // triangle exactly at its bounding box's face can be culled. Padding
-        // each box by a few ulps of its coordinates keeps the hit inside.
-        let oboxes: Vec<BoundsOnly> = boxes
+        // Each box padded by a few ulps of its coordinates: a margin beyond
+        // the slab test's own rounding bound for rays that meet a triangle
+        // exactly at its box's face (obvhs's traversal, used until the wide
+        // BVH, needed it; kept so the tree and the hits stay as they were).
+        let padded: Vec<Aabb> = boxes
             .iter()
             .map(|b| {
                 let pad = b.min.abs().max(b.max.abs()) * 1e-5 + Vec3::splat(1e-30);
-                BoundsOnly(OAabb::new(
-                    Vec3A::from(b.min - pad),
-                    Vec3A::from(b.max + pad),
-                ))
+                Aabb {
+                    min: b.min - pad,
+                    max: b.max + pad,
+                }
             })
+            .collect();
+        let oboxes: Vec<BoundsOnly> = padded
+            .iter()
+            .map(|b| BoundsOnly(OAabb::new(Vec3A::from(b.min), Vec3A::from(b.max))))
             .collect();
         let mut core = Duration::default();
         let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
@@ -243,13 +248,7 @@ impl Bvh {
         let leaf_boxes: Vec<Aabb> = bvh
             .primitive_indices
             .iter()
-            .map(|&i| {
-                let b = &oboxes[i as usize].0;
-                Aabb {
-                    min: Vec3::from(b.min),
-                    max: Vec3::from(b.max),
-                }
-            })
+            .map(|&i| padded[i as usize])
             .collect();
         Bvh {
             bvh: Some(WideBvh::from_cwbvh(&bvh, &leaf_boxes)),

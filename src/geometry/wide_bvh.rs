@@ -261,8 +261,14 @@ fn push_nearest_last(
 /// `primitive_indices`, which the caller lays its primitives out in).
 pub struct WideBvh {
     nodes: Vec<WideNode>,
-    root: Entry,
 }
+
+/// The root node (stored first), where every traversal starts.
+const ROOT: Entry = Entry {
+    t: 0.0,
+    index: 0,
+    count: 0,
+};
 
 impl WideBvh {
     /// Converts obvhs's tree. `boxes[i]` bounds primitive `i` in leaf order;
@@ -313,12 +319,7 @@ impl WideBvh {
             }
             node_box[ni as usize] = total;
         }
-        let root = Entry {
-            t: 0.0,
-            index: 0,
-            count: 0,
-        };
-        WideBvh { nodes, root }
+        WideBvh { nodes }
     }
 
     /// Visits, nearest first, every primitive whose leaf box the ray meets
@@ -353,7 +354,7 @@ impl WideBvh {
         let mut tmax = ray.tmax;
         let mut found = false;
         let mut stack = Stack::new();
-        let mut next = Some(self.root);
+        let mut next = Some(ROOT);
         while let Some(e) = next.take().or_else(|| stack.pop()) {
             // The box distances and the primitives' are rounded apart: a
             // box entered a rounding error beyond the closest hit may still
@@ -379,7 +380,8 @@ impl WideBvh {
     }
 
     /// True as soon as `hit(prim, tmax)` reports a hit for a primitive
-    /// whose leaf box the ray meets (any order: occlusion queries).
+    /// whose leaf box the ray meets (occlusion queries; nearest child
+    /// first, but any hit ends the search).
     #[inline]
     pub fn any<F: FnMut(usize, f32) -> bool>(&self, ray: &Ray, hit: F) -> bool {
         #[cfg(target_arch = "x86_64")]
@@ -403,7 +405,7 @@ impl WideBvh {
         }
         let r = SlabRay::new(ray);
         let mut stack = Stack::new();
-        let mut next = Some(self.root);
+        let mut next = Some(ROOT);
         // Nearest child first, as for the closest hit: near occluders end
         // the search sooner.
         while let Some(e) = next.take().or_else(|| stack.pop()) {
@@ -602,14 +604,7 @@ mod tests {
             None
         });
         assert!(visited <= 1);
-        let empty = WideBvh {
-            nodes: Vec::new(),
-            root: Entry {
-                t: 0.0,
-                index: 0,
-                count: 0,
-            },
-        };
+        let empty = WideBvh { nodes: Vec::new() };
         assert!(!empty.closest(&ray, |_, _| Some(1.0)));
         assert!(!empty.any(&ray, |_, _| true));
     }

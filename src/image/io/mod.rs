@@ -278,21 +278,9 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
 /// `path`. On failure the temporary file is removed.
 pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let Some(name) = path.file_name() else {
-        return Err(ImageError::new(path, "not a file name"));
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let tmp_name = format!(
-        ".{}.tmp-{}-{}",
-        name.to_string_lossy(),
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    );
-    let tmp = dir.join(tmp_name);
-    remove_stale_temporaries(dir, &name.to_string_lossy());
+    let (dir, name) = folder_and_name(path)?;
+    let tmp = temporary_beside(dir, &name, COUNTER.fetch_add(1, Ordering::Relaxed));
+    remove_stale_temporaries(dir, &name);
     let result = (|| -> Result<(), Malformed> {
         let mut file = fs::OpenOptions::new()
             .write(true)
@@ -312,11 +300,8 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
     })
 }
 
-/// Makes sure `path` can be written before anything long is done to fill
-/// it: creates its missing folders, refuses a folder in its place, removes
-/// stale temporaries a killed run left beside it, and creates and deletes
-/// the temporary file [`save_image`] would write.
-pub fn prepare_output(path: &Path) -> Result<(), ImageError> {
+/// The folder an output goes in (`.` for a bare name) and its file name.
+fn folder_and_name(path: &Path) -> Result<(&Path, String), ImageError> {
     let Some(name) = path.file_name() else {
         return Err(ImageError::new(path, "not a file name"));
     };
@@ -324,6 +309,21 @@ pub fn prepare_output(path: &Path) -> Result<(), ImageError> {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
+    Ok((dir, name.to_string_lossy().into_owned()))
+}
+
+/// A temporary file for output `name` in `dir`: `.NAME.tmp-PID-TAG`, the
+/// form [`remove_stale_temporaries`] recognises.
+fn temporary_beside(dir: &Path, name: &str, tag: impl std::fmt::Display) -> std::path::PathBuf {
+    dir.join(format!(".{name}.tmp-{}-{tag}", std::process::id()))
+}
+
+/// Makes sure `path` can be written before anything long is done to fill
+/// it: creates its missing folders, refuses a folder in its place, removes
+/// stale temporaries a killed run left beside it, and creates and deletes
+/// the temporary file [`save_image`] would write.
+pub fn prepare_output(path: &Path) -> Result<(), ImageError> {
+    let (dir, name) = folder_and_name(path)?;
     fs::create_dir_all(dir).map_err(|e| {
         ImageError::new(
             path,
@@ -333,12 +333,8 @@ pub fn prepare_output(path: &Path) -> Result<(), ImageError> {
     if path.is_dir() {
         return Err(ImageError::new(path, "is a folder, not a file"));
     }
-    remove_stale_temporaries(dir, &name.to_string_lossy());
-    let probe = dir.join(format!(
-        ".{}.tmp-{}-probe",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
+    remove_stale_temporaries(dir, &name);
+    let probe = temporary_beside(dir, &name, "probe");
     fs::OpenOptions::new()
         .write(true)
         .create_new(true)
