@@ -77,11 +77,7 @@ fn samples_per_second(c: &mut Criterion) {
         loaded.scene.camera.height = 128;
         loaded.job.spp = 4;
         let scene = Scene::new(loaded.scene).unwrap();
-        let opts = RenderOptions {
-            seed: 0,
-            progress: lente::progress::ProgressMode::Off,
-            abandon: None,
-        };
+        let opts = RenderOptions::new(0);
         g.throughput(Throughput::Elements(128 * 128 * 4));
         g.bench_function(file, |b| {
             b.iter(|| render(&scene, &loaded.job, &opts, &AtomicBool::new(false)))

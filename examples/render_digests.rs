@@ -30,11 +30,7 @@ fn render_small(mut file: SceneFile) -> Result<Bitmap, String> {
     file.scene.camera.height = HEIGHT;
     file.job.spp = SPP;
     let scene = Scene::new(file.scene).map_err(|e| e.to_string())?;
-    let opts = RenderOptions {
-        seed: SEED,
-        progress: lente::progress::ProgressMode::Off,
-        abandon: None,
-    };
+    let opts = RenderOptions::new(SEED);
     Ok(render(&scene, &file.job, &opts, &AtomicBool::new(false)).image)
 }
 

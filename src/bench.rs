@@ -183,16 +183,7 @@ pub fn time_lente(
     let mut samples = 0;
     pool.install(|| {
         for seed in 0..=repeat as u64 {
-            let out = render(
-                &built,
-                &job,
-                &RenderOptions {
-                    seed,
-                    progress: crate::progress::ProgressMode::Off,
-                    abandon: None,
-                },
-                &cancel,
-            );
+            let out = render(&built, &job, &RenderOptions::new(seed), &cancel);
             samples = out.samples;
             // Seed 0 warms caches and the pool; it is not counted.
             if seed > 0 {

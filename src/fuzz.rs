@@ -28,6 +28,7 @@ pub enum Target {
     Serialized,
     Hdr,
     Pfm,
+    /// OpenEXR, as an image and as a render file (`--resume`, `merge`).
     Exr,
     Png,
     Jpeg,
@@ -131,7 +132,11 @@ pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
         }
         Target::Hdr => decode_image(bytes, "hdr").map(drop).map_err(|e| e.0),
         Target::Pfm => decode_image(bytes, "pfm").map(drop).map_err(|e| e.0),
-        Target::Exr => decode_image(bytes, "exr").map(drop).map_err(|e| e.0),
+        Target::Exr => {
+            let render = crate::render_file::RenderFile::decode(bytes).map(drop);
+            let image = decode_image(bytes, "exr").map(drop).map_err(|e| e.0);
+            render.and(image)
+        }
         Target::Png => decode_image(bytes, "png").map(drop).map_err(|e| e.0),
         Target::Jpeg => decode_image(bytes, "jpg").map(drop).map_err(|e| e.0),
         Target::Bmp => decode_image(bytes, "bmp").map(drop).map_err(|e| e.0),
@@ -168,6 +173,8 @@ mod tests {
             let bytes = std::fs::read(root.join(file)).unwrap();
             run(target, &bytes).unwrap_or_else(|e| panic!("{file}: {e}"));
         }
+        let render_file = std::fs::read(root.join("fuzz/seeds/exr/render_file.exr")).unwrap();
+        run(Target::Exr, &render_file).unwrap();
         assert!(run(Target::Exr, b"not an exr").is_err());
         assert!(run(Target::NoriScene, b"<scene>\xff</scene>").is_err());
     }

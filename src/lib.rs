@@ -17,6 +17,7 @@ pub mod math;
 pub mod preview;
 pub mod progress;
 pub mod render;
+pub mod render_file;
 pub mod sampling;
 pub mod scene;
 pub mod stats;

@@ -18,6 +18,7 @@ use lente::load::{load_scene_with, SceneFile};
 use lente::preview::{Checkpointer, PreviewServer, PreviewState};
 use lente::progress::ProgressMode;
 use lente::render::{render_with_passes, PassInfo, RenderOptions};
+use lente::render_file::{save_render, scene_digest, RenderFile, RenderMeta, SampleRange};
 use lente::scene::Scene;
 
 #[derive(Parser)]
@@ -35,6 +36,28 @@ struct Cli {
 enum Command {
     /// Render a scene to OUT.exr (linear float) and OUT.png (sRGB).
     Render(RenderArgs),
+    /// Merge renders of one scene (lente's EXRs, e.g. different --seed)
+    /// into one, weighted by their samples: OUT.exr and OUT.png.
+    Merge {
+        /// Render files written by lente render (two or more).
+        #[arg(required = true, num_args = 2..)]
+        inputs: Vec<PathBuf>,
+        /// Output path without extension (a .exr or .png extension is
+        /// dropped).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Exposure of the PNG in stops, or auto.
+        #[arg(
+            long,
+            value_name = "STOPS|auto",
+            default_value = "0",
+            allow_negative_numbers = true
+        )]
+        exposure: Exposure,
+        /// Tone mapping of the PNG: clamp, reinhard, aces or filmic.
+        #[arg(long, default_value = "clamp")]
+        tonemap: Tonemap,
+    },
     /// Load a scene and print what it contains, without rendering.
     Info {
         /// Scene file (Nori or Mitsuba 3 XML; the dialect is detected).
@@ -143,8 +166,16 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file (Nori or Mitsuba 3 XML; the dialect is detected).
-    scene: PathBuf,
+    /// Scene file (Nori or Mitsuba 3 XML; the dialect is detected). With
+    /// --resume it may be left out: the render file names it.
+    #[arg(required_unless_present = "resume")]
+    scene: Option<PathBuf>,
+    /// Continue the render in this EXR (a checkpoint, an interrupted render
+    /// or a finished one) up to its target spp or --spp, with its seed,
+    /// size and parameters, writing to it (or -o). The result is the same
+    /// bit for bit as a render that was never stopped.
+    #[arg(long, value_name = "FILE.exr")]
+    resume: Option<PathBuf>,
     /// Output path without extension (default: next to the scene file,
     /// with its name). A given .exr or .png extension is dropped; a
     /// folder (existing, or ending in /) gets the scene's name inside it.
@@ -154,16 +185,21 @@ struct RenderArgs {
     /// Samples per pixel (overrides the scene's sampler).
     #[arg(long)]
     spp: Option<u32>,
+    /// Render only samples S0..S1 of every pixel (of the deterministic
+    /// sequence a whole render takes): slices rendered anywhere merge with
+    /// `lente merge` into the render of all of them.
+    #[arg(long, value_name = "S0..S1", value_parser = parse_sample_range, conflicts_with_all = ["spp", "resume"])]
+    samples: Option<(u32, u32)>,
     /// Image size as WxH (overrides the scene's camera).
     #[arg(long, value_parser = parse_resolution)]
     resolution: Option<(u32, u32)>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// Seed of the random number streams; different seeds give
-    /// independent renders.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    /// Seed of the random number streams (default 0); different seeds
+    /// give independent renders.
+    #[arg(long)]
+    seed: Option<u64>,
     /// No progress report (the same as --progress none).
     #[arg(short, long)]
     quiet: bool,
@@ -235,6 +271,17 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+fn parse_sample_range(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected S0..S1 with S0 < S1 (e.g. 0..512), found '{s}'");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let a: u32 = a.trim().parse().map_err(|_| bad())?;
+    let b: u32 = b.trim().parse().map_err(|_| bad())?;
+    if a >= b {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
 fn parse_seconds(s: &str) -> Result<Duration, String> {
     let secs: f64 = s
         .trim()
@@ -261,6 +308,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),
+        Command::Merge {
+            inputs,
+            output,
+            exposure,
+            tonemap,
+        } => cmd_merge(&inputs, &output, Look { exposure, tonemap }),
         Command::Info { scene, define } => cmd_info(&scene, &define),
         Command::Compare {
             image,
@@ -380,11 +433,19 @@ fn with_ext(base: &Path, ext: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// Where a continued render starts: the file's film, seed and samples.
+struct Resumed {
+    path: PathBuf,
+    file: RenderFile,
+}
+
 fn cmd_render(args: RenderArgs) -> Result<()> {
     let RenderArgs {
-        scene: scene_path,
+        scene: scene_arg,
+        resume,
         output,
         spp,
+        samples,
         resolution,
         threads,
         seed,
@@ -405,18 +466,124 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if let Some(0) = threads {
         bail!("--threads must be at least 1");
     }
+    let resumed = match resume {
+        Some(path) => {
+            let file = RenderFile::load(&path)?;
+            Some(Resumed { path, file })
+        }
+        None => None,
+    };
+    let scene_path = match (scene_arg, &resumed) {
+        (Some(s), _) => s,
+        (None, Some(r)) => PathBuf::from(&r.file.meta.scene),
+        (None, None) => bail!("a scene file is needed (or --resume FILE.exr)"),
+    };
+    let define = match &resumed {
+        Some(r) if !define.is_empty() && define != r.file.meta.params => bail!(
+            "-D cannot change a continued render's parameters: {} was rendered with {:?}",
+            r.path.display(),
+            r.file.meta.params
+        ),
+        Some(r) => r.file.meta.params.clone(),
+        None => define,
+    };
     let SceneFile {
         scene: mut desc,
         mut job,
     } = load(&scene_path, &define)?;
-    if let Some((w, h)) = resolution {
-        desc.camera.set_resolution(w, h);
+    let scene_bytes = std::fs::read(&scene_path)
+        .with_context(|| format!("cannot read {}", scene_path.display()))?;
+    let digest = scene_digest(&scene_bytes, &define);
+    // Samples first..spp are rendered with `seed`, on top of `film`.
+    let seed_arg = seed;
+    let (mut seed, mut first, mut range_start, mut film, mut prior_seconds) =
+        (seed.unwrap_or(0), 0, 0, None, 0.0);
+    if let Some(Resumed { path, file }) = &resumed {
+        let m = &file.meta;
+        if m.scene_digest != digest {
+            bail!(
+                "{} changed since {} was rendered (or -D differs): continuing would mix two \
+                 scenes; render it again instead",
+                scene_path.display(),
+                path.display()
+            );
+        }
+        match m.ranges[..] {
+            [] => {}
+            [r] => {
+                if seed_arg.is_some_and(|s| s != r.seed) {
+                    bail!(
+                        "{} was rendered with seed {}, not {seed}: a continued render keeps \
+                         its seed",
+                        path.display(),
+                        r.seed
+                    );
+                }
+                (seed, first, range_start) = (r.seed, r.end, r.start);
+            }
+            _ => bail!(
+                "{} holds samples of several renders ({}): only a single render can be \
+                 continued; render more with another --seed and merge",
+                path.display(),
+                m.ranges
+                    .iter()
+                    .map(|r| format!("seed {}: {}..{}", r.seed, r.start, r.end))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }
+        let size = (file.film.width as u32, file.film.height as u32);
+        if resolution.is_some_and(|r| r != size) {
+            bail!(
+                "{} is {}x{}: a continued render keeps its size",
+                path.display(),
+                size.0,
+                size.1
+            );
+        }
+        desc.camera.set_resolution(size.0, size.1);
+        job.spp = spp.unwrap_or(m.spp_target);
+        if job.spp <= first {
+            bail!(
+                "{} already holds samples up to {first} (its target: {} spp): ask for more \
+                 with --spp N",
+                path.display(),
+                m.spp_target
+            );
+        }
+        film = Some(file.film.clone());
+        prior_seconds = m.render_seconds;
     }
-    if let Some(spp) = spp {
-        job.spp = spp;
+    if resumed.is_none() {
+        if let Some((w, h)) = resolution {
+            desc.camera.set_resolution(w, h);
+        }
+        if let Some(spp) = spp {
+            job.spp = spp;
+        }
+        if let Some((s0, s1)) = samples {
+            (first, range_start, job.spp) = (s0, s0, s1);
+        }
     }
     let spp = job.spp;
+    let meta = RenderMeta {
+        scene: std::fs::canonicalize(&scene_path)
+            .unwrap_or_else(|_| scene_path.clone())
+            .to_string_lossy()
+            .into_owned(),
+        scene_digest: digest,
+        params: define.clone(),
+        ranges: vec![SampleRange {
+            seed,
+            start: range_start,
+            end: first,
+        }],
+        spp_target: spp,
+        render_seconds: prior_seconds,
+        version: lente::render_file::VERSION.to_string(),
+    };
     let scene = Scene::new(desc)?;
+    let output = output.or_else(|| resumed.as_ref().map(|r| r.path.clone()));
     let base = output_base(&scene_path, output);
     let exr = with_ext(&base, "exr");
     let png = with_ext(&base, "png");
@@ -436,7 +603,8 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         }
         None => None,
     };
-    let mut checkpointer = checkpoint.map(|every| Checkpointer::new(every, &base, look));
+    let mut checkpointer =
+        checkpoint.map(|every| Checkpointer::new(every, &base, look, meta.clone()));
 
     let cancel = Arc::new(AtomicBool::new(false));
     // Set by a second Ctrl-C: units in flight stop where they are.
@@ -485,6 +653,8 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         seed,
         progress,
         abandon: Some(hurry),
+        first_sample: first,
+        film,
     };
     let threads = threads.unwrap_or_else(rayon::current_num_threads);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -514,14 +684,27 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     };
     let out = pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass));
 
-    save_image(&exr, &out.image)?;
-    look.save_png(&png, &out.image)?;
     let secs = out.elapsed.as_secs_f64();
+    let written = meta.progressed(out.spp, secs);
+    save_render(&exr, &written, &out.film, &out.image)?;
+    look.save_png(&png, &out.image)?;
+    let auto_note = match look.exposure {
+        Exposure::Auto => format!(
+            " (exposure auto: {:+.2} stops)",
+            look.exposure.stops_for(&out.image)
+        ),
+        Exposure::Stops(_) => String::new(),
+    };
     println!(
-        "{}x{} pixels, {} spp{}, {} threads, {:.2} s, {:.3} M samples/s",
+        "{}x{} pixels, {} spp{}{}, {} threads, {:.2} s, {:.3} M samples/s",
         width,
         height,
-        out.spp,
+        written.spp(),
+        match written.ranges[..] {
+            [r] if r.start > 0 => format!(" (samples {}..{})", r.start, r.end),
+            _ if resumed.is_some() => format!(" ({} of them now)", out.spp - first),
+            _ => String::new(),
+        },
         if out.cancelled {
             " (interrupted: partial image)"
         } else {
@@ -531,7 +714,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         secs,
         out.samples as f64 / secs.max(1e-9) / 1e6,
     );
-    println!("wrote {} and {}", exr.display(), png.display());
+    println!("wrote {} and {}{auto_note}", exr.display(), png.display());
 
     if let Some((state, server)) = preview {
         // From here on Ctrl-C ends the lingering, not the render.
@@ -553,6 +736,31 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         }
         server.stop();
     }
+    Ok(())
+}
+
+fn cmd_merge(inputs: &[PathBuf], output: &Path, look: Look) -> Result<()> {
+    let mut files = Vec::with_capacity(inputs.len());
+    for path in inputs {
+        files.push((path.as_path(), RenderFile::load(path)?));
+    }
+    let merged = RenderFile::merge(&files).map_err(anyhow::Error::msg)?;
+    let base = output_base(Path::new("merged"), Some(output.to_path_buf()));
+    let (exr, png) = (with_ext(&base, "exr"), with_ext(&base, "png"));
+    prepare_output(&exr)?;
+    prepare_output(&png)?;
+    let image = merged.image();
+    merged.save(&exr, &image)?;
+    look.save_png(&png, &image)?;
+    println!(
+        "merged {} renders: {}x{} pixels, {} spp, {:.2} s of rendering",
+        files.len(),
+        image.width,
+        image.height,
+        merged.meta.spp(),
+        merged.meta.render_seconds
+    );
+    println!("wrote {} and {}", exr.display(), png.display());
     Ok(())
 }
 

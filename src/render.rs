@@ -60,11 +60,34 @@ pub struct RenderOptions {
     /// When set, units in flight stop at their next row and are dropped
     /// (a second Ctrl-C: the passes done so far are written at once).
     pub abandon: Option<Arc<AtomicBool>>,
+    /// The first sample index to take: samples `first_sample..job.spp` of
+    /// every pixel are rendered (0 for a whole render).
+    pub first_sample: u32,
+    /// A film to add to (a render continued from its file), holding the
+    /// samples before `first_sample`; `None` starts from black.
+    pub film: Option<Film>,
+}
+
+impl RenderOptions {
+    /// A whole render with `seed`, no progress report.
+    pub fn new(seed: u64) -> RenderOptions {
+        RenderOptions {
+            seed,
+            progress: ProgressMode::Off,
+            abandon: None,
+            first_sample: 0,
+            film: None,
+        }
+    }
 }
 
 /// What a render produced.
 pub struct RenderOutput {
     pub image: Bitmap,
+    /// The film the image is from (with the options' film added in).
+    pub film: Film,
+    /// The end of the samples taken: the film holds samples
+    /// `first_sample..spp` of every pixel (and those of the options' film).
     pub spp: u32,
     pub elapsed: Duration,
     /// Camera samples actually taken (fewer than planned if cancelled).
@@ -75,7 +98,7 @@ pub struct RenderOutput {
 /// State after a finished pass, for live previews and checkpoints.
 pub struct PassInfo<'a> {
     pub film: &'a Film,
-    /// Samples per pixel completed so far.
+    /// The end of the samples completed so far (as [`RenderOutput::spp`]).
     pub spp_done: u32,
     pub spp_total: u32,
     pub samples: u64,
@@ -122,6 +145,18 @@ pub fn pass_schedule(spp: u32) -> Vec<(u32, u32)> {
         }
     }
     v
+}
+
+/// The passes of samples `first..spp`: [`pass_schedule`]'s, less those
+/// before `first` (a pass that straddles it is cut there). A render
+/// continued from a pass boundary thus runs the very passes the whole
+/// render would have: their films are the same bit for bit.
+pub fn pass_schedule_from(first: u32, spp: u32) -> Vec<(u32, u32)> {
+    pass_schedule(spp)
+        .into_iter()
+        .filter(|&(_, s1)| s1 > first)
+        .map(|(s0, s1)| (s0.max(first), s1))
+        .collect()
 }
 
 /// A tile and a slice of samples: what one worker renders into one block.
@@ -199,7 +234,8 @@ pub fn check_memory(width: u32, height: u32, available: Option<u64>) -> Result<(
 }
 
 /// Renders the whole image. Setting `cancel` stops the render after the
-/// tiles in flight; everything finished is still in the image.
+/// tiles in flight; the image holds the passes completed before (a pass
+/// cut short is dropped, so every pixel has the same samples).
 pub fn render(
     scene: &Scene,
     job: &RenderJob,
@@ -222,11 +258,20 @@ pub fn render_with_passes(
     let tiles = tiles(w, h);
     let never = AtomicBool::new(false);
     let abandon = opts.abandon.as_deref().unwrap_or(&never);
-    let passes = pass_schedule(job.spp);
-    let progress = Progress::new(opts.progress, w as u64 * h as u64, job.spp, passes.len());
+    let first = opts.first_sample.min(job.spp);
+    let passes = pass_schedule_from(first, job.spp);
+    let progress = Progress::new(
+        opts.progress,
+        w as u64 * h as u64,
+        job.spp - first,
+        passes.len(),
+    );
     let samples = AtomicU64::new(0);
-    let mut film = Film::new(w as usize, h as usize);
-    let mut spp_done = 0;
+    let mut film = match &opts.film {
+        Some(f) if (f.width, f.height) == (w as usize, h as usize) => f.clone(),
+        _ => Film::new(w as usize, h as usize),
+    };
+    let mut spp_done = first;
     for (pass, &(s0, s1)) in passes.iter().enumerate() {
         if cancel.load(Ordering::Relaxed) {
             break;
@@ -247,6 +292,11 @@ pub fn render_with_passes(
             blocks.lock().expect("no panics while holding the lock")[i] = Some(block);
             progress.add(n);
         });
+        // A pass cut short is dropped whole: the film then holds samples
+        // 0..spp_done of every pixel, no more (so it can be continued).
+        if cancel.load(Ordering::Relaxed) {
+            break;
+        }
         // Merge in unit order: the sum is then independent of scheduling.
         for b in blocks
             .into_inner()
@@ -255,9 +305,6 @@ pub fn render_with_passes(
             .flatten()
         {
             film.merge(b);
-        }
-        if cancel.load(Ordering::Relaxed) {
-            break;
         }
         spp_done = s1;
         on_pass(&PassInfo {
@@ -271,6 +318,7 @@ pub fn render_with_passes(
     progress.finish();
     RenderOutput {
         image: film.to_bitmap(),
+        film,
         spp: spp_done,
         elapsed: start.elapsed(),
         samples: samples.load(Ordering::Relaxed),
@@ -292,6 +340,17 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("8.0 GiB"), "{err}");
+    }
+
+    #[test]
+    fn a_continued_schedule_is_the_tail_of_the_whole_one() {
+        let whole = pass_schedule(100);
+        for &(_, boundary) in &whole {
+            let tail = pass_schedule_from(boundary, 100);
+            assert_eq!(tail[..], whole[whole.len() - tail.len()..]);
+        }
+        assert_eq!(pass_schedule_from(5, 9), [(5, 8), (8, 9)]);
+        assert!(pass_schedule_from(9, 9).is_empty());
     }
 
     #[test]

@@ -95,6 +95,31 @@ impl Film {
         }
     }
 
+    /// A film from its accumulated (sum of w * L, sum of w) per pixel,
+    /// row-major; `None` unless there are `width * height` of them.
+    pub fn from_data(width: usize, height: usize, data: Vec<(Rgb, f32)>) -> Option<Film> {
+        (width.checked_mul(height) == Some(data.len())).then_some(Film {
+            width,
+            height,
+            data,
+        })
+    }
+
+    /// The accumulated (sum of w * L, sum of w) per pixel, row-major.
+    pub fn data(&self) -> &[(Rgb, f32)] {
+        &self.data
+    }
+
+    /// Adds another film of the same size pixel by pixel: the film of the
+    /// two renders' samples together.
+    pub fn add(&mut self, other: &Film) {
+        assert_eq!((self.width, self.height), (other.width, other.height));
+        for (dst, src) in self.data.iter_mut().zip(&other.data) {
+            dst.0 += src.0;
+            dst.1 += src.1;
+        }
+    }
+
     /// Adds a block's contents (clipped to the image).
     pub fn merge(&mut self, block: &FilmBlock) {
         for by in 0..block.height {

@@ -12,5 +12,8 @@ pub use bitmap::Bitmap;
 pub use compare::{compare, difference_image, CompareError, Comparison};
 pub use film::{Film, FilmBlock};
 pub use filter::{Filter, FilterError, FilterParam, MAX_FILTER_RADIUS};
-pub use io::{load_image, prepare_output, save_image, ImageError};
+pub use io::{
+    load_exr_channels, load_image, prepare_output, save_exr_channels, save_image, ExrChannels,
+    ImageError,
+};
 pub use tonemap::{save_png_tonemapped, tonemap, Exposure, Look, Tonemap, MAX_EXPOSURE_STOPS};

@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 use crate::image::io::Malformed;
 use crate::image::{save_image, save_png_tonemapped, Bitmap, ImageError, Look, Tonemap};
 use crate::render::PassInfo;
+use crate::render_file::{save_render, RenderMeta};
 
 pub use server::{PreviewError, PreviewServer, DEFAULT_PORT};
 
@@ -279,6 +280,7 @@ pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, Malformed> {
 pub struct Checkpointer {
     every: Duration,
     look: Look,
+    meta: RenderMeta,
     last: Duration,
     exr: PathBuf,
     png: PathBuf,
@@ -287,11 +289,13 @@ pub struct Checkpointer {
 impl Checkpointer {
     /// Checkpoints to `base.exr` and `base.png` when at least `every` has
     /// passed (in render time) since the last one (or the start); the PNG
-    /// seen with `look`.
-    pub fn new(every: Duration, base: &Path, look: Look) -> Checkpointer {
+    /// seen with `look`, the EXR a render file (continuable) with `meta`
+    /// as it stands after each pass ([`RenderMeta::progressed`]).
+    pub fn new(every: Duration, base: &Path, look: Look, meta: RenderMeta) -> Checkpointer {
         Checkpointer {
             every,
             look,
+            meta,
             last: Duration::ZERO,
             exr: with_ext(base, "exr"),
             png: with_ext(base, "png"),
@@ -307,7 +311,10 @@ impl Checkpointer {
         }
         self.last = info.elapsed;
         let image = info.film.to_bitmap();
-        save_image(&self.exr, &image)?;
+        let meta = self
+            .meta
+            .progressed(info.spp_done, info.elapsed.as_secs_f64());
+        save_render(&self.exr, &meta, info.film, &image)?;
         self.look.save_png(&self.png, &image)?;
         Ok(Some(info.spp_done))
     }
@@ -322,6 +329,22 @@ mod tests {
     use super::*;
     use crate::color::Rgb;
     use crate::image::Film;
+
+    fn meta() -> RenderMeta {
+        RenderMeta {
+            scene: "s.xml".into(),
+            scene_digest: "0".into(),
+            params: vec![],
+            ranges: vec![crate::render_file::SampleRange {
+                seed: 3,
+                start: 0,
+                end: 0,
+            }],
+            spp_target: 8,
+            render_seconds: 0.0,
+            version: crate::render_file::VERSION.into(),
+        }
+    }
 
     fn info(film: &Film, spp_done: u32, secs: f64) -> PassInfo<'_> {
         PassInfo {
@@ -400,16 +423,26 @@ mod tests {
             Duration::from_secs(1),
             &dir.path().join("out"),
             Look::default(),
+            meta(),
         );
         assert_eq!(c.after_pass(&info(&film, 1, 0.5)).unwrap(), None);
         assert!(!dir.path().join("out.exr").exists());
         assert_eq!(c.after_pass(&info(&film, 2, 1.0)).unwrap(), Some(2));
         assert!(dir.path().join("out.exr").exists() && dir.path().join("out.png").exists());
+        // The EXR is a render file of the samples so far, continuable.
+        let file = crate::render_file::RenderFile::load(&dir.path().join("out.exr")).unwrap();
+        assert_eq!(file.meta, meta().progressed(2, 1.0));
+        assert_eq!(file.meta.spp(), 2);
         assert_eq!(c.after_pass(&info(&film, 4, 1.9)).unwrap(), None);
         assert_eq!(c.after_pass(&info(&film, 6, 2.0)).unwrap(), Some(6));
         assert_eq!(c.after_pass(&info(&film, 8, 9.0)).unwrap(), None);
         // Every pass when the interval is zero.
-        let mut c = Checkpointer::new(Duration::ZERO, &dir.path().join("z"), Look::default());
+        let mut c = Checkpointer::new(
+            Duration::ZERO,
+            &dir.path().join("z"),
+            Look::default(),
+            meta(),
+        );
         assert_eq!(c.after_pass(&info(&film, 1, 0.0)).unwrap(), Some(1));
         assert_eq!(c.after_pass(&info(&film, 2, 0.0)).unwrap(), Some(2));
     }

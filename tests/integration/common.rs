@@ -274,11 +274,7 @@ impl std::ops::Deref for TestScene {
 impl TestScene {
     /// Renders `spp` samples per pixel with seed `seed` (box filter).
     pub fn render(&self, spp: u32, seed: u64) -> lente::image::Bitmap {
-        let opts = lente::render::RenderOptions {
-            seed,
-            progress: lente::progress::ProgressMode::Off,
-            abandon: None,
-        };
+        let opts = lente::render::RenderOptions::new(seed);
         let never = std::sync::atomic::AtomicBool::new(false);
         lente::render::render(self, &job(self.integrator, spp), &opts, &never).image
     }

@@ -24,11 +24,7 @@ fn render_tiny(label: &str, mut file: SceneFile) -> Bitmap {
     let out = render(
         &scene,
         &file.job,
-        &RenderOptions {
-            seed: 0,
-            progress: lente::progress::ProgressMode::Off,
-            abandon: None,
-        },
+        &RenderOptions::new(0),
         &AtomicBool::new(false),
     );
     assert!(

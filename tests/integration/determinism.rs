@@ -44,11 +44,7 @@ fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente:
         .num_threads(threads)
         .build()
         .unwrap();
-    let opts = RenderOptions {
-        seed,
-        progress: lente::progress::ProgressMode::Off,
-        abandon: None,
-    };
+    let opts = RenderOptions::new(seed);
     let job = RenderJob {
         integrator: scene.integrator,
         spp,

@@ -36,6 +36,7 @@ mod obj_loading;
 mod preview_cli;
 mod preview_e2e;
 mod render_cli;
+mod resume_merge;
 mod scene_errors;
 mod shading_frames;
 mod spectra;

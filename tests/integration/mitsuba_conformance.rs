@@ -346,11 +346,7 @@ fn lente_estimate(case: &Case, defines: &[(&str, &str)]) -> Estimate {
     let mut mean = vec![[0.0f64; 3]; w * h];
     let mut m2 = vec![[0.0f64; 3]; w * h];
     for k in 0..n {
-        let opts = RenderOptions {
-            seed: k as u64 + 1,
-            progress: lente::progress::ProgressMode::Off,
-            abandon: None,
-        };
+        let opts = RenderOptions::new(k as u64 + 1);
         let img = render(&scene, &desc.job, &opts, &AtomicBool::new(false)).image;
         for (i, px) in pixels(&img).iter().enumerate() {
             for c in 0..3 {

@@ -1147,11 +1147,7 @@ fn rendered_cbox_has_the_red_wall_on_the_left() {
     ];
     let (desc, _) = load_scene_with(&shipped("cbox.xml"), &defines).unwrap();
     let scene = lente::scene::Scene::new(desc.scene).unwrap();
-    let opts = RenderOptions {
-        seed: 1,
-        progress: lente::progress::ProgressMode::Off,
-        abandon: None,
-    };
+    let opts = RenderOptions::new(1);
     let job = lente::render::RenderJob {
         spp: 16,
         ..desc.job

@@ -105,11 +105,7 @@ fn render_image(desc: SceneFile) -> Bitmap {
     render(
         &scene,
         &job,
-        &RenderOptions {
-            seed: 7,
-            progress: lente::progress::ProgressMode::Off,
-            abandon: None,
-        },
+        &RenderOptions::new(7),
         &AtomicBool::new(false),
     )
     .image

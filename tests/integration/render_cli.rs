@@ -128,7 +128,12 @@ fn exposure_and_tone_mapping_change_the_png_not_the_exr() {
     };
     let plain = render("plain", &[]);
     let bright = render("bright", &["--exposure", "2", "--tonemap", "reinhard"]);
-    let exr = |b: &std::path::Path| std::fs::read(b.with_extension("exr")).unwrap();
+    // The EXRs' channels are the same (their headers differ in render time).
+    let exr = |b: &std::path::Path| {
+        lente::image::load_exr_channels(&b.with_extension("exr"))
+            .unwrap()
+            .channels
+    };
     assert_eq!(exr(&plain), exr(&bright), "the EXR must stay linear");
     let (linear, _) = load_image(&plain.with_extension("exr")).unwrap();
     let (png, _) = load_image(&bright.with_extension("png")).unwrap();

@@ -144,11 +144,7 @@ fn point_scene(depth: f32, lens_radius: f32, focal: f32, aperture: Aperture) -> 
 }
 
 fn render_image(scene: &Scene, spp: u32) -> Bitmap {
-    let opts = RenderOptions {
-        seed: 1,
-        progress: lente::progress::ProgressMode::Off,
-        abandon: None,
-    };
+    let opts = RenderOptions::new(1);
     let job = job(path(Strategy::Mats), spp);
     render(scene, &job, &opts, &AtomicBool::new(false)).image
 }

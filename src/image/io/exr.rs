@@ -5,6 +5,10 @@
 //! (`diffuse.R`) count as well, the unprefixed set first. Alpha and any other
 //! channels are ignored. Writing produces one 32-bit float RGB layer with
 //! ZIP compression.
+//!
+//! [`encode_channels`] and [`decode_channels`] write and read any named
+//! 32-bit channels with text attributes in the header: lente's render
+//! files (beauty, film state, AOVs and the render's metadata).
 
 use super::Malformed;
 use std::io::Cursor;
@@ -199,6 +203,123 @@ pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
         .to_buffered(&mut out)
         .map_err(|e| format!("cannot encode OpenEXR: {e}"))?;
     Ok(out.into_inner())
+}
+
+/// One image of named float channels and text header attributes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Channels {
+    pub width: usize,
+    pub height: usize,
+    /// (name, one value per pixel in row-major order).
+    pub channels: Vec<(String, Vec<f32>)>,
+    /// (name, UTF-8 text), in the order written.
+    pub attributes: Vec<(String, String)>,
+}
+
+impl Channels {
+    /// The values of channel `name`, if present.
+    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+        self.channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+
+    /// The text of attribute `name`, if present.
+    pub fn attribute(&self, name: &str) -> Option<&str> {
+        self.attributes
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// Text as the header stores it: the UTF-8 bytes as they are (the crate's
+/// checked constructor takes Latin-1 only).
+fn text(s: &str) -> exr::meta::attribute::Text {
+    exr::meta::attribute::Text::from_slice_unchecked(s.as_bytes())
+}
+
+/// One layer of the given 32-bit float channels (each `width * height`
+/// values), the attributes as text; ZIP compression.
+pub fn encode_channels(image: &Channels) -> Result<Vec<u8>, Malformed> {
+    let pixels = image.width * image.height;
+    if let Some((name, v)) = image.channels.iter().find(|(_, v)| v.len() != pixels) {
+        return Err(Malformed::from(format!(
+            "channel '{name}' has {} values for {}x{} pixels",
+            v.len(),
+            image.width,
+            image.height
+        )));
+    }
+    let list: Vec<AnyChannel<FlatSamples>> = image
+        .channels
+        .iter()
+        .map(|(name, v)| AnyChannel::new(text(name), FlatSamples::F32(v.clone())))
+        .collect();
+    let mut attributes = LayerAttributes::default();
+    for (name, value) in &image.attributes {
+        attributes.other.insert(
+            text(name),
+            exr::meta::attribute::AttributeValue::Text(text(value)),
+        );
+    }
+    let layer = Layer::new(
+        (image.width, image.height),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list.into()),
+    );
+    let mut out = Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut out)
+        .map_err(|e| format!("cannot encode OpenEXR: {e}"))?;
+    Ok(out.into_inner())
+}
+
+/// The first layer's channels (as 32-bit floats) and the text attributes
+/// of its header (other kinds of attributes are skipped).
+pub fn decode_channels(bytes: &[u8]) -> Result<Channels, Malformed> {
+    check_headers(bytes)?;
+    let image = guarded("pixels", || {
+        exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(Cursor::new(bytes))
+    })?;
+    let layer = &image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let mut channels = Vec::new();
+    for (i, c) in layer.channel_data.list.iter().enumerate() {
+        channels.push((
+            c.name.to_string(),
+            channel_values(layer, i, width * height)?,
+        ));
+    }
+    let mut attributes: Vec<(String, String)> = layer
+        .attributes
+        .other
+        .iter()
+        .chain(image.attributes.other.iter())
+        .filter_map(|(name, value)| match value {
+            exr::meta::attribute::AttributeValue::Text(t) => Some((
+                String::from_utf8_lossy(name.bytes()).into_owned(),
+                String::from_utf8_lossy(t.bytes()).into_owned(),
+            )),
+            _ => None,
+        })
+        .collect();
+    attributes.sort();
+    Ok(Channels {
+        width,
+        height,
+        channels,
+        attributes,
+    })
 }
 
 #[cfg(test)]

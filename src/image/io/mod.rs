@@ -19,6 +19,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::Bitmap;
 use crate::color::Rgb;
+pub use exr::Channels as ExrChannels;
 pub use png::Transfer;
 
 /// An image file that could not be read or written.
@@ -30,7 +31,7 @@ pub struct ImageError {
 }
 
 impl ImageError {
-    fn new(path: &Path, message: impl Into<String>) -> ImageError {
+    pub fn new(path: &Path, message: impl Into<String>) -> ImageError {
         ImageError {
             path: path.to_path_buf(),
             message: message.into(),
@@ -272,6 +273,27 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
     }
     .map_err(|m| ImageError::new(path, m.0))?;
     write_atomically(path, &bytes)
+}
+
+/// Saves named float channels with text attributes as an OpenEXR file
+/// (atomically, like [`save_image`]).
+pub fn save_exr_channels(path: &Path, image: &ExrChannels) -> Result<(), ImageError> {
+    let bytes = exr::encode_channels(image).map_err(|m| ImageError::new(path, m.0))?;
+    write_atomically(path, &bytes)
+}
+
+/// Decodes an OpenEXR file's first layer from its bytes (see
+/// [`load_exr_channels`]).
+pub fn decode_exr_channels(bytes: &[u8]) -> Result<ExrChannels, Malformed> {
+    exr::decode_channels(bytes)
+}
+
+/// Reads an OpenEXR file's first layer: every channel and the text
+/// attributes of its header.
+pub fn load_exr_channels(path: &Path) -> Result<ExrChannels, ImageError> {
+    let bytes = crate::limits::read_file(path, crate::limits::MAX_DATA_FILE_BYTES, "image files")
+        .map_err(|e| ImageError::new(path, format!("cannot read image file: {e}")))?;
+    exr::decode_channels(&bytes).map_err(|m| ImageError::new(path, m.0))
 }
 
 /// Writes `bytes` to a temporary file beside `path`, then renames it to
