@@ -2,6 +2,7 @@
 //!
 //! See `docs/architecture.md` for the data flow and conventions.
 
+pub mod aov;
 pub mod bench;
 pub mod bsdf;
 pub mod camera;

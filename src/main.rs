@@ -11,6 +11,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use std::io::IsTerminal;
 
+use lente::aov::AovList;
 use lente::image::io::save_image;
 use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
 use lente::image::{prepare_output, Exposure, Look, MAX_EXPOSURE_STOPS};
@@ -190,6 +191,11 @@ struct RenderArgs {
     /// `lente merge` into the render of all of them.
     #[arg(long, value_name = "S0..S1", value_parser = parse_sample_range, conflicts_with_all = ["spp", "resume"])]
     samples: Option<(u32, u32)>,
+    /// Output variables to write into the EXR beside the image, comma-
+    /// separated: albedo, normal (both through specular bounces to the
+    /// first non-specular hit, as denoisers want them), depth, position.
+    #[arg(long, value_name = "LIST")]
+    aov: Option<AovList>,
     /// Image size as WxH (overrides the scene's camera).
     #[arg(long, value_parser = parse_resolution)]
     resolution: Option<(u32, u32)>,
@@ -446,6 +452,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         output,
         spp,
         samples,
+        aov,
         resolution,
         threads,
         seed,
@@ -496,6 +503,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let digest = scene_digest(&scene_bytes, &define);
     // Samples first..spp are rendered with `seed`, on top of `film`.
     let seed_arg = seed;
+    let mut aovs = aov.clone().unwrap_or_default();
     let (mut seed, mut first, mut range_start, mut film, mut prior_seconds) =
         (seed.unwrap_or(0), 0, 0, None, 0.0);
     if let Some(Resumed { path, file }) = &resumed {
@@ -551,6 +559,14 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
                 m.spp_target
             );
         }
+        if aov.as_ref().is_some_and(|a| *a != m.aovs) {
+            bail!(
+                "{} was rendered with the AOVs '{}': a continued render keeps them",
+                path.display(),
+                m.aovs
+            );
+        }
+        aovs = m.aovs.clone();
         film = Some(file.film.clone());
         prior_seconds = m.render_seconds;
     }
@@ -581,6 +597,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         spp_target: spp,
         render_seconds: prior_seconds,
         version: lente::render_file::VERSION.to_string(),
+        aovs: aovs.clone(),
     };
     let scene = Scene::new(desc)?;
     let output = output.or_else(|| resumed.as_ref().map(|r| r.path.clone()));
@@ -655,6 +672,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         abandon: Some(hurry),
         first_sample: first,
         film,
+        aovs,
     };
     let threads = threads.unwrap_or_else(rayon::current_num_threads);
     let pool = rayon::ThreadPoolBuilder::new()

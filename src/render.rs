@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
+use crate::aov::{AovList, MAX_AOV_CHANNELS};
 use crate::image::{Bitmap, Film, FilmBlock, Filter};
 use crate::integrator::Integrator;
 use crate::math::Vec2;
@@ -66,6 +67,8 @@ pub struct RenderOptions {
     /// A film to add to (a render continued from its file), holding the
     /// samples before `first_sample`; `None` starts from black.
     pub film: Option<Film>,
+    /// Output variables accumulated beside the image (none: no cost).
+    pub aovs: AovList,
 }
 
 impl RenderOptions {
@@ -77,6 +80,7 @@ impl RenderOptions {
             abandon: None,
             first_sample: 0,
             film: None,
+            aovs: AovList::default(),
         }
     }
 }
@@ -184,17 +188,25 @@ pub fn work_units(tiles: &[Tile], s0: u32, s1: u32) -> Vec<WorkUnit> {
     units
 }
 
-/// Renders samples `s0..s1` of every pixel of one tile into a film block;
-/// `None` if `abandon` was set before the last row was done.
+/// Seeds the AOVs' random streams apart from the image's (the image is
+/// then the same with or without AOVs).
+const AOV_SEED_SALT: u64 = 0x5eed_a0a5_0f00_0001;
+
+/// Renders samples `s0..s1` of every pixel of one tile into a film block
+/// (with `aovs` beside the image); `None` if `abandon` was set before the
+/// last row was done.
 pub fn render_tile(
     scene: &Scene,
     job: &RenderJob,
     tile: Tile,
     (s0, s1): (u32, u32),
     seed: u64,
+    aovs: &AovList,
     abandon: &AtomicBool,
 ) -> Option<FilmBlock> {
-    let mut block = FilmBlock::new(tile.x, tile.y, tile.w, tile.h, job.filter);
+    let mut block =
+        FilmBlock::new(tile.x, tile.y, tile.w, tile.h, job.filter).with_aovs(aovs.channel_count());
+    let mut aov_values = [0.0f32; MAX_AOV_CHANNELS];
     for y in tile.y..tile.y + tile.h {
         if abandon.load(Ordering::Relaxed) {
             return None;
@@ -207,6 +219,11 @@ pub fn render_tile(
                 let ray = scene.camera.generate_ray(film, aperture);
                 let l = job.integrator.li(scene, &ray, &mut sampler);
                 block.put(film, l);
+                if !aovs.is_empty() {
+                    let mut aov_sampler = Sampler::for_pixel_sample(seed ^ AOV_SEED_SALT, x, y, s);
+                    aovs.evaluate(scene, &ray, &mut aov_sampler, &mut aov_values);
+                    block.put_aovs(film, &aov_values);
+                }
             }
         }
     }
@@ -267,9 +284,15 @@ pub fn render_with_passes(
         passes.len(),
     );
     let samples = AtomicU64::new(0);
+    let aov_channels = opts.aovs.channel_count();
     let mut film = match &opts.film {
-        Some(f) if (f.width, f.height) == (w as usize, h as usize) => f.clone(),
-        _ => Film::new(w as usize, h as usize),
+        Some(f)
+            if (f.width, f.height) == (w as usize, h as usize)
+                && f.aov_channels() == aov_channels =>
+        {
+            f.clone()
+        }
+        _ => Film::new(w as usize, h as usize).with_aovs(aov_channels),
     };
     let mut spp_done = first;
     for (pass, &(s0, s1)) in passes.iter().enumerate() {
@@ -284,7 +307,9 @@ pub fn render_with_passes(
                 return;
             }
             let WorkUnit { tile, s0, s1 } = *unit;
-            let Some(block) = render_tile(scene, job, tile, (s0, s1), opts.seed, abandon) else {
+            let Some(block) =
+                render_tile(scene, job, tile, (s0, s1), opts.seed, &opts.aovs, abandon)
+            else {
                 return;
             };
             let n = (tile.w * tile.h) as u64 * (s1 - s0) as u64;

@@ -1,7 +1,9 @@
 //! lente's render files: the EXR a render writes. Beside what viewers show
 //! (`R`, `G`, `B`: the image), it holds the film's exact state (the
-//! filter-weighted radiance sums and weight sums, channels `lente.film.R`,
-//! `.G`, `.B`, `.W`) and the render's metadata in its header (`lente.*`
+//! filter-weighted radiance sums, channels `lente.film.R`, `.G`, `.B`, and
+//! weight sums, `lente.weight.Y`; not `.W`, which Mitsuba's `Bitmap` takes
+//! for a weight channel and refuses to split; AOV sums as
+//! `lente.film.<channel>`) and the render's metadata in its header (`lente.*`
 //! text attributes: scene, parameters, seed and sample range, spp, target
 //! spp, render time, lente version).
 //!
@@ -14,6 +16,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use crate::aov::AovList;
 use crate::color::Rgb;
 use crate::image::{load_exr_channels, save_exr_channels, Bitmap, ExrChannels, Film, ImageError};
 
@@ -25,7 +28,7 @@ const FILM_CHANNELS: [&str; 4] = [
     "lente.film.R",
     "lente.film.G",
     "lente.film.B",
-    "lente.film.W",
+    "lente.weight.Y",
 ];
 
 /// Samples `start..end` of every pixel, drawn with `seed`.
@@ -65,6 +68,8 @@ pub struct RenderMeta {
     pub render_seconds: f64,
     /// The lente version that wrote it.
     pub version: String,
+    /// The output variables beside the image (`lente.aovs`).
+    pub aovs: AovList,
 }
 
 impl RenderMeta {
@@ -196,7 +201,10 @@ pub fn save_render(
     if let [single] = m.ranges[..] {
         attributes.push(("lente.seed".to_string(), single.seed.to_string()));
     }
-    let channels = ExrChannels {
+    if !m.aovs.is_empty() {
+        attributes.push(("lente.aovs".to_string(), m.aovs.to_string()));
+    }
+    let mut channels = ExrChannels {
         width: film.width,
         height: film.height,
         channels: vec![
@@ -210,6 +218,18 @@ pub fn save_render(
         ],
         attributes,
     };
+    // AOVs: normalised as viewers and denoisers read them, and their sums.
+    let names = m.aovs.channel_names();
+    if names.len() == film.aov_channels() {
+        let n = names.len();
+        for (c, name) in names.iter().enumerate() {
+            channels
+                .channels
+                .push((name.to_string(), film.aov_channel(c)));
+            let sums = film.aov_sums().iter().skip(c).step_by(n).copied().collect();
+            channels.channels.push((format!("lente.film.{name}"), sums));
+        }
+    }
     save_exr_channels(path, &channels)
 }
 
@@ -275,6 +295,10 @@ impl RenderFile {
                 .filter(|t| t.is_finite() && *t >= 0.0)
                 .ok_or_else(|| bad("lente.renderTime", time))?,
             version: attr("lente.version")?.to_string(),
+            aovs: match exr.attribute("lente.aovs") {
+                Some(list) => list.parse().map_err(|_| bad("lente.aovs", list))?,
+                None => AovList::default(),
+            },
         };
         let [r, g, b, w] = FILM_CHANNELS.map(|c| exr.channel(c).unwrap_or_default());
         let mut data = Vec::with_capacity(exr.width * exr.height);
@@ -289,8 +313,27 @@ impl RenderFile {
             }
             data.push((sum, weight));
         }
-        let film = Film::from_data(exr.width, exr.height, data)
+        let mut film = Film::from_data(exr.width, exr.height, data)
             .ok_or_else(|| "film state does not match the image size".to_string())?;
+        let names = meta.aovs.channel_names();
+        if !names.is_empty() {
+            let n = names.len();
+            let mut sums = vec![0.0f32; n * exr.width * exr.height];
+            for (c, name) in names.iter().enumerate() {
+                let state = format!("lente.film.{name}");
+                let values = exr
+                    .channel(&state)
+                    .ok_or_else(|| format!("AOV film state channel {state} missing"))?;
+                if values.iter().any(|v| !v.is_finite()) {
+                    return Err(format!("AOV film state {state} is not finite"));
+                }
+                for (i, v) in values.iter().enumerate() {
+                    sums[i * n + c] = *v;
+                }
+            }
+            film.set_aov_sums(n, sums)
+                .ok_or_else(|| "AOV film state does not match the image size".to_string())?;
+        }
         Ok(RenderFile { meta, film })
     }
 
@@ -331,6 +374,15 @@ impl RenderFile {
                     n.scene_digest
                 ));
             }
+            if m.aovs != n.aovs {
+                return Err(format!(
+                    "{} has the AOVs '{}' but {} has '{}': renders with the same --aov only",
+                    first_path.display(),
+                    m.aovs,
+                    path.display(),
+                    n.aovs
+                ));
+            }
             merged.film.add(&f.film);
             merged.meta.render_seconds += f.meta.render_seconds;
             ranges.extend(f.meta.ranges.iter().copied());
@@ -366,6 +418,7 @@ mod tests {
                 spp_target: 64,
                 render_seconds: 1.5,
                 version: VERSION.into(),
+                aovs: AovList::default(),
             },
             film: Film::from_data(3, 2, data).unwrap(),
         }
@@ -466,7 +519,7 @@ mod tests {
             err.contains("plain.exr") && err.contains("not a lente render file"),
             "{err}"
         );
-        assert!(err.contains("lente.film.W"), "{err}");
+        assert!(err.contains("lente.weight.Y"), "{err}");
     }
 
     #[test]

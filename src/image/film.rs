@@ -18,6 +18,10 @@ pub struct FilmBlock {
     pub height: usize,
     /// (sum of w * L, sum of w) per pixel.
     pub data: Vec<(Rgb, f32)>,
+    /// AOV channels per pixel, and their filter-weighted sums (`aov_channels`
+    /// per pixel; the weights are the image's).
+    pub aov_channels: usize,
+    pub aov: Vec<f32>,
     filter: Filter,
     radius: f32,
 }
@@ -35,8 +39,45 @@ impl FilmBlock {
             width,
             height,
             data: vec![(Rgb::ZERO, 0.0); width * height],
+            aov_channels: 0,
+            aov: Vec::new(),
             filter,
             radius,
+        }
+    }
+
+    /// The same block with room for `channels` AOV values per pixel.
+    pub fn with_aovs(mut self, channels: usize) -> FilmBlock {
+        self.aov_channels = channels;
+        self.aov = vec![0.0; channels * self.width * self.height];
+        self
+    }
+
+    /// Splats AOV values (`aov_channels` of them) at a film position, with
+    /// the weights [`FilmBlock::put`] gives the image's sample there.
+    pub fn put_aovs(&mut self, pos: Vec2, values: &[f32]) {
+        let n = self.aov_channels;
+        if n == 0 || values[..n].iter().any(|v| !v.is_finite()) {
+            return;
+        }
+        let px = pos.x - 0.5;
+        let py = pos.y - 0.5;
+        let xmin = ((px - self.radius).ceil() as i32).max(self.x0);
+        let xmax = ((px + self.radius).floor() as i32).min(self.x0 + self.width as i32 - 1);
+        let ymin = ((py - self.radius).ceil() as i32).max(self.y0);
+        let ymax = ((py + self.radius).floor() as i32).min(self.y0 + self.height as i32 - 1);
+        for y in ymin..=ymax {
+            let wy = self.filter.eval_1d(y as f32 - py);
+            for x in xmin..=xmax {
+                let w = wy * self.filter.eval_1d(x as f32 - px);
+                if w == 0.0 {
+                    continue;
+                }
+                let cell = ((y - self.y0) as usize * self.width + (x - self.x0) as usize) * n;
+                for (acc, v) in self.aov[cell..cell + n].iter_mut().zip(values) {
+                    *acc += w * v;
+                }
+            }
         }
     }
 
@@ -84,6 +125,9 @@ pub struct Film {
     pub width: usize,
     pub height: usize,
     data: Vec<(Rgb, f32)>,
+    /// AOV channels per pixel and their weighted sums (see [`FilmBlock`]).
+    aov_channels: usize,
+    aov: Vec<f32>,
 }
 
 impl Film {
@@ -92,7 +136,52 @@ impl Film {
             width,
             height,
             data: vec![(Rgb::ZERO, 0.0); width * height],
+            aov_channels: 0,
+            aov: Vec::new(),
         }
+    }
+
+    /// The same film with room for `channels` AOV values per pixel.
+    pub fn with_aovs(mut self, channels: usize) -> Film {
+        self.aov_channels = channels;
+        self.aov = vec![0.0; channels * self.width * self.height];
+        self
+    }
+
+    /// AOV channels per pixel.
+    pub fn aov_channels(&self) -> usize {
+        self.aov_channels
+    }
+
+    /// The weighted AOV sums, `aov_channels` per pixel, row-major.
+    pub fn aov_sums(&self) -> &[f32] {
+        &self.aov
+    }
+
+    /// Sets the weighted AOV sums (`channels` per pixel); `None` unless
+    /// there are that many per pixel.
+    pub fn set_aov_sums(&mut self, channels: usize, sums: Vec<f32>) -> Option<()> {
+        (channels.checked_mul(self.width * self.height) == Some(sums.len())).then(|| {
+            self.aov_channels = channels;
+            self.aov = sums;
+        })
+    }
+
+    /// AOV channel `c` normalised by the image's weights (0 where no
+    /// sample landed).
+    pub fn aov_channel(&self, c: usize) -> Vec<f32> {
+        let n = self.aov_channels;
+        self.data
+            .iter()
+            .enumerate()
+            .map(|(i, &(_, w))| {
+                if w != 0.0 {
+                    self.aov[i * n + c] / w
+                } else {
+                    0.0
+                }
+            })
+            .collect()
     }
 
     /// A film from its accumulated (sum of w * L, sum of w) per pixel,
@@ -102,6 +191,8 @@ impl Film {
             width,
             height,
             data,
+            aov_channels: 0,
+            aov: Vec::new(),
         })
     }
 
@@ -114,9 +205,13 @@ impl Film {
     /// two renders' samples together.
     pub fn add(&mut self, other: &Film) {
         assert_eq!((self.width, self.height), (other.width, other.height));
+        assert_eq!(self.aov_channels, other.aov_channels);
         for (dst, src) in self.data.iter_mut().zip(&other.data) {
             dst.0 += src.0;
             dst.1 += src.1;
+        }
+        for (dst, src) in self.aov.iter_mut().zip(&other.aov) {
+            *dst += src;
         }
     }
 
@@ -136,6 +231,16 @@ impl Film {
                 let dst = &mut self.data[y as usize * self.width + x as usize];
                 dst.0 += src.0;
                 dst.1 += src.1;
+                let n = self.aov_channels;
+                if n > 0 && block.aov_channels == n {
+                    let (s, d) = (by * block.width + bx, y as usize * self.width + x as usize);
+                    for (a, b) in self.aov[d * n..d * n + n]
+                        .iter_mut()
+                        .zip(&block.aov[s * n..s * n + n])
+                    {
+                        *a += b;
+                    }
+                }
             }
         }
     }

@@ -343,6 +343,7 @@ mod tests {
             spp_target: 8,
             render_seconds: 0.0,
             version: crate::render_file::VERSION.into(),
+            aovs: Default::default(),
         }
     }
 

@@ -136,9 +136,18 @@ fn an_abandoned_unit_stops_at_once() {
     let tile = lente::render::tiles(40, 30)[0];
     let start = std::time::Instant::now();
     let stop = AtomicBool::new(true);
-    assert!(lente::render::render_tile(&scene, &job, tile, (0, 1_000_000), 1, &stop).is_none());
+    assert!(lente::render::render_tile(
+        &scene,
+        &job,
+        tile,
+        (0, 1_000_000),
+        1,
+        &Default::default(),
+        &stop
+    )
+    .is_none());
     assert!(start.elapsed() < std::time::Duration::from_secs(5));
     let go = AtomicBool::new(false);
-    let block = lente::render::render_tile(&scene, &job, tile, (0, 1), 1, &go);
+    let block = lente::render::render_tile(&scene, &job, tile, (0, 1), 1, &Default::default(), &go);
     assert!(block.is_some());
 }

@@ -8,6 +8,7 @@ mod cli_util;
 mod common;
 mod mutation;
 
+mod aov_outputs;
 mod bench_cli;
 mod bsdf;
 mod bsdf_energy;
