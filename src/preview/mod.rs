@@ -7,8 +7,8 @@
 //! the server never holds up the render threads and never touches the film
 //! itself: the render's result is the same bit for bit with or without a
 //! preview. The page polls `GET /status` (JSON) and fetches
-//! `GET /image.png?exposure=STOPS&v=PASS`; nothing is kept per client, so it
-//! can be closed and reopened at any time.
+//! `GET /image.png?exposure=STOPS|auto&tonemap=OP&v=PASS`; nothing is kept
+//! per client, so it can be closed and reopened at any time.
 
 mod http;
 mod server;
@@ -18,7 +18,9 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use crate::image::io::Malformed;
-use crate::image::{save_image, save_png_tonemapped, Bitmap, ImageError, Look, Tonemap};
+use crate::image::{
+    save_image, save_png_tonemapped, tonemap, Bitmap, Exposure, ImageError, Look, Tonemap,
+};
 use crate::render::PassInfo;
 use crate::render_file::{save_render, RenderMeta};
 
@@ -42,6 +44,8 @@ pub struct Snapshot {
     /// Wall-clock time when the snapshot was taken.
     pub taken: Instant,
     pub image: Arc<Bitmap>,
+    /// The stops `auto` exposure gives this image.
+    pub auto_stops: f32,
 }
 
 /// How the render ended.
@@ -55,8 +59,8 @@ pub enum Phase {
     },
 }
 
-/// The last encoded PNG: (pass, exposure bits, bytes).
-type CachedPng = (u32, u32, Arc<Vec<u8>>);
+/// The last encoded PNG: (pass, exposure bits, tone map, bytes).
+type CachedPng = (u32, u32, Tonemap, Arc<Vec<u8>>);
 
 struct Inner {
     snapshot: Mutex<Snapshot>,
@@ -98,6 +102,7 @@ impl PreviewState {
                     elapsed: Duration::ZERO,
                     taken: Instant::now(),
                     image: Arc::new(Bitmap::new(width, height)),
+                    auto_stops: 0.0,
                 }),
                 phase: Mutex::new(Phase::Rendering),
                 base: base.to_path_buf(),
@@ -111,7 +116,9 @@ impl PreviewState {
     /// the calling thread, and swapped in under a short lock.
     pub fn publish(&self, info: &PassInfo) {
         let image = Arc::new(info.film.to_bitmap());
+        let auto_stops = Exposure::Auto.stops_for(&image);
         let mut s = lock(&self.inner.snapshot);
+        s.auto_stops = auto_stops;
         s.pass += 1;
         s.spp_done = info.spp_done;
         s.spp_total = info.spp_total;
@@ -178,6 +185,7 @@ impl PreviewState {
             "elapsed": secs,
             "samples_per_second": rate,
             "eta": eta,
+            "auto_exposure": s.auto_stops,
             "width": s.image.width,
             "height": s.image.height,
             "outputs": outputs,
@@ -185,26 +193,27 @@ impl PreviewState {
         .to_string()
     }
 
-    /// The latest image as an 8-bit sRGB PNG after scaling by
-    /// 2^`exposure` (clamped to +-[`MAX_EXPOSURE`]), and its pass number.
-    /// The last encoding is cached, so several viewers cost one encode.
-    pub fn png(&self, exposure: f32) -> Result<(u32, Arc<Vec<u8>>), Malformed> {
-        let exposure = clamp_exposure(exposure);
+    /// The latest image as an 8-bit sRGB PNG seen with `look` (stops
+    /// clamped to +-[`MAX_EXPOSURE`]; `auto` as the render's `--exposure
+    /// auto`), and its pass number. The last encoding is cached, so several
+    /// viewers cost one encode.
+    pub fn png(&self, look: Look) -> Result<(u32, Arc<Vec<u8>>), Malformed> {
         let s = self.snapshot();
-        if let Some((pass, bits, bytes)) = lock(&self.inner.png_cache).as_ref() {
-            if *pass == s.pass && *bits == exposure.to_bits() {
+        let stops = stops_of(look.exposure, &s);
+        if let Some((pass, bits, op, bytes)) = lock(&self.inner.png_cache).as_ref() {
+            if *pass == s.pass && *bits == stops.to_bits() && *op == look.tonemap {
                 return Ok((s.pass, bytes.clone()));
             }
         }
-        let bytes = Arc::new(encode_png(&s.image, exposure)?);
-        *lock(&self.inner.png_cache) = Some((s.pass, exposure.to_bits(), bytes.clone()));
+        let bytes = Arc::new(encode_png(&s.image, stops, look.tonemap)?);
+        *lock(&self.inner.png_cache) = Some((s.pass, stops.to_bits(), look.tonemap, bytes.clone()));
         Ok((s.pass, bytes))
     }
 
     /// Saves the latest image as `<base>-preview-<spp>spp.exr` (linear) and
     /// `.png` (with the exposure applied, as shown), atomically. Returns the
     /// two paths and the sample count.
-    pub fn save(&self, exposure: f32) -> Result<SavedPreview, SaveError> {
+    pub fn save(&self, look: Look) -> Result<SavedPreview, SaveError> {
         let s = self.snapshot();
         if s.pass == 0 {
             return Err(SaveError::NothingYet);
@@ -213,7 +222,7 @@ impl PreviewState {
         let exr = with_ext(&base, "exr");
         let png = with_ext(&base, "png");
         save_image(&exr, &s.image).map_err(SaveError::Image)?;
-        save_png_tonemapped(&png, &s.image, clamp_exposure(exposure), Tonemap::Clamp)
+        save_png_tonemapped(&png, &s.image, stops_of(look.exposure, &s), look.tonemap)
             .map_err(SaveError::Image)?;
         Ok(SavedPreview {
             exr,
@@ -240,6 +249,14 @@ pub enum SaveError {
     Image(ImageError),
 }
 
+/// The stops `exposure` means for the snapshot's image.
+fn stops_of(exposure: Exposure, s: &Snapshot) -> f32 {
+    match exposure {
+        Exposure::Stops(x) => clamp_exposure(x),
+        Exposure::Auto => clamp_exposure(s.auto_stops),
+    }
+}
+
 fn clamp_exposure(e: f32) -> f32 {
     if e.is_finite() {
         e.clamp(-MAX_EXPOSURE, MAX_EXPOSURE)
@@ -260,10 +277,10 @@ pub fn with_ext(base: &Path, ext: &str) -> PathBuf {
     suffixed(base, &format!(".{ext}"))
 }
 
-/// Encodes linear RGB as an 8-bit sRGB PNG after scaling by 2^`exposure`,
-/// clipping to [0, 1] (like the PNG the render writes). Fast compression:
-/// the preview favours latency over size.
-pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, Malformed> {
+/// Encodes linear RGB as an 8-bit sRGB PNG after scaling by 2^`exposure`
+/// and tone mapping with `op` (like the PNG the render writes). Fast
+/// compression: the preview favours latency over size.
+pub fn encode_png(image: &Bitmap, exposure: f32, op: Tonemap) -> Result<Vec<u8>, Malformed> {
     if image.width == 0 || image.height == 0 {
         return Err(Malformed(format!(
             "cannot encode a {}x{} image as PNG",
@@ -273,7 +290,11 @@ pub fn encode_png(image: &Bitmap, exposure: f32) -> Result<Vec<u8>, Malformed> {
     if image.pixels.len() != image.width * image.height {
         return Err("pixel count does not match the image size".into());
     }
-    crate::image::io::png::encode_scaled(image, clamp_exposure(exposure).exp2(), true)
+    let exposure = clamp_exposure(exposure);
+    match op {
+        Tonemap::Clamp => crate::image::io::png::encode_scaled(image, exposure.exp2(), true),
+        _ => crate::image::io::png::encode_scaled(&tonemap(image, exposure, op), 1.0, true),
+    }
 }
 
 /// Writes the image in progress to the normal output paths every so often.
@@ -385,32 +406,71 @@ mod tests {
     }
 
     #[test]
-    fn png_applies_exposure_and_is_cached() {
+    fn png_applies_exposure_and_tone_map_and_is_cached() {
         let mut img = Bitmap::new(3, 2);
         img.set(0, 0, Rgb::splat(0.25));
-        let a = encode_png(&img, 0.0).unwrap();
-        let b = encode_png(&img, 2.0).unwrap();
+        img.set(1, 0, Rgb::splat(4.0));
+        let clamp = Tonemap::Clamp;
+        let a = encode_png(&img, 0.0, clamp).unwrap();
+        let b = encode_png(&img, 2.0, clamp).unwrap();
         assert_eq!(&a[..8], b"\x89PNG\r\n\x1a\n");
         assert_ne!(a, b);
-        assert!(encode_png(&Bitmap::new(0, 0), 0.0).is_err());
+        assert!(encode_png(&Bitmap::new(0, 0), 0.0, clamp).is_err());
         // Non-finite exposure is ignored, not propagated.
-        assert_eq!(encode_png(&img, f32::NAN).unwrap(), a);
+        assert_eq!(encode_png(&img, f32::NAN, clamp).unwrap(), a);
+        // A tone map is the render's: the same pixels as its PNG.
+        let aces = encode_png(&img, 1.0, Tonemap::Aces).unwrap();
+        let (decoded, _) = crate::image::io::decode_image(&aces, "png").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.png");
+        save_png_tonemapped(&path, &img, 1.0, Tonemap::Aces).unwrap();
+        assert_eq!(crate::image::load_image(&path).unwrap().0, decoded);
 
         let state = PreviewState::new(3, 2, 8, Path::new("x"));
-        let (pass, p1) = state.png(1.0).unwrap();
+        let look = |exposure, tonemap| Look { exposure, tonemap };
+        let (pass, p1) = state.png(look(Exposure::Stops(1.0), clamp)).unwrap();
         assert_eq!(pass, 0);
-        let (_, p2) = state.png(1.0).unwrap();
+        let (_, p2) = state.png(look(Exposure::Stops(1.0), clamp)).unwrap();
         assert!(Arc::ptr_eq(&p1, &p2));
+        let (_, p3) = state
+            .png(look(Exposure::Stops(1.0), Tonemap::Filmic))
+            .unwrap();
+        assert!(!Arc::ptr_eq(&p1, &p3));
+        // auto: the stops the render's --exposure auto would take.
+        let mut film = Film::new(3, 2);
+        let mut block =
+            crate::image::FilmBlock::new(0, 0, 3, 2, crate::image::Filter::Box { radius: 0.5 });
+        block.put(crate::math::Vec2::new(0.5, 0.5), Rgb::splat(0.02));
+        film.merge(&block);
+        state.publish(&info(&film, 1, 0.1));
+        let expected = Exposure::Auto.stops_for(&film.to_bitmap());
+        assert!(expected > 1.0);
+        let j: serde_json::Value = serde_json::from_str(&state.status_json()).unwrap();
+        assert!(
+            (j["auto_exposure"].as_f64().unwrap() - expected as f64).abs() < 1e-6,
+            "{j}"
+        );
+        let (_, auto) = state.png(look(Exposure::Auto, clamp)).unwrap();
+        let (_, fixed) = state.png(look(Exposure::Stops(expected), clamp)).unwrap();
+        assert_eq!(auto, fixed);
     }
 
     #[test]
     fn save_needs_a_pass_and_names_files_by_spp() {
         let dir = tempfile::tempdir().unwrap();
         let state = PreviewState::new(4, 2, 8, &dir.path().join("render.v1"));
-        assert!(matches!(state.save(0.0), Err(SaveError::NothingYet)));
+        assert!(matches!(
+            state.save(Look::default()),
+            Err(SaveError::NothingYet)
+        ));
         let film = Film::new(4, 2);
         state.publish(&info(&film, 3, 0.1));
-        let saved = state.save(1.0).unwrap();
+        let saved = state
+            .save(Look {
+                exposure: Exposure::Stops(1.0),
+                tonemap: Tonemap::Reinhard,
+            })
+            .unwrap();
         assert_eq!(saved.exr, dir.path().join("render.v1-preview-3spp.exr"));
         assert_eq!(saved.png, dir.path().join("render.v1-preview-3spp.png"));
         assert!(saved.exr.exists() && saved.png.exists());

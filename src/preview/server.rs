@@ -28,6 +28,7 @@ use std::time::{Duration, Instant};
 
 use super::http::{read_request, ReadError, Request, Response};
 use super::{PreviewState, SaveError};
+use crate::image::{Exposure, Look, Tonemap};
 
 /// The port used when `--preview` is given without one.
 pub const DEFAULT_PORT: u16 = 8642;
@@ -284,11 +285,11 @@ pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response 
             if !get {
                 return wrong_method("GET, HEAD");
             }
-            let exposure = match exposure_param(req) {
-                Ok(e) => e,
+            let look = match look_param(req) {
+                Ok(l) => l,
                 Err(r) => return r,
             };
-            match state.png(exposure) {
+            match state.png(look) {
                 Ok((pass, bytes)) => Response::new(200, "image/png", bytes.as_slice())
                     .with_header("X-Lente-Pass", pass.to_string()),
                 Err(e) => Response::text(500, &e.to_string()),
@@ -306,11 +307,11 @@ pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response 
                     return Response::text(403, "cross-origin save refused");
                 }
             }
-            let exposure = match exposure_param(req) {
-                Ok(e) => e,
+            let look = match look_param(req) {
+                Ok(l) => l,
                 Err(r) => return r,
             };
-            match state.save(exposure) {
+            match state.save(look) {
                 Ok(saved) => Response::json(
                     200,
                     serde_json::json!({
@@ -335,18 +336,31 @@ pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response 
     }
 }
 
-/// The `exposure` parameter in stops (default 0).
-fn exposure_param(req: &Request) -> Result<f32, Response> {
-    match req.param("exposure") {
-        None => Ok(0.0),
+/// The `exposure` (stops, or `auto`; default 0) and `tonemap` (clamp,
+/// reinhard, aces, filmic; default clamp) parameters.
+fn look_param(req: &Request) -> Result<Look, Response> {
+    let exposure = match req.param("exposure") {
+        None => Exposure::Stops(0.0),
+        Some(v) if v.trim().eq_ignore_ascii_case("auto") => Exposure::Auto,
         Some(v) => match v.trim().parse::<f32>() {
-            Ok(e) if e.is_finite() => Ok(e),
-            _ => Err(Response::text(
-                400,
-                &format!("bad exposure '{v}': expected a number of stops"),
-            )),
+            Ok(e) if e.is_finite() => Exposure::Stops(e),
+            _ => {
+                return Err(Response::text(
+                    400,
+                    &format!("bad exposure '{v}': expected a number of stops or auto"),
+                ))
+            }
         },
-    }
+    };
+    let tonemap = match req.param("tonemap") {
+        None => Tonemap::Clamp,
+        Some(v) => v
+            .parse()
+            .map_err(|e: crate::image::tonemap::UnknownTonemap| {
+                Response::text(400, &format!("bad tonemap: {e}"))
+            })?,
+    };
+    Ok(Look { exposure, tonemap })
 }
 
 #[cfg(test)]

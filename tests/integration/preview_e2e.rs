@@ -370,7 +370,10 @@ fn preview_page_in_headless_chromium() {
         s.w > 0 && s.pass >= 0 && s.sum > 0
     });
     assert_eq!((first.w, first.h), (64, 64), "{first:?}");
-    assert!(first.src.contains("/image.png?exposure=0&v="), "{first:?}");
+    assert!(
+        first.src.contains("/image.png?exposure=0&tonemap=clamp&v="),
+        "{first:?}"
+    );
 
     // It updates: a later pass with different pixels.
     let later = probe_until(&mut cdp, &page, "a newer image", |s| {
@@ -408,6 +411,31 @@ fn preview_page_in_headless_chromium() {
         .as_str()
         .unwrap()
         .contains("+2.00 EV"));
+
+    // Auto exposure and a tone map: fetched with both, the slider off and
+    // the EV display showing the stops auto chose; then back.
+    let set = |cdp: &mut Cdp, tonemap: &str, auto: bool| {
+        let js = format!(
+            r#"(() => {{ const t = document.getElementById("tonemap");
+                        t.value = "{tonemap}"; t.dispatchEvent(new Event("change"));
+                        const a = document.getElementById("auto");
+                        a.checked = {auto}; a.dispatchEvent(new Event("change")); }})()"#
+        );
+        cdp.eval(&page, &js).unwrap();
+    };
+    set(&mut cdp, "aces", true);
+    let mapped = probe_until(&mut cdp, &page, "the auto-exposed ACES image", |s| {
+        s.src.contains("exposure=auto&tonemap=aces&") && s.w == 64
+    });
+    assert!(mapped.sum > 0, "{mapped:?}");
+    let disabled = cdp
+        .eval(&page, "document.getElementById('exposure').disabled")
+        .unwrap();
+    assert_eq!(disabled, Value::Bool(true));
+    set(&mut cdp, "clamp", false);
+    probe_until(&mut cdp, &page, "the image back at +2 EV, clamped", |s| {
+        s.src.contains("exposure=2&tonemap=clamp&") && s.w == 64
+    });
 
     // Save writes EXR + PNG next to the output and says where.
     cdp.eval(&page, "document.getElementById('save').click()")
