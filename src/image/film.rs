@@ -60,25 +60,13 @@ impl FilmBlock {
         if n == 0 || values[..n].iter().any(|v| !v.is_finite()) {
             return;
         }
-        let px = pos.x - 0.5;
-        let py = pos.y - 0.5;
-        let xmin = ((px - self.radius).ceil() as i32).max(self.x0);
-        let xmax = ((px + self.radius).floor() as i32).min(self.x0 + self.width as i32 - 1);
-        let ymin = ((py - self.radius).ceil() as i32).max(self.y0);
-        let ymax = ((py + self.radius).floor() as i32).min(self.y0 + self.height as i32 - 1);
-        for y in ymin..=ymax {
-            let wy = self.filter.eval_1d(y as f32 - py);
-            for x in xmin..=xmax {
-                let w = wy * self.filter.eval_1d(x as f32 - px);
-                if w == 0.0 {
-                    continue;
-                }
-                let cell = ((y - self.y0) as usize * self.width + (x - self.x0) as usize) * n;
-                for (acc, v) in self.aov[cell..cell + n].iter_mut().zip(values) {
-                    *acc += w * v;
-                }
+        let footprint = self.footprint(pos);
+        let aov = &mut self.aov;
+        footprint.for_each(|cell, w| {
+            for (acc, v) in aov[cell * n..cell * n + n].iter_mut().zip(values) {
+                *acc += w * v;
             }
-        }
+        });
     }
 
     /// Splats a radiance sample at a film position (pixels; pixel centres at
@@ -88,6 +76,19 @@ impl FilmBlock {
         if !value.is_finite() {
             return;
         }
+        let footprint = self.footprint(pos);
+        let data = &mut self.data;
+        footprint.for_each(|cell, w| {
+            let cell = &mut data[cell];
+            cell.0 += w * value;
+            cell.1 += w;
+        });
+    }
+
+    /// The block's pixels a sample at film position `pos` reaches, with
+    /// the filter's weights along x.
+    #[inline(always)]
+    fn footprint(&self, pos: Vec2) -> Footprint {
         let px = pos.x - 0.5;
         let py = pos.y - 0.5;
         let xmin = ((px - self.radius).ceil() as i32).max(self.x0);
@@ -100,20 +101,53 @@ impl FilmBlock {
         for (x, w) in (xmin..=xmax).zip(wx.iter_mut()) {
             *w = self.filter.eval_1d(x as f32 - px);
         }
-        for y in ymin..=ymax {
-            let wy = self.filter.eval_1d(y as f32 - py);
+        Footprint {
+            wx,
+            xmin,
+            xmax,
+            ymin,
+            ymax,
+            py,
+            filter: self.filter,
+            x0: self.x0,
+            y0: self.y0,
+            width: self.width,
+        }
+    }
+}
+
+/// The cells one sample reaches in a [`FilmBlock`] (see
+/// [`FilmBlock::footprint`]).
+struct Footprint {
+    wx: [f32; 2 * MAX_FILTER_RADIUS as usize + 2],
+    xmin: i32,
+    xmax: i32,
+    ymin: i32,
+    ymax: i32,
+    py: f32,
+    filter: Filter,
+    x0: i32,
+    y0: i32,
+    width: usize,
+}
+
+impl Footprint {
+    /// Calls `f(cell, w)` for every cell with a nonzero weight `w`, cells
+    /// indexed row-major in the block, rows in order.
+    #[inline(always)]
+    fn for_each(&self, mut f: impl FnMut(usize, f32)) {
+        for y in self.ymin..=self.ymax {
+            let wy = self.filter.eval_1d(y as f32 - self.py);
             if wy == 0.0 {
                 continue;
             }
             let row = (y - self.y0) as usize * self.width;
-            for (x, &wxi) in (xmin..=xmax).zip(wx.iter()) {
+            for (x, &wxi) in (self.xmin..=self.xmax).zip(self.wx.iter()) {
                 let w = wy * wxi;
                 if w == 0.0 {
                     continue;
                 }
-                let cell = &mut self.data[row + (x - self.x0) as usize];
-                cell.0 += w * value;
-                cell.1 += w;
+                f(row + (x - self.x0) as usize, w);
             }
         }
     }
