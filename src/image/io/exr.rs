@@ -129,9 +129,12 @@ fn guarded<T>(part: &str, f: impl FnOnce() -> exr::error::Result<T>) -> Result<T
     }
 }
 
-pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
+/// Every layer's channels and attributes, the headers checked first.
+fn read_layers(
+    bytes: &[u8],
+) -> Result<Image<exr::image::Layers<AnyChannels<FlatSamples>>>, Malformed> {
     check_headers(bytes)?;
-    let image = guarded("pixels", || {
+    guarded("pixels", || {
         exr::prelude::read()
             .no_deep_data()
             .largest_resolution_level()
@@ -139,7 +142,11 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
             .all_layers()
             .all_attributes()
             .from_buffered(Cursor::new(bytes))
-    })?;
+    })
+}
+
+pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
+    let image = read_layers(bytes)?;
     for layer in &image.layer_data {
         let Some(pick) = pick_channels(layer) else {
             continue;
@@ -281,17 +288,11 @@ pub fn encode_channels(image: &Channels) -> Result<Vec<u8>, Malformed> {
 /// The first layer's channels (as 32-bit floats) and the text attributes
 /// of its header (other kinds of attributes are skipped).
 pub fn decode_channels(bytes: &[u8]) -> Result<Channels, Malformed> {
-    check_headers(bytes)?;
-    let image = guarded("pixels", || {
-        exr::prelude::read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .from_buffered(Cursor::new(bytes))
-    })?;
-    let layer = &image.layer_data;
+    let image = read_layers(bytes)?;
+    let layer = image
+        .layer_data
+        .first()
+        .ok_or_else(|| Malformed::from("OpenEXR file has no layer"))?;
     let (width, height) = (layer.size.width(), layer.size.height());
     let mut channels = Vec::new();
     for (i, c) in layer.channel_data.list.iter().enumerate() {
