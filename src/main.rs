@@ -47,17 +47,8 @@ enum Command {
         /// dropped).
         #[arg(short, long)]
         output: PathBuf,
-        /// Exposure of the PNG in stops, or auto.
-        #[arg(
-            long,
-            value_name = "STOPS|auto",
-            default_value = "0",
-            allow_negative_numbers = true
-        )]
-        exposure: Exposure,
-        /// Tone mapping of the PNG: clamp, reinhard, aces or filmic.
-        #[arg(long, default_value = "clamp")]
-        tonemap: Tonemap,
+        #[command(flatten)]
+        look: LookArgs,
     },
     /// Load a scene and print what it contains, without rendering.
     Info {
@@ -216,18 +207,8 @@ struct RenderArgs {
     /// Seconds between plain progress lines.
     #[arg(long, value_name = "SECONDS", default_value = "5", value_parser = parse_seconds)]
     progress_every: Duration,
-    /// Exposure of the PNG in stops (2^STOPS), or auto (the image's
-    /// log-average luminance to middle grey). The EXR stays linear.
-    #[arg(
-        long,
-        value_name = "STOPS|auto",
-        default_value = "0",
-        allow_negative_numbers = true
-    )]
-    exposure: Exposure,
-    /// Tone mapping of the PNG: clamp, reinhard, aces or filmic.
-    #[arg(long, default_value = "clamp")]
-    tonemap: Tonemap,
+    #[command(flatten)]
+    look: LookArgs,
     /// Serve a live preview page on 127.0.0.1:PORT (default 8642; 0 picks
     /// a free port) showing the image pass by pass. Put it after the scene
     /// file or write --preview=PORT.
@@ -245,6 +226,32 @@ struct RenderArgs {
     /// Set a Mitsuba scene parameter ($NAME), overriding its <default>.
     #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
     define: Vec<(String, String)>,
+}
+
+/// How the PNG shows the linear image (render, merge).
+#[derive(clap::Args)]
+struct LookArgs {
+    /// Exposure of the PNG in stops (2^STOPS), or auto (the image's
+    /// log-average luminance to middle grey). The EXR stays linear.
+    #[arg(
+        long,
+        value_name = "STOPS|auto",
+        default_value = "0",
+        allow_negative_numbers = true
+    )]
+    exposure: Exposure,
+    /// Tone mapping of the PNG: clamp, reinhard, aces or filmic.
+    #[arg(long, default_value = "clamp")]
+    tonemap: Tonemap,
+}
+
+impl LookArgs {
+    fn look(&self) -> Look {
+        Look {
+            exposure: self.exposure,
+            tonemap: self.tonemap,
+        }
+    }
 }
 
 /// `--progress` values.
@@ -317,9 +324,8 @@ fn main() -> ExitCode {
         Command::Merge {
             inputs,
             output,
-            exposure,
-            tonemap,
-        } => cmd_merge(&inputs, &output, Look { exposure, tonemap }),
+            look,
+        } => cmd_merge(&inputs, &output, look.look()),
         Command::Info { scene, define } => cmd_info(&scene, &define),
         Command::Compare {
             image,
@@ -459,14 +465,13 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         quiet,
         progress,
         progress_every,
-        exposure,
-        tonemap,
+        look,
         preview,
         preview_linger,
         checkpoint,
         define,
     } = args;
-    let look = Look { exposure, tonemap };
+    let look = look.look();
     if let Some(0) = spp {
         bail!("--spp must be at least 1");
     }
