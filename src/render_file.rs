@@ -174,16 +174,15 @@ pub fn normalise_ranges(
 }
 
 /// Writes a render file (atomically): `image` (the film normalised, which
-/// viewers show), the film's state and `meta` in the header.
+/// viewers show), the film's state and `m` (the metadata) in the header.
 pub fn save_render(
     path: &Path,
-    meta: &RenderMeta,
+    m: &RenderMeta,
     film: &Film,
     image: &Bitmap,
 ) -> Result<(), ImageError> {
     let data = film.data();
     let pick = |f: fn(&(Rgb, f32)) -> f32| data.iter().map(f).collect::<Vec<f32>>();
-    let m = meta;
     let params = serde_json::to_string(&m.params).unwrap_or_default();
     let mut attributes = vec![
         ("lente.version".to_string(), m.version.clone()),

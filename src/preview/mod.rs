@@ -44,8 +44,6 @@ pub struct Snapshot {
     /// Wall-clock time when the snapshot was taken.
     pub taken: Instant,
     pub image: Arc<Bitmap>,
-    /// The stops `auto` exposure gives this image.
-    pub auto_stops: f32,
 }
 
 /// How the render ended.
@@ -69,6 +67,8 @@ struct Inner {
     base: PathBuf,
     scene_name: String,
     png_cache: Mutex<Option<CachedPng>>,
+    /// The stops `auto` exposure gives the image of a pass: (pass, stops).
+    auto_cache: Mutex<Option<(u32, f32)>>,
 }
 
 /// Shared between the render (which publishes passes) and the server
@@ -102,12 +102,12 @@ impl PreviewState {
                     elapsed: Duration::ZERO,
                     taken: Instant::now(),
                     image: Arc::new(Bitmap::new(width, height)),
-                    auto_stops: 0.0,
                 }),
                 phase: Mutex::new(Phase::Rendering),
                 base: base.to_path_buf(),
                 scene_name,
                 png_cache: Mutex::new(None),
+                auto_cache: Mutex::new(None),
             }),
         }
     }
@@ -116,9 +116,7 @@ impl PreviewState {
     /// the calling thread, and swapped in under a short lock.
     pub fn publish(&self, info: &PassInfo) {
         let image = Arc::new(info.film.to_bitmap());
-        let auto_stops = Exposure::Auto.stops_for(&image);
         let mut s = lock(&self.inner.snapshot);
-        s.auto_stops = auto_stops;
         s.pass += 1;
         s.spp_done = info.spp_done;
         s.spp_total = info.spp_total;
@@ -185,7 +183,7 @@ impl PreviewState {
             "elapsed": secs,
             "samples_per_second": rate,
             "eta": eta,
-            "auto_exposure": s.auto_stops,
+            "auto_exposure": self.auto_stops(&s),
             "width": s.image.width,
             "height": s.image.height,
             "outputs": outputs,
@@ -199,7 +197,7 @@ impl PreviewState {
     /// viewers cost one encode.
     pub fn png(&self, look: Look) -> Result<(u32, Arc<Vec<u8>>), Malformed> {
         let s = self.snapshot();
-        let stops = stops_of(look.exposure, &s);
+        let stops = self.stops_of(look.exposure, &s);
         if let Some((pass, bits, op, bytes)) = lock(&self.inner.png_cache).as_ref() {
             if *pass == s.pass && *bits == stops.to_bits() && *op == look.tonemap {
                 return Ok((s.pass, bytes.clone()));
@@ -208,6 +206,29 @@ impl PreviewState {
         let bytes = Arc::new(encode_png(&s.image, stops, look.tonemap)?);
         *lock(&self.inner.png_cache) = Some((s.pass, stops.to_bits(), look.tonemap, bytes.clone()));
         Ok((s.pass, bytes))
+    }
+
+    /// The stops `auto` exposure gives the snapshot's image: computed by
+    /// the server the first time a pass's value is asked for (not by the
+    /// render threads), then cached.
+    fn auto_stops(&self, s: &Snapshot) -> f32 {
+        let mut cache = lock(&self.inner.auto_cache);
+        match *cache {
+            Some((pass, stops)) if pass == s.pass => stops,
+            _ => {
+                let stops = Exposure::Auto.stops_for(&s.image);
+                *cache = Some((s.pass, stops));
+                stops
+            }
+        }
+    }
+
+    /// The stops `exposure` means for the snapshot's image (clamped).
+    fn stops_of(&self, exposure: Exposure, s: &Snapshot) -> f32 {
+        match exposure {
+            Exposure::Stops(x) => clamp_exposure(x),
+            Exposure::Auto => clamp_exposure(self.auto_stops(s)),
+        }
     }
 
     /// Saves the latest image as `<base>-preview-<spp>spp.exr` (linear) and
@@ -222,8 +243,13 @@ impl PreviewState {
         let exr = with_ext(&base, "exr");
         let png = with_ext(&base, "png");
         save_image(&exr, &s.image).map_err(SaveError::Image)?;
-        save_png_tonemapped(&png, &s.image, stops_of(look.exposure, &s), look.tonemap)
-            .map_err(SaveError::Image)?;
+        save_png_tonemapped(
+            &png,
+            &s.image,
+            self.stops_of(look.exposure, &s),
+            look.tonemap,
+        )
+        .map_err(SaveError::Image)?;
         Ok(SavedPreview {
             exr,
             png,
@@ -247,14 +273,6 @@ pub enum SaveError {
     NothingYet,
     #[error("{0}")]
     Image(ImageError),
-}
-
-/// The stops `exposure` means for the snapshot's image.
-fn stops_of(exposure: Exposure, s: &Snapshot) -> f32 {
-    match exposure {
-        Exposure::Stops(x) => clamp_exposure(x),
-        Exposure::Auto => clamp_exposure(s.auto_stops),
-    }
 }
 
 fn clamp_exposure(e: f32) -> f32 {
