@@ -3,14 +3,9 @@
 //! in closed form, leave the image bit for bit unchanged, and continue and
 //! merge like the image.
 
-use crate::cli_util::{dump, run, text, write_cbox};
+use crate::cli_util::{run_fails_with, run_ok, write_cbox};
 use lente::image::{load_exr_channels, ExrChannels};
 use lente::render_file::RenderFile;
-
-fn render(args: &[&str]) {
-    let out = run(args);
-    assert!(out.status.success(), "{}", dump(&out));
-}
 
 fn at(exr: &ExrChannels, name: &str, x: usize, y: usize) -> f32 {
     exr.channel(name)
@@ -23,8 +18,8 @@ fn aovs_hold_known_values_and_leave_the_image_unchanged() {
     let scene = write_cbox(&dir, 64, 64, 8);
     let s = scene.to_str().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    render(&["render", s, "-q", "-o", &path("plain")]);
-    render(&[
+    run_ok(&["render", s, "-q", "-o", &path("plain")]);
+    run_ok(&[
         "render",
         s,
         "-q",
@@ -81,11 +76,9 @@ fn aovs_hold_known_values_and_leave_the_image_unchanged() {
     // Mitsuba's Bitmap::split and tev group channels by prefix: no `.W`.
     assert!(aov.channels.iter().all(|(n, _)| !n.ends_with(".W")));
 
-    let bad = run(&["render", s, "-q", "--aov", "albedo,uv"]);
-    assert!(
-        text(&bad.stderr).contains("unknown AOV 'uv'"),
-        "{}",
-        dump(&bad)
+    run_fails_with(
+        &["render", s, "-q", "--aov", "albedo,uv"],
+        "unknown AOV 'uv'",
     );
 }
 
@@ -95,7 +88,7 @@ fn aovs_continue_and_merge_like_the_image() {
     let scene = write_cbox(&dir, 24, 20, 32);
     let s = scene.to_str().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    render(&[
+    run_ok(&[
         "render",
         s,
         "-q",
@@ -106,8 +99,8 @@ fn aovs_continue_and_merge_like_the_image() {
         "-o",
         &path("part"),
     ]);
-    render(&["render", "--resume", &path("part.exr"), "--spp", "32", "-q"]);
-    render(&[
+    run_ok(&["render", "--resume", &path("part.exr"), "--spp", "32", "-q"]);
+    run_ok(&[
         "render",
         s,
         "-q",
@@ -124,18 +117,20 @@ fn aovs_continue_and_merge_like_the_image() {
         "continued AOVs differ"
     );
     assert!(a.film.data() == b.film.data());
-    let out = run(&[
-        "render",
-        "--resume",
-        &path("whole.exr"),
-        "--spp",
-        "40",
-        "--aov",
-        "depth",
-    ]);
-    assert!(text(&out.stderr).contains("keeps them"), "{}", dump(&out));
+    run_fails_with(
+        &[
+            "render",
+            "--resume",
+            &path("whole.exr"),
+            "--spp",
+            "40",
+            "--aov",
+            "depth",
+        ],
+        "keeps them",
+    );
 
-    render(&[
+    run_ok(&[
         "render",
         s,
         "-q",
@@ -146,7 +141,7 @@ fn aovs_continue_and_merge_like_the_image() {
         "-o",
         &path("s1"),
     ]);
-    render(&[
+    run_ok(&[
         "merge",
         &path("whole.exr"),
         &path("s1.exr"),
@@ -155,17 +150,15 @@ fn aovs_continue_and_merge_like_the_image() {
     ]);
     let m = load_exr_channels(&dir.path().join("m.exr")).unwrap();
     assert!(m.channel("albedo.R").is_some() && m.channel("lente.film.normal.Z").is_some());
-    render(&["render", s, "-q", "--seed", "2", "-o", &path("none")]);
-    let out = run(&[
-        "merge",
-        &path("whole.exr"),
-        &path("none.exr"),
-        "-o",
-        &path("bad"),
-    ]);
-    assert!(
-        text(&out.stderr).contains("renders with the same --aov only"),
-        "{}",
-        dump(&out)
+    run_ok(&["render", s, "-q", "--seed", "2", "-o", &path("none")]);
+    run_fails_with(
+        &[
+            "merge",
+            &path("whole.exr"),
+            &path("none.exr"),
+            "-o",
+            &path("bad"),
+        ],
+        "renders with the same --aov only",
     );
 }

@@ -58,6 +58,22 @@ pub fn write_cbox(dir: &tempfile::TempDir, width: u32, height: u32, spp: u32) ->
     path
 }
 
+/// Runs `lente` with `args` to completion and checks that it succeeded.
+pub fn run_ok(args: &[&str]) -> Output {
+    let out = run(args);
+    assert!(out.status.success(), "{}", dump(&out));
+    out
+}
+
+/// Runs `lente` with `args` to completion and checks that it failed with
+/// `message` in its error output.
+pub fn run_fails_with(args: &[&str], message: &str) -> Output {
+    let out = run(args);
+    assert!(!out.status.success(), "{}", dump(&out));
+    assert!(text(&out.stderr).contains(message), "{}", dump(&out));
+    out
+}
+
 /// Runs `lente` with `args` to completion.
 pub fn run(args: &[&str]) -> Output {
     Command::new(LENTE)

@@ -5,13 +5,8 @@
 
 use std::time::Duration;
 
-use crate::cli_util::{dump, run, text, write_cbox, Running};
+use crate::cli_util::{run_fails_with, run_ok, write_cbox, Running};
 use lente::render_file::RenderFile;
-
-fn render(args: &[&str]) {
-    let out = run(args);
-    assert!(out.status.success(), "{}", dump(&out));
-}
 
 fn load(path: &std::path::Path) -> RenderFile {
     RenderFile::load(path).unwrap_or_else(|e| panic!("{e}"))
@@ -44,14 +39,14 @@ fn an_interrupted_render_continues_to_the_uninterrupted_one_bit_for_bit() {
     assert_eq!(cut.meta.spp_target, 1500);
 
     // Continued from the file alone (it names the scene), then whole.
-    render(&[
+    run_ok(&[
         "render",
         "--resume",
         part.with_extension("exr").to_str().unwrap(),
         "-q",
     ]);
     let whole = dir.path().join("whole");
-    render(&["render", s, "-q", "-o", whole.to_str().unwrap()]);
+    run_ok(&["render", s, "-q", "-o", whole.to_str().unwrap()]);
     let (a, b) = (
         load(&part.with_extension("exr")),
         load(&whole.with_extension("exr")),
@@ -63,61 +58,52 @@ fn an_interrupted_render_continues_to_the_uninterrupted_one_bit_for_bit() {
     assert!(a.meta.render_seconds > cut.meta.render_seconds);
 
     // A finished render goes further with --spp, and no further without.
-    let out = run(&[
-        "render",
-        "--resume",
-        whole.with_extension("exr").to_str().unwrap(),
-        "-q",
-    ]);
-    assert!(!out.status.success());
-    assert!(
-        text(&out.stderr).contains("already holds samples up to 1500"),
-        "{}",
-        dump(&out)
+    run_fails_with(
+        &[
+            "render",
+            "--resume",
+            whole.with_extension("exr").to_str().unwrap(),
+            "-q",
+        ],
+        "already holds samples up to 1500",
     );
     // Another seed or size is refused: a continued render keeps both.
-    let out = run(&[
-        "render",
-        "--resume",
-        whole.with_extension("exr").to_str().unwrap(),
-        "--spp",
-        "1600",
-        "--seed",
-        "4",
-    ]);
-    assert!(
-        text(&out.stderr).contains("rendered with seed 0, not 4"),
-        "{}",
-        dump(&out)
+    run_fails_with(
+        &[
+            "render",
+            "--resume",
+            whole.with_extension("exr").to_str().unwrap(),
+            "--spp",
+            "1600",
+            "--seed",
+            "4",
+        ],
+        "rendered with seed 0, not 4",
     );
-    let out = run(&[
-        "render",
-        "--resume",
-        whole.with_extension("exr").to_str().unwrap(),
-        "--spp",
-        "1600",
-        "--resolution",
-        "8x8",
-    ]);
-    assert!(
-        text(&out.stderr).contains("keeps its size"),
-        "{}",
-        dump(&out)
+    run_fails_with(
+        &[
+            "render",
+            "--resume",
+            whole.with_extension("exr").to_str().unwrap(),
+            "--spp",
+            "1600",
+            "--resolution",
+            "8x8",
+        ],
+        "keeps its size",
     );
     // An edited scene is refused.
     let xml = std::fs::read_to_string(&scene).unwrap();
     std::fs::write(&scene, xml.replace("0.725", "0.5")).unwrap();
-    let out = run(&[
-        "render",
-        "--resume",
-        whole.with_extension("exr").to_str().unwrap(),
-        "--spp",
-        "1600",
-    ]);
-    assert!(
-        text(&out.stderr).contains("changed since"),
-        "{}",
-        dump(&out)
+    run_fails_with(
+        &[
+            "render",
+            "--resume",
+            whole.with_extension("exr").to_str().unwrap(),
+            "--spp",
+            "1600",
+        ],
+        "changed since",
     );
 }
 
@@ -127,10 +113,10 @@ fn slices_and_seeds_merge_and_mismatches_are_refused() {
     let scene = write_cbox(&dir, 20, 16, 64);
     let s = scene.to_str().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    render(&["render", s, "-q", "--samples", "0..24", "-o", &path("a")]);
-    render(&["render", s, "-q", "--samples", "24..64", "-o", &path("b")]);
-    render(&["render", s, "-q", "-o", &path("whole")]);
-    render(&["merge", &path("b.exr"), &path("a.exr"), "-o", &path("m")]);
+    run_ok(&["render", s, "-q", "--samples", "0..24", "-o", &path("a")]);
+    run_ok(&["render", s, "-q", "--samples", "24..64", "-o", &path("b")]);
+    run_ok(&["render", s, "-q", "-o", &path("whole")]);
+    run_ok(&["merge", &path("b.exr"), &path("a.exr"), "-o", &path("m")]);
     let (m, whole) = (
         load(&dir.path().join("m.exr")),
         load(&dir.path().join("whole.exr")),
@@ -152,8 +138,8 @@ fn slices_and_seeds_merge_and_mismatches_are_refused() {
     );
 
     // Two seeds: 128 spp; the same samples twice: refused.
-    render(&["render", s, "-q", "--seed", "1", "-o", &path("s1")]);
-    render(&[
+    run_ok(&["render", s, "-q", "--seed", "1", "-o", &path("s1")]);
+    run_ok(&[
         "merge",
         &path("whole.exr"),
         &path("s1.exr"),
@@ -161,20 +147,18 @@ fn slices_and_seeds_merge_and_mismatches_are_refused() {
         &path("two"),
     ]);
     assert_eq!(load(&dir.path().join("two.exr")).meta.spp(), 128);
-    let out = run(&[
-        "merge",
-        &path("whole.exr"),
-        &path("a.exr"),
-        "-o",
-        &path("bad"),
-    ]);
-    assert!(
-        text(&out.stderr).contains("the same samples (seed 0: 0..24 and 0..64)"),
-        "{}",
-        dump(&out)
+    run_fails_with(
+        &[
+            "merge",
+            &path("whole.exr"),
+            &path("a.exr"),
+            "-o",
+            &path("bad"),
+        ],
+        "the same samples (seed 0: 0..24 and 0..64)",
     );
     // Another size, another scene, not a render file.
-    render(&[
+    run_ok(&[
         "render",
         s,
         "-q",
@@ -185,15 +169,17 @@ fn slices_and_seeds_merge_and_mismatches_are_refused() {
         "-o",
         &path("small"),
     ]);
-    let out = run(&[
-        "merge",
-        &path("whole.exr"),
-        &path("small.exr"),
-        "-o",
-        &path("bad"),
-    ]);
-    assert!(text(&out.stderr).contains("is 20x16 but"), "{}", dump(&out));
-    render(&[
+    run_fails_with(
+        &[
+            "merge",
+            &path("whole.exr"),
+            &path("small.exr"),
+            "-o",
+            &path("bad"),
+        ],
+        "is 20x16 but",
+    );
+    run_ok(&[
         "render",
         s,
         "-q",
@@ -204,30 +190,26 @@ fn slices_and_seeds_merge_and_mismatches_are_refused() {
         "-o",
         &path("other"),
     ]);
-    let out = run(&[
-        "merge",
-        &path("whole.exr"),
-        &path("other.exr"),
-        "-o",
-        &path("bad"),
-    ]);
-    assert!(
-        text(&out.stderr).contains("renders of different scenes"),
-        "{}",
-        dump(&out)
+    run_fails_with(
+        &[
+            "merge",
+            &path("whole.exr"),
+            &path("other.exr"),
+            "-o",
+            &path("bad"),
+        ],
+        "renders of different scenes",
     );
-    render(&["convert", &path("whole.exr"), &path("plain.exr")]);
-    let out = run(&[
-        "merge",
-        &path("whole.exr"),
-        &path("plain.exr"),
-        "-o",
-        &path("bad"),
-    ]);
-    assert!(
-        text(&out.stderr).contains("plain.exr: not a lente render file"),
-        "{}",
-        dump(&out)
+    run_ok(&["convert", &path("whole.exr"), &path("plain.exr")]);
+    run_fails_with(
+        &[
+            "merge",
+            &path("whole.exr"),
+            &path("plain.exr"),
+            "-o",
+            &path("bad"),
+        ],
+        "plain.exr: not a lente render file",
     );
     assert!(!dir.path().join("bad.exr").exists());
 }
