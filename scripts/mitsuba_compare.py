@@ -82,8 +82,13 @@ def build_lente(rev):
 
 
 def image_values(mi, path):
-    """Linear RGB floats of an image file, row-major."""
-    bmp = mi.Bitmap(path).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, False)
+    """Linear RGB floats of an image file, row-major. lente's render files
+    hold more channels than R, G, B (the film state, AOVs): the image is
+    their root layer."""
+    bmp = mi.Bitmap(path)
+    if bmp.channel_count() > 4:
+        bmp = dict(bmp.split())["<root>"]
+    bmp = bmp.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, False)
     return list(mi.TensorXf(bmp).array)
 
 
