@@ -6,7 +6,8 @@
 #     bash scripts/gallery.sh [NAME...]      # all, or e.g. cbox dof
 #
 # LENTE picks the binary (default: target/release/lente, built if missing);
-# GALLERY_OUT the folder (default docs/images). The EXRs land beside the
+# GALLERY_OUT the folder (default docs/images). dof-denoised needs Open
+# Image Denoise (pip install pyoidn, or LENTE_OIDN_LIB). The EXRs land beside the
 # PNGs and are not kept in git. Times on 2 cores: the small ones a few
 # seconds to a minute each; the gallery-size showcases (1600x1200, 1024 spp) about 6 minutes each.
 set -euo pipefail
@@ -29,6 +30,8 @@ gallery() {
     cbox) render "$1" scenes/cbox/cbox.xml ;;
     dof) render "$1" scenes/dof/dof.xml --spp 256 ;;
     dof-pinhole) render "$1" scenes/dof/dof-pinhole.xml --spp 256 ;;
+    dof-denoised) render "$1" scenes/dof/dof.xml --spp 16 --denoise ;;
+    dof-16spp) render "$1" scenes/dof/dof.xml --spp 16 ;;
     envmap-mats) render "$1" scenes/envmap/envmap-mats.xml --spp 112 ;;
     envmap-mis) render "$1" scenes/envmap/envmap.xml --spp 64 ;;
     showcase-mirror) render "$1" scenes/showcase/showcase-mirror.xml --resolution 1600x1200 --spp 1024 ;;
@@ -40,7 +43,7 @@ gallery() {
     esac
 }
 
-ALL=(showcase-mirror-preview cbox dof dof-pinhole envmap-mats envmap-mis showcase-mirror showcase-glass)
+ALL=(showcase-mirror-preview cbox dof dof-pinhole dof-denoised dof-16spp envmap-mats envmap-mis showcase-mirror showcase-glass)
 for name in "${@:-${ALL[@]}}"; do
     gallery "$name"
 done

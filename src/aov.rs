@@ -85,6 +85,11 @@ impl AovList {
         AovList(Aov::ALL.into_iter().filter(|a| aovs.contains(a)).collect())
     }
 
+    /// This list with `more` added.
+    pub fn with(&self, more: &[Aov]) -> AovList {
+        AovList::new(&[&self.0[..], more].concat())
+    }
+
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }

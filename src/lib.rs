@@ -7,6 +7,7 @@ pub mod bench;
 pub mod bsdf;
 pub mod camera;
 pub mod color;
+pub mod denoise;
 pub mod emitter;
 pub mod fuzz;
 pub mod geometry;

@@ -11,9 +11,10 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use std::io::IsTerminal;
 
-use lente::aov::AovList;
+use lente::aov::{Aov, AovList};
+use lente::denoise::{denoise_film, Denoiser};
 use lente::image::io::save_image;
-use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Tonemap};
+use lente::image::{compare, difference_image, load_image, tonemap, Bitmap, Filter, Tonemap};
 use lente::image::{prepare_output, Exposure, Look, MAX_EXPOSURE_STOPS};
 use lente::load::{load_scene_with, SceneFile};
 use lente::preview::{Checkpointer, PreviewServer, PreviewState};
@@ -47,6 +48,10 @@ enum Command {
         /// dropped).
         #[arg(short, long)]
         output: PathBuf,
+        /// Denoise the merged image with Intel Open Image Denoise, guided
+        /// by the files' albedo and normal AOVs where they have them.
+        #[arg(long)]
+        denoise: bool,
         #[command(flatten)]
         look: LookArgs,
     },
@@ -187,6 +192,14 @@ struct RenderArgs {
     /// first non-specular hit, as denoisers want them), depth, position.
     #[arg(long, value_name = "LIST")]
     aov: Option<AovList>,
+    /// Denoise the image with Intel Open Image Denoise (`pip install
+    /// pyoidn`, or LENTE_OIDN_LIB=path/to/libOpenImageDenoise), guided by
+    /// the albedo and normal AOVs (added to --aov). The EXR's root layer
+    /// and the PNG are denoised; the EXR keeps the noisy image in its
+    /// `noisy` layer and the film state, so it can still be continued and
+    /// merged.
+    #[arg(long)]
+    denoise: bool,
     /// Image size as WxH (overrides the scene's camera).
     #[arg(long, value_parser = parse_resolution)]
     resolution: Option<(u32, u32)>,
@@ -324,8 +337,9 @@ fn main() -> ExitCode {
         Command::Merge {
             inputs,
             output,
+            denoise,
             look,
-        } => cmd_merge(&inputs, &output, look.look()),
+        } => cmd_merge(&inputs, &output, denoise, look.look()),
         Command::Info { scene, define } => cmd_info(&scene, &define),
         Command::Compare {
             image,
@@ -459,6 +473,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         spp,
         samples,
         aov,
+        denoise,
         resolution,
         threads,
         seed,
@@ -478,6 +493,8 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if let Some(0) = threads {
         bail!("--threads must be at least 1");
     }
+    // Before hours of rendering, not after.
+    let denoiser = denoise.then(Denoiser::load).transpose()?;
     let resumed = match resume {
         Some(path) => {
             let file = RenderFile::load(&path)?;
@@ -509,6 +526,11 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     // Samples first..spp are rendered with `seed`, on top of `film`.
     let seed_arg = seed;
     let mut aovs = aov.clone().unwrap_or_default();
+    // Denoisers need uncorrelated pixel noise: a one-pixel box filter.
+    let mut box_filter = denoise && resumed.is_none();
+    if denoise && resumed.is_none() {
+        aovs = aovs.with(&[Aov::Albedo, Aov::Normal]);
+    }
     let (mut seed, mut first, mut range_start, mut film, mut prior_seconds) =
         (seed.unwrap_or(0), 0, 0, None, 0.0);
     if let Some(Resumed { path, file }) = &resumed {
@@ -572,6 +594,13 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             );
         }
         aovs = m.aovs.clone();
+        box_filter = m.box_filter;
+        if denoise && !aovs.aovs().contains(&Aov::Albedo) {
+            eprintln!(
+                "warning: {} has no albedo and normal AOVs: denoising the colour alone",
+                path.display()
+            );
+        }
         film = Some(file.film.clone());
         prior_seconds = m.render_seconds;
     }
@@ -603,7 +632,19 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         render_seconds: prior_seconds,
         version: lente::render_file::VERSION.to_string(),
         aovs: aovs.clone(),
+        denoiser: None,
+        box_filter,
     };
+    if box_filter && job.filter != (Filter::Box { radius: 0.5 }) {
+        if !quiet {
+            eprintln!(
+                "note: --denoise renders with a one-pixel box filter instead of the scene's \
+                 {} filter (denoisers need pixels whose noise is independent)",
+                job.filter
+            );
+        }
+        job.filter = Filter::Box { radius: 0.5 };
+    }
     let scene = Scene::new(desc)?;
     let output = output.or_else(|| resumed.as_ref().map(|r| r.path.clone()));
     let base = output_base(&scene_path, output);
@@ -708,13 +749,23 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let out = pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass));
 
     let secs = out.elapsed.as_secs_f64();
-    let written = meta.progressed(out.spp, secs);
-    save_render(&exr, &written, &out.film, &out.image)?;
-    look.save_png(&png, &out.image)?;
+    let mut written = meta.progressed(out.spp, secs);
+    let (image, denoise_error) = match &denoiser {
+        Some(d) => match denoise_film(d, &out.film, &opts.aovs, Some(threads)) {
+            Ok((image, description)) => {
+                written.denoiser = Some(description);
+                (image, None)
+            }
+            Err(e) => (out.image.clone(), Some(e)),
+        },
+        None => (out.image.clone(), None),
+    };
+    save_render(&exr, &written, &out.film, &image)?;
+    look.save_png(&png, &image)?;
     let auto_note = match look.exposure {
         Exposure::Auto => format!(
             " (exposure auto: {:+.2} stops)",
-            look.exposure.stops_for(&out.image)
+            look.exposure.stops_for(&image)
         ),
         Exposure::Stops(_) => String::new(),
     };
@@ -738,6 +789,12 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         out.samples as f64 / secs.max(1e-9) / 1e6,
     );
     println!("wrote {} and {}{auto_note}", exr.display(), png.display());
+    if let Some(d) = &written.denoiser {
+        println!("denoised: {d}");
+    }
+    if let Some(e) = denoise_error {
+        bail!("{e} (the outputs hold the noisy image)");
+    }
 
     if let Some((state, server)) = preview {
         // From here on Ctrl-C ends the lingering, not the render.
@@ -762,17 +819,25 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-fn cmd_merge(inputs: &[PathBuf], output: &Path, look: Look) -> Result<()> {
+fn cmd_merge(inputs: &[PathBuf], output: &Path, denoise: bool, look: Look) -> Result<()> {
+    let denoiser = denoise.then(Denoiser::load).transpose()?;
     let mut files = Vec::with_capacity(inputs.len());
     for path in inputs {
         files.push((path.as_path(), RenderFile::load(path)?));
     }
-    let merged = RenderFile::merge(&files).map_err(anyhow::Error::msg)?;
+    let mut merged = RenderFile::merge(&files).map_err(anyhow::Error::msg)?;
     let base = output_base(Path::new("merged"), Some(output.to_path_buf()));
     let (exr, png) = (with_ext(&base, "exr"), with_ext(&base, "png"));
     prepare_output(&exr)?;
     prepare_output(&png)?;
-    let image = merged.image();
+    let image = match &denoiser {
+        Some(d) => {
+            let (image, description) = denoise_film(d, &merged.film, &merged.meta.aovs, None)?;
+            merged.meta.denoiser = Some(description);
+            image
+        }
+        None => merged.image(),
+    };
     merged.save(&exr, &image)?;
     look.save_png(&png, &image)?;
     println!(
@@ -784,6 +849,9 @@ fn cmd_merge(inputs: &[PathBuf], output: &Path, look: Look) -> Result<()> {
         merged.meta.render_seconds
     );
     println!("wrote {} and {}", exr.display(), png.display());
+    if let Some(d) = &merged.meta.denoiser {
+        println!("denoised: {d}");
+    }
     Ok(())
 }
 

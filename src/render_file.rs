@@ -70,6 +70,15 @@ pub struct RenderMeta {
     pub version: String,
     /// The output variables beside the image (`lente.aovs`).
     pub aovs: AovList,
+    /// The denoiser that made the image (`lente.denoiser`), if any: the
+    /// root layer is then denoised and `noisy.R/G/B` holds the film's
+    /// image. The film state is never denoised.
+    pub denoiser: Option<String>,
+    /// The scene's reconstruction filter was replaced by a one-pixel box
+    /// (`lente.filter = box`), as `--denoise` does: a wider filter
+    /// correlates neighbouring pixels' noise, which denoisers cannot
+    /// remove. A continued render keeps it; merged renders agree on it.
+    pub box_filter: bool,
 }
 
 impl RenderMeta {
@@ -203,6 +212,12 @@ pub fn save_render(
     if !m.aovs.is_empty() {
         attributes.push(("lente.aovs".to_string(), m.aovs.to_string()));
     }
+    if m.box_filter {
+        attributes.push(("lente.filter".to_string(), "box".to_string()));
+    }
+    if let Some(d) = &m.denoiser {
+        attributes.push(("lente.denoiser".to_string(), d.clone()));
+    }
     let mut channels = ExrChannels {
         width: film.width,
         height: film.height,
@@ -217,6 +232,13 @@ pub fn save_render(
         ],
         attributes,
     };
+    if m.denoiser.is_some() {
+        let noisy = film.to_bitmap();
+        for (c, name) in ["noisy.R", "noisy.G", "noisy.B"].into_iter().enumerate() {
+            let values = noisy.pixels.iter().map(|p| p[c]).collect();
+            channels.channels.push((name.into(), values));
+        }
+    }
     // AOVs: normalised as viewers and denoisers read them, and their sums.
     let names = m.aovs.channel_names();
     if names.len() == film.aov_channels() {
@@ -297,6 +319,12 @@ impl RenderFile {
             aovs: match exr.attribute("lente.aovs") {
                 Some(list) => list.parse().map_err(|_| bad("lente.aovs", list))?,
                 None => AovList::default(),
+            },
+            denoiser: exr.attribute("lente.denoiser").map(str::to_string),
+            box_filter: match exr.attribute("lente.filter") {
+                None => false,
+                Some("box") => true,
+                Some(other) => return Err(bad("lente.filter", other)),
             },
         };
         let [r, g, b, w] = FILM_CHANNELS.map(|c| exr.channel(c).unwrap_or_default());
@@ -382,6 +410,22 @@ impl RenderFile {
                     n.aovs
                 ));
             }
+            if m.box_filter != n.box_filter {
+                let with = |b: bool| {
+                    if b {
+                        "a box filter (--denoise)"
+                    } else {
+                        "the scene's filter"
+                    }
+                };
+                return Err(format!(
+                    "{} was rendered with {} but {} with {}: their pixels do not add up",
+                    first_path.display(),
+                    with(m.box_filter),
+                    path.display(),
+                    with(n.box_filter)
+                ));
+            }
             merged.film.add(&f.film);
             merged.meta.render_seconds += f.meta.render_seconds;
             ranges.extend(f.meta.ranges.iter().copied());
@@ -396,6 +440,7 @@ impl RenderFile {
         })?;
         merged.meta.spp_target = merged.meta.spp();
         merged.meta.version = VERSION.to_string();
+        merged.meta.denoiser = None;
         Ok(merged)
     }
 }
@@ -418,6 +463,8 @@ mod tests {
                 render_seconds: 1.5,
                 version: VERSION.into(),
                 aovs: AovList::default(),
+                denoiser: None,
+                box_filter: false,
             },
             film: Film::from_data(3, 2, data).unwrap(),
         }
@@ -435,6 +482,28 @@ mod tests {
         // What other readers see is the image.
         let (image, _) = crate::image::load_image(&path).unwrap();
         assert_eq!(image, f.image());
+    }
+
+    #[test]
+    fn a_denoised_render_file_keeps_its_noisy_image_and_filter() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.exr");
+        let mut f = file(7, 0, 16, 0.1);
+        f.meta.box_filter = true;
+        f.meta.denoiser = Some("test denoiser".into());
+        let mut denoised = f.image();
+        denoised.pixels.iter_mut().for_each(|p| *p *= 0.5);
+        f.save(&path, &denoised).unwrap();
+        let back = RenderFile::load(&path).unwrap();
+        assert_eq!(back.meta, f.meta);
+        assert_eq!(back.film.data(), f.film.data());
+        let exr = load_exr_channels(&path).unwrap();
+        assert_eq!(exr.channel("R").unwrap()[2], denoised.pixels[2].x);
+        assert_eq!(exr.channel("noisy.R").unwrap()[2], f.image().pixels[2].x);
+        // A box-filtered render does not merge with one of another filter.
+        let other = file(8, 0, 16, 0.1);
+        let err = RenderFile::merge(&[(Path::new("a"), back), (Path::new("b"), other)]);
+        assert!(err.unwrap_err().contains("box filter"));
     }
 
     #[test]

@@ -31,6 +31,22 @@ impl Default for Filter {
     }
 }
 
+impl std::fmt::Display for Filter {
+    /// As a scene file names it: `gaussian (radius 2, stddev 0.5)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match *self {
+            Filter::Gaussian { radius, stddev } => {
+                write!(f, "gaussian (radius {radius}, stddev {stddev})")
+            }
+            Filter::Box { radius } => write!(f, "box (radius {radius})"),
+            Filter::Tent { radius } => write!(f, "tent (radius {radius})"),
+            Filter::Mitchell { radius, b, c } => {
+                write!(f, "mitchell (radius {radius}, B {b}, C {c})")
+            }
+        }
+    }
+}
+
 /// Widest filter accepted, in pixels (each tile's film block keeps a
 /// border this wide).
 pub const MAX_FILTER_RADIUS: f32 = 32.0;

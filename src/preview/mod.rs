@@ -383,6 +383,8 @@ mod tests {
             render_seconds: 0.0,
             version: crate::render_file::VERSION.into(),
             aovs: Default::default(),
+            denoiser: None,
+            box_filter: false,
         }
     }
 
