@@ -23,5 +23,6 @@ pub mod render_file;
 pub mod sampling;
 pub mod scene;
 pub mod stats;
+pub mod tev;
 pub mod texture;
 pub mod verify;

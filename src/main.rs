@@ -22,6 +22,7 @@ use lente::progress::ProgressMode;
 use lente::render::{render_with_passes, PassInfo, RenderOptions};
 use lente::render_file::{save_render, scene_digest, RenderFile, RenderMeta, SampleRange};
 use lente::scene::Scene;
+use lente::tev::TevStream;
 
 #[derive(Parser)]
 #[command(
@@ -227,6 +228,12 @@ struct RenderArgs {
     /// file or write --preview=PORT.
     #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "8642")]
     preview: Option<u16>,
+    /// Stream the image pass by pass to a running tev viewer at
+    /// [HOST:]PORT (default 127.0.0.1:14158, tev's own), over tev's TCP
+    /// protocol as pbrt-v4's --display-server does. Rendering never waits
+    /// for tev; it connects whenever tev listens.
+    #[arg(long, value_name = "[HOST:]PORT", num_args = 0..=1, default_missing_value = "14158", value_parser = lente::tev::parse_address)]
+    tev: Option<String>,
     /// With --preview: keep serving the final image this many seconds
     /// after the outputs are written (Ctrl-C ends it early).
     #[arg(long, value_name = "SECONDS", requires = "preview", value_parser = parse_seconds)]
@@ -482,6 +489,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         progress_every,
         look,
         preview,
+        tev,
         preview_linger,
         checkpoint,
         define,
@@ -666,6 +674,10 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         }
         None => None,
     };
+    let tev = tev.map(|address| {
+        let name = exr.file_name().unwrap_or_default().to_string_lossy();
+        TevStream::start(&address, &name, width as usize, height as usize)
+    });
     let mut checkpointer =
         checkpoint.map(|every| Checkpointer::new(every, &base, look, meta.clone()));
 
@@ -731,6 +743,9 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         if let Some((state, _)) = &preview {
             state.publish(info);
         }
+        if let Some(tev) = &tev {
+            tev.publish(Arc::new(info.film.to_bitmap()));
+        }
         if let Some(c) = checkpointer.as_mut() {
             match c.after_pass(info) {
                 Ok(Some(spp)) if !quiet => {
@@ -762,6 +777,11 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     };
     save_render(&exr, &written, &out.film, &image)?;
     look.save_png(&png, &image)?;
+    if let Some(tev) = tev {
+        if !tev.finish(Arc::new(image.clone()), Duration::from_secs(5)) {
+            eprintln!("warning: tev did not take the final image within 5 s");
+        }
+    }
     let auto_note = match look.exposure {
         Exposure::Auto => format!(
             " (exposure auto: {:+.2} stops)",

@@ -42,6 +42,7 @@ mod resume_merge;
 mod scene_errors;
 mod shading_frames;
 mod spectra;
+mod tev_stream;
 mod textures;
 mod thin_lens;
 mod warps;
