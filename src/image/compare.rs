@@ -1,8 +1,9 @@
 //! Image comparison: error metrics against a reference and a false-colour
 //! map of where two images differ.
 
+use super::false_colour::false_colour;
 use super::Bitmap;
-use crate::color::{luminance, Rgb};
+use crate::color::luminance;
 
 /// Error of an image against a reference, over all pixels and channels.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,21 +69,6 @@ pub fn compare(a: &Bitmap, b: &Bitmap) -> Result<Comparison, CompareError> {
     })
 }
 
-/// False colour for t in [0, 1]: blue, cyan, green, yellow, red.
-fn false_colour(t: f32) -> Rgb {
-    const STOPS: [Rgb; 5] = [
-        Rgb::new(0.0, 0.0, 1.0),
-        Rgb::new(0.0, 1.0, 1.0),
-        Rgb::new(0.0, 1.0, 0.0),
-        Rgb::new(1.0, 1.0, 0.0),
-        Rgb::new(1.0, 0.0, 0.0),
-    ];
-    let t = if t.is_nan() { 1.0 } else { t.clamp(0.0, 1.0) };
-    let s = t * (STOPS.len() - 1) as f32;
-    let i = (s as usize).min(STOPS.len() - 2);
-    STOPS[i].lerp(STOPS[i + 1], s - i as f32)
-}
-
 /// A false-colour map of the per-pixel absolute luminance error |L(a) -
 /// L(b)|, normalised by its maximum: blue is no error, red the largest (an
 /// identical pair is all blue; non-finite errors show red). Values are in
@@ -126,6 +112,7 @@ pub fn difference_image(a: &Bitmap, b: &Bitmap) -> Bitmap {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::color::Rgb;
 
     fn filled(w: usize, h: usize, c: Rgb) -> Bitmap {
         Bitmap {

@@ -3,6 +3,7 @@
 
 mod bitmap;
 pub mod compare;
+pub mod false_colour;
 mod film;
 mod filter;
 pub mod io;

@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
+use crate::image::false_colour::exposure_zones;
 use crate::image::io::Malformed;
 use crate::image::{
     save_image, save_png_tonemapped, tonemap, Bitmap, Exposure, ImageError, Look, Tonemap,
@@ -57,8 +58,18 @@ pub enum Phase {
     },
 }
 
-/// The last encoded PNG: (pass, exposure bits, tone map, bytes).
-type CachedPng = (u32, u32, Tonemap, Arc<Vec<u8>>);
+/// How the page shows the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// Exposed and tone mapped (what the PNG output holds).
+    Image,
+    /// The exposed luminance in stops from middle grey, in false colour
+    /// ([`crate::image::false_colour::exposure_zones`]).
+    FalseColour,
+}
+
+/// The last encoded PNG: (pass, exposure bits, tone map, view, bytes).
+type CachedPng = (u32, u32, Tonemap, View, Arc<Vec<u8>>);
 
 struct Inner {
     snapshot: Mutex<Snapshot>,
@@ -195,17 +206,39 @@ impl PreviewState {
     /// clamped to +-[`MAX_EXPOSURE`]; `auto` as the render's `--exposure
     /// auto`), and its pass number. The last encoding is cached, so several
     /// viewers cost one encode.
-    pub fn png(&self, look: Look) -> Result<(u32, Arc<Vec<u8>>), Malformed> {
+    pub fn png(&self, look: Look, view: View) -> Result<(u32, Arc<Vec<u8>>), Malformed> {
         let s = self.snapshot();
         let stops = self.stops_of(look.exposure, &s);
-        if let Some((pass, bits, op, bytes)) = lock(&self.inner.png_cache).as_ref() {
-            if *pass == s.pass && *bits == stops.to_bits() && *op == look.tonemap {
+        if let Some((pass, bits, op, v, bytes)) = lock(&self.inner.png_cache).as_ref() {
+            if *pass == s.pass && *bits == stops.to_bits() && *op == look.tonemap && *v == view {
                 return Ok((s.pass, bytes.clone()));
             }
         }
-        let bytes = Arc::new(encode_png(&s.image, stops, look.tonemap)?);
-        *lock(&self.inner.png_cache) = Some((s.pass, stops.to_bits(), look.tonemap, bytes.clone()));
+        let bytes = Arc::new(match view {
+            View::Image => encode_png(&s.image, stops, look.tonemap)?,
+            View::FalseColour => {
+                // The scale's colours are display values (the page's legend
+                // draws them as CSS colours): undo the PNG's sRGB encoding.
+                let mut zones = exposure_zones(&s.image, clamp_exposure(stops));
+                for p in &mut zones.pixels {
+                    *p = p.map(crate::color::srgb_decode);
+                }
+                crate::image::io::png::encode_scaled(&zones, 1.0, true)?
+            }
+        });
+        *lock(&self.inner.png_cache) =
+            Some((s.pass, stops.to_bits(), look.tonemap, view, bytes.clone()));
         Ok((s.pass, bytes))
+    }
+
+    /// The linear value of pixel (x, y) of the latest pass, or `None`
+    /// outside the image.
+    pub fn pixel(&self, x: usize, y: usize) -> Option<(u32, crate::color::Rgb)> {
+        let s = self.snapshot();
+        (x < s.image.width
+            && y < s.image.height
+            && s.image.pixels.len() == s.image.width * s.image.height)
+            .then(|| (s.pass, s.image.get(x, y)))
     }
 
     /// The stops `auto` exposure gives the snapshot's image: computed by
@@ -448,14 +481,25 @@ mod tests {
 
         let state = PreviewState::new(3, 2, 8, Path::new("x"));
         let look = |exposure, tonemap| Look { exposure, tonemap };
-        let (pass, p1) = state.png(look(Exposure::Stops(1.0), clamp)).unwrap();
+        let (pass, p1) = state
+            .png(look(Exposure::Stops(1.0), clamp), View::Image)
+            .unwrap();
         assert_eq!(pass, 0);
-        let (_, p2) = state.png(look(Exposure::Stops(1.0), clamp)).unwrap();
+        let (_, p2) = state
+            .png(look(Exposure::Stops(1.0), clamp), View::Image)
+            .unwrap();
         assert!(Arc::ptr_eq(&p1, &p2));
         let (_, p3) = state
-            .png(look(Exposure::Stops(1.0), Tonemap::Filmic))
+            .png(look(Exposure::Stops(1.0), Tonemap::Filmic), View::Image)
             .unwrap();
         assert!(!Arc::ptr_eq(&p1, &p3));
+        let (_, p4) = state
+            .png(
+                look(Exposure::Stops(1.0), Tonemap::Filmic),
+                View::FalseColour,
+            )
+            .unwrap();
+        assert!(!Arc::ptr_eq(&p3, &p4), "the view is part of the cache key");
         // auto: the stops the render's --exposure auto would take.
         let mut film = Film::new(3, 2);
         let mut block =
@@ -470,8 +514,10 @@ mod tests {
             (j["auto_exposure"].as_f64().unwrap() - expected as f64).abs() < 1e-6,
             "{j}"
         );
-        let (_, auto) = state.png(look(Exposure::Auto, clamp)).unwrap();
-        let (_, fixed) = state.png(look(Exposure::Stops(expected), clamp)).unwrap();
+        let (_, auto) = state.png(look(Exposure::Auto, clamp), View::Image).unwrap();
+        let (_, fixed) = state
+            .png(look(Exposure::Stops(expected), clamp), View::Image)
+            .unwrap();
         assert_eq!(auto, fixed);
     }
 

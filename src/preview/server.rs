@@ -27,7 +27,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use super::http::{read_request, ReadError, Request, Response};
-use super::{PreviewState, SaveError};
+use super::{PreviewState, SaveError, View};
 use crate::image::{Exposure, Look, Tonemap};
 
 /// The port used when `--preview` is given without one.
@@ -289,10 +289,42 @@ pub(super) fn route(req: &Request, state: &PreviewState, port: u16) -> Response 
                 Ok(l) => l,
                 Err(r) => return r,
             };
-            match state.png(look) {
+            let view = match req.param("view") {
+                None | Some("image") => View::Image,
+                Some("false") => View::FalseColour,
+                Some(v) => {
+                    return Response::text(400, &format!("bad view '{v}': expected image or false"))
+                }
+            };
+            match state.png(look, view) {
                 Ok((pass, bytes)) => Response::new(200, "image/png", bytes.as_slice())
                     .with_header("X-Lente-Pass", pass.to_string()),
                 Err(e) => Response::text(500, &e.to_string()),
+            }
+        }
+        "/pixel" => {
+            if !get {
+                return wrong_method("GET, HEAD");
+            }
+            let coord = |name: &str| req.param(name).and_then(|v| v.trim().parse::<usize>().ok());
+            let (Some(x), Some(y)) = (coord("x"), coord("y")) else {
+                return Response::text(400, "expected /pixel?x=X&y=Y (whole pixel coordinates)");
+            };
+            match state.pixel(x, y) {
+                Some((pass, c)) => Response::json(
+                    200,
+                    serde_json::json!({
+                        "x": x,
+                        "y": y,
+                        "pass": pass,
+                        "r": c.x,
+                        "g": c.y,
+                        "b": c.z,
+                        "luminance": crate::color::luminance(c),
+                    })
+                    .to_string(),
+                ),
+                None => Response::text(404, &format!("no pixel ({x}, {y}) in the image")),
             }
         }
         "/save" => {
@@ -392,6 +424,19 @@ mod tests {
                 p,
             );
             assert_eq!(r.status, 400, "{bad}");
+        }
+        let r = route(&req("GET /image.png?view=false HTTP/1.1"), &state, p);
+        assert_eq!((r.status, r.content_type), (200, "image/png"));
+        let r = route(&req("GET /image.png?view=x HTTP/1.1"), &state, p);
+        assert_eq!(r.status, 400);
+        let r = route(&req("GET /pixel?x=1&y=0 HTTP/1.1"), &state, p);
+        assert_eq!(r.status, 200);
+        let v: serde_json::Value = serde_json::from_slice(&r.body).unwrap();
+        assert_eq!((v["x"].as_u64(), v["y"].as_u64()), (Some(1), Some(0)));
+        assert_eq!(v["r"].as_f64(), Some(0.0));
+        for bad in ["x=2&y=0", "x=0&y=2", "x=-1&y=0", "y=0", "x=a&y=1"] {
+            let r = route(&req(&format!("GET /pixel?{bad} HTTP/1.1")), &state, p);
+            assert!(r.status == 400 || r.status == 404, "{bad}: {}", r.status);
         }
         assert_eq!(route(&req("GET /nope HTTP/1.1"), &state, p).status, 404);
         assert_eq!(route(&req("GET /save HTTP/1.1"), &state, p).status, 405);

@@ -267,7 +267,8 @@ impl Cdp {
 const PROBE: &str = r#"(() => {
   const img = document.getElementById("view");
   const out = { src: img.src, pass: Number(img.dataset.pass), w: img.naturalWidth,
-                h: img.naturalHeight, hash: 0, sum: 0,
+                h: img.naturalHeight, shown_w: img.getBoundingClientRect().width,
+                hash: 0, sum: 0, grey: 0,
                 status: document.getElementById("status").textContent,
                 saved: document.getElementById("saved").textContent };
   if (img.complete && img.naturalWidth > 0) {
@@ -277,13 +278,15 @@ const PROBE: &str = r#"(() => {
     const g = c.getContext("2d");
     g.drawImage(img, 0, 0);
     const d = g.getImageData(0, 0, c.width, c.height).data;
-    let h = 0, s = 0;
+    let h = 0, s = 0, grey = 0;
     for (let i = 0; i < d.length; i++) {
       h = (Math.imul(h, 31) + d[i]) | 0;
       if (i % 4 != 3) s += d[i];
+      if (i % 4 == 0 && Math.min(d[i], d[i + 1], d[i + 2]) > 8) grey++;
     }
     out.hash = h;
     out.sum = s;
+    out.grey = grey;
   }
   return JSON.stringify(out);
 })()"#;
@@ -294,8 +297,13 @@ struct Shown {
     pass: i64,
     w: u64,
     h: u64,
+    /// Its width on screen (CSS pixels).
+    shown_w: f64,
     hash: i64,
     sum: u64,
+    /// Pixels with no channel near zero (none in the false-colour view,
+    /// whose colours all lack one primary).
+    grey: u64,
     status: String,
     saved: String,
 }
@@ -309,8 +317,10 @@ fn probe(cdp: &mut Cdp, session: &str) -> Result<Shown, String> {
         pass: v["pass"].as_i64().unwrap_or(-1),
         w: v["w"].as_u64().unwrap_or(0),
         h: v["h"].as_u64().unwrap_or(0),
+        shown_w: v["shown_w"].as_f64().unwrap_or(0.0),
         hash: v["hash"].as_i64().unwrap_or(0),
         sum: v["sum"].as_u64().unwrap_or(0),
+        grey: v["grey"].as_u64().unwrap_or(0),
         status: v["status"].as_str().unwrap_or("").to_string(),
         saved: v["saved"].as_str().unwrap_or("").to_string(),
     })
@@ -437,6 +447,102 @@ fn preview_page_in_headless_chromium() {
         s.src.contains("exposure=2&tonemap=clamp&") && s.w == 64
     });
 
+    // Zoom: fit shows the 64-pixel image 6x (384 px); 1:1, +, the wheel
+    // (x1.25 about the mouse) and fit again.
+    let click = |cdp: &mut Cdp, id: &str| {
+        cdp.eval(&page, &format!("document.getElementById('{id}').click()"))
+            .unwrap();
+    };
+    let width_is = |cdp: &mut Cdp, w: f64, what: &str| {
+        probe_until(cdp, &page, what, |s| (s.shown_w - w).abs() < 0.5)
+    };
+    width_is(&mut cdp, 384.0, "the fitted image");
+    click(&mut cdp, "zoom-1");
+    width_is(&mut cdp, 64.0, "the image at 1:1");
+    click(&mut cdp, "zoom-in");
+    width_is(&mut cdp, 128.0, "the image at 200 %");
+    let zoom_text = |cdp: &mut Cdp| {
+        cdp.eval(&page, "document.getElementById('zoom').textContent")
+            .unwrap()
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    assert_eq!(zoom_text(&mut cdp), "200 %");
+    cdp.eval(
+        &page,
+        r#"(() => { const r = document.getElementById("view").getBoundingClientRect();
+                   document.getElementById("frame").dispatchEvent(new WheelEvent("wheel",
+                     { deltaY: -100, clientX: r.left + 10, clientY: r.top + 10,
+                       bubbles: true, cancelable: true })); })()"#,
+    )
+    .unwrap();
+    width_is(&mut cdp, 160.0, "the image wheel-zoomed to 250 %");
+
+    // Pixel readout: the mouse over image pixel (10, 20) at 250 % shows
+    // its linear value, as /pixel gives it.
+    cdp.eval(
+        &page,
+        r#"(() => { const r = document.getElementById("view").getBoundingClientRect();
+                   document.getElementById("frame").dispatchEvent(new MouseEvent("mousemove",
+                     { clientX: r.left + 2.5 * 10 + 1, clientY: r.top + 2.5 * 20 + 1,
+                       bubbles: true })); })()"#,
+    )
+    .unwrap();
+    let readout = wait_for("the pixel readout", Duration::from_secs(30), || {
+        let t = cdp
+            .eval(&page, "document.getElementById('pixel').textContent")
+            .ok()?;
+        let t = t.as_str()?.to_string();
+        t.starts_with("(10, 20)").then_some(t)
+    });
+    let value = |name: &str| -> f64 {
+        let rest = readout.split(&format!(" {name} ")).nth(1).unwrap();
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let (r, g, b, l) = (value("R"), value("G"), value("B"), value("L"));
+    assert!(l > 0.0, "{readout}");
+    assert!(
+        (l - (0.2126 * r + 0.7152 * g + 0.0722 * b)).abs() < 1e-3,
+        "{readout}"
+    );
+    let direct = http(port, "GET", "/pixel?x=10&y=20");
+    assert_eq!(direct.status, 200);
+    screenshot(&mut cdp, &page, "preview-zoom.png");
+    click(&mut cdp, "zoom-fit");
+    width_is(&mut cdp, 384.0, "the image fitted again");
+    assert_eq!(zoom_text(&mut cdp), "fit");
+
+    // False colour: fetched with view=false, every pixel on the colour
+    // scale (one primary off), the legend shown; then back.
+    let coloured = probe_until(&mut cdp, &page, "a colourful normal image", |s| {
+        s.grey > 100
+    });
+    cdp.eval(
+        &page,
+        r#"(() => { const f = document.getElementById("falsecolour");
+                   f.checked = true; f.dispatchEvent(new Event("change")); })()"#,
+    )
+    .unwrap();
+    let zones = probe_until(&mut cdp, &page, "the false-colour image", |s| {
+        s.src.contains("&view=false&") && s.w == 64
+    });
+    assert_eq!(zones.grey, 0, "{zones:?} (normal view: {})", coloured.grey);
+    let legend_hidden = cdp
+        .eval(&page, "document.getElementById('legend').hidden")
+        .unwrap();
+    assert_eq!(legend_hidden, Value::Bool(false));
+    screenshot(&mut cdp, &page, "preview-falsecolour.png");
+    cdp.eval(
+        &page,
+        r#"(() => { const f = document.getElementById("falsecolour");
+                   f.checked = false; f.dispatchEvent(new Event("change")); })()"#,
+    )
+    .unwrap();
+    probe_until(&mut cdp, &page, "the normal view again", |s| {
+        !s.src.contains("view=false") && s.w == 64
+    });
+
     // Save writes EXR + PNG next to the output and says where.
     cdp.eval(&page, "document.getElementById('save').click()")
         .unwrap();
@@ -459,13 +565,7 @@ fn preview_page_in_headless_chromium() {
     assert_eq!((img.width, img.height), (64, 64));
     assert!(png.exists());
 
-    if let Some(path) = std::env::var_os("LENTE_E2E_SCREENSHOT") {
-        let shot = cdp
-            .call(Some(&page), "Page.captureScreenshot", json!({}))
-            .unwrap();
-        let bytes = base64_decode(shot["data"].as_str().unwrap());
-        std::fs::write(path, bytes).unwrap();
-    }
+    screenshot(&mut cdp, &page, "preview.png");
 
     // Closed and reopened: the new page shows the render where it is now
     // (and remembers the exposure).
@@ -488,6 +588,18 @@ fn preview_page_in_headless_chromium() {
     assert!(status.success(), "{}", lente.stderr_text());
     assert!(stdout.contains("interrupted"), "{stdout}");
     assert!(dir.path().join("cbox.exr").exists());
+}
+
+/// With `LENTE_E2E_SCREENSHOTS=DIR`, saves the page as DIR/NAME (how the
+/// screenshots in docs/images are made).
+fn screenshot(cdp: &mut Cdp, page: &str, name: &str) {
+    if let Some(dir) = std::env::var_os("LENTE_E2E_SCREENSHOTS") {
+        let shot = cdp
+            .call(Some(page), "Page.captureScreenshot", json!({}))
+            .unwrap();
+        let bytes = base64_decode(shot["data"].as_str().unwrap());
+        std::fs::write(Path::new(&dir).join(name), bytes).unwrap();
+    }
 }
 
 fn base64_decode(s: &str) -> Vec<u8> {
