@@ -190,7 +190,11 @@ struct RenderArgs {
     samples: Option<(u32, u32)>,
     /// Output variables to write into the EXR beside the image, comma-
     /// separated: albedo, normal (both through specular bounces to the
-    /// first non-specular hit, as denoisers want them), depth, position.
+    /// first non-specular hit, as denoisers want them), depth, position;
+    /// and Mitsuba's aov-integrator entries NAME:TYPE (first hit; types
+    /// albedo, depth, position, uv, geo_normal, sh_normal, prim_index,
+    /// shape_index), e.g. dd:depth,nn:sh_normal. A scene's own aov
+    /// integrator adds its list.
     #[arg(long, value_name = "LIST")]
     aov: Option<AovList>,
     /// Denoise the image with Intel Open Image Denoise (`pip install
@@ -533,7 +537,12 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let digest = scene_digest(&scene_bytes, &define);
     // Samples first..spp are rendered with `seed`, on top of `film`.
     let seed_arg = seed;
-    let mut aovs = aov.clone().unwrap_or_default();
+    // The scene's AOVs (Mitsuba's aov integrator) and --aov's.
+    let asked_aovs = job
+        .aovs
+        .union(&aov.clone().unwrap_or_default())
+        .map_err(anyhow::Error::msg)?;
+    let mut aovs = asked_aovs.clone();
     // Denoisers need uncorrelated pixel noise: a one-pixel box filter.
     let mut box_filter = denoise && resumed.is_none();
     if denoise && resumed.is_none() {
@@ -594,7 +603,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
                 m.spp_target
             );
         }
-        if aov.as_ref().is_some_and(|a| *a != m.aovs) {
+        if aov.is_some() && asked_aovs != m.aovs {
             bail!(
                 "{} was rendered with the AOVs '{}': a continued render keeps them",
                 path.display(),

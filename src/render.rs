@@ -50,6 +50,9 @@ pub struct RenderJob {
     pub spp: u32,
     /// Pixel reconstruction filter.
     pub filter: Filter,
+    /// Output variables the scene asks for (Mitsuba's `aov` integrator);
+    /// `render` writes them with those of `--aov`.
+    pub aovs: AovList,
 }
 
 /// How to run one render of a job.

@@ -430,6 +430,37 @@ impl Bsdf {
         }
     }
 
+    /// The diffuse reflectance as Mitsuba's `eval_diffuse_reflectance`
+    /// defines it (its `aov` integrator's `albedo`): the diffuse albedo of
+    /// diffuse, plastic and rough plastic models (textured or not), the
+    /// nested models' for two-sided, mask, blend and normal/bump maps, and
+    /// otherwise pi times the BSDF from `wi` to the normal (zero for
+    /// mirrors and glass).
+    pub fn diffuse_reflectance(&self, at: impl Into<SurfacePoint>, wi: Vec3) -> Rgb {
+        let at = at.into();
+        match self {
+            Bsdf::Diffuse(b) => b.albedo,
+            Bsdf::Plastic(b) => b.diffuse_reflectance,
+            Bsdf::RoughPlastic(b) => b.diffuse_reflectance,
+            Bsdf::TwoSided(b) => {
+                if wi.z >= 0.0 {
+                    b.front.diffuse_reflectance(at, wi)
+                } else {
+                    b.back.diffuse_reflectance(at, Vec3::new(wi.x, wi.y, -wi.z))
+                }
+            }
+            Bsdf::Mask(b) => b.nested.diffuse_reflectance(at, wi),
+            Bsdf::Tilted(b) => b.nested.diffuse_reflectance(at, wi),
+            Bsdf::Blend(b) => {
+                let w = b.weight.eval_1(at).clamp(0.0, 1.0);
+                b.first.diffuse_reflectance(at, wi) * (1.0 - w)
+                    + b.second.diffuse_reflectance(at, wi) * w
+            }
+            Bsdf::Textured(b) => b.diffuse_reflectance(at, wi),
+            _ => self.eval(at, wi, Vec3::Z) * std::f32::consts::PI,
+        }
+    }
+
     /// BSDF value f(wi, wo) (without the cosine) at a surface point (where
     /// textured parameters are read; a bare uv converts). Zero for delta
     /// lobes.

@@ -147,6 +147,16 @@ impl Textured {
         }
     }
 
+    /// [`Bsdf::diffuse_reflectance`] with the textures read at `at`.
+    pub fn diffuse_reflectance(&self, at: SurfacePoint, wi: Vec3) -> Rgb {
+        match self.at(at) {
+            Local::Diffuse(b) => b.albedo,
+            Local::Plastic(b) => b.diffuse_reflectance,
+            Local::RoughPlastic(_, kd, _) => kd,
+            _ => self.eval(at, wi, Vec3::Z) * std::f32::consts::PI,
+        }
+    }
+
     pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
         match self.at(at) {
             Local::Diffuse(b) => b.eval(wi, wo),

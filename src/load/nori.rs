@@ -332,6 +332,7 @@ impl<'a> Ctx<'a> {
                 integrator,
                 spp: sampler.map_or(1, |s| s.0),
                 filter,
+                aovs: Default::default(),
             },
         })
     }

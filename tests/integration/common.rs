@@ -300,6 +300,7 @@ pub fn job(integrator: Integrator, spp: u32) -> RenderJob {
         integrator,
         spp,
         filter: Filter::Box { radius: 0.5 },
+        aovs: Default::default(),
     }
 }
 

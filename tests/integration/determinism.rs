@@ -49,6 +49,7 @@ fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente:
         integrator: scene.integrator,
         spp,
         filter: lente::image::Filter::default(),
+        aovs: Default::default(),
     };
     pool.install(|| render(scene, &job, &opts, &AtomicBool::new(false)).image)
 }
@@ -132,6 +133,7 @@ fn an_abandoned_unit_stops_at_once() {
         integrator: scene.integrator,
         spp: 1_000_000,
         filter: lente::image::Filter::default(),
+        aovs: Default::default(),
     };
     let tile = lente::render::tiles(40, 30)[0];
     let start = std::time::Instant::now();

@@ -259,7 +259,7 @@ fn conformance_dir() -> PathBuf {
 }
 
 /// The Python to run Mitsuba with, and its version; Err says why none.
-fn mitsuba_python() -> Result<(String, String), String> {
+pub fn mitsuba_python() -> Result<(String, String), String> {
     let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/mitsuba-venv/bin/python");
     let python = match std::env::var("LENTE_MITSUBA_PYTHON") {
         Ok(p) if !p.trim().is_empty() => p,

@@ -505,8 +505,8 @@ fn integrators() {
     assert_err(
         "<scene version=\"3.0.0\">\n<integrator type=\"aov\"/>\n</scene>",
         2,
-        19,
-        &["aov", "not supported"],
+        1,
+        &["'aovs' must list NAME:TYPE pairs"],
     );
     assert_err(
         "<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"-2\"/></integrator>\n</scene>",

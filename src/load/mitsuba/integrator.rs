@@ -24,9 +24,9 @@ impl<'d> Ctx<'d> {
                 "prb",
                 "prb_basic",
                 "moment",
+                "aov",
             ],
             &[
-                "aov",
                 "depth",
                 "stokes",
                 "ptracer",
@@ -39,6 +39,9 @@ impl<'d> Ctx<'d> {
         let (mut p, children) = self.read_object(node, &owner)?;
         if ty == "moment" {
             return self.moment(node, &owner, p, &children);
+        }
+        if ty == "aov" {
+            return self.aov(node, &owner, p, &children);
         }
         self.no_children(&children, &owner)?;
         let hide_emitters = p.get_bool("hide_emitters", false)?;
@@ -112,6 +115,58 @@ impl<'d> Ctx<'d> {
             }
         };
         p.finish(&mut self.warnings);
+        Ok(integrator)
+    }
+
+    /// Mitsuba's `aov` integrator: the AOVs of its `aovs` list (Mitsuba's
+    /// `NAME:TYPE` pairs, the same names and values) written beside the
+    /// image of its nested integrator.
+    fn aov(
+        &mut self,
+        node: &'d SceneNode,
+        owner: &str,
+        mut p: Props<'d>,
+        children: &[Child<'d>],
+    ) -> Result<Integrator> {
+        let spec = p.get_string("aovs", String::new())?;
+        let list: crate::aov::AovList = spec.parse().map_err(|e: String| p.error("aovs", e))?;
+        if list.mitsuba().is_empty() {
+            return Err(p.error(
+                "aovs",
+                "'aovs' must list NAME:TYPE pairs, e.g. \"dd:depth,nn:sh_normal\"",
+            ));
+        }
+        p.finish(&mut self.warnings);
+        let mut nested = children.iter();
+        let Some(first) = nested.next() else {
+            return Err(self.err(
+                node.pos,
+                format!(
+                    "{owner} without a nested <integrator> renders only AOVs, which lente \
+                     does not do: put the integrator of the image inside it (e.g. \
+                     <integrator type=\"path\"/>), or use lente render --aov"
+                ),
+            ));
+        };
+        if first.node.tag != "integrator" {
+            return Err(self.misplaced(first, owner));
+        }
+        let integrator = self.enter(first, |c| c.integrator(first.node))?;
+        for other in nested {
+            if other.node.tag != "integrator" {
+                return Err(self.misplaced(other, owner));
+            }
+            self.warn(
+                other.at,
+                "lente renders the image of the first integrator inside <integrator \
+                 type=\"aov\">; this one is ignored"
+                    .to_string(),
+            );
+        }
+        self.aovs = self
+            .aovs
+            .union(&list)
+            .map_err(|e| self.err(node.pos, format!("{owner}: {e}")))?;
         Ok(integrator)
     }
 

@@ -217,6 +217,8 @@ struct Ctx<'d> {
     texture_images: crate::load::objects::TextureImages,
     /// Shape groups built so far.
     groups: instancing::ShapeGroups,
+    /// The AOVs an `aov` integrator asks for.
+    aovs: crate::aov::AovList,
 }
 
 impl<'d> Ctx<'d> {
@@ -234,6 +236,7 @@ impl<'d> Ctx<'d> {
             built: bsdf::BuiltBsdfs::default(),
             texture_images: Default::default(),
             groups: Default::default(),
+            aovs: Default::default(),
         };
         for item in items {
             ctx.cur = item.file;
@@ -730,6 +733,7 @@ impl<'d> Ctx<'d> {
                 integrator,
                 spp: sensor.spp,
                 filter: sensor.filter,
+                aovs: std::mem::take(&mut self.aovs),
             },
         })
     }
