@@ -677,6 +677,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let preview = match preview {
         Some(port) => {
             let state = PreviewState::new(width as usize, height as usize, spp, &base);
+            state.set_meta(meta.clone());
             let server = PreviewServer::start(port, state.clone())?;
             eprintln!("preview: {}", server.url());
             Some((state, server))

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 use crate::image::false_colour::exposure_zones;
 use crate::image::io::Malformed;
 use crate::image::{
-    save_image, save_png_tonemapped, tonemap, Bitmap, Exposure, ImageError, Look, Tonemap,
+    save_image, save_png_tonemapped, tonemap, Bitmap, Exposure, Film, ImageError, Look, Tonemap,
 };
 use crate::render::PassInfo;
 use crate::render_file::{save_render, RenderMeta};
@@ -45,6 +45,8 @@ pub struct Snapshot {
     /// Wall-clock time when the snapshot was taken.
     pub taken: Instant,
     pub image: Arc<Bitmap>,
+    /// The film behind `image` (kept only when saves write render files).
+    pub film: Option<Arc<Film>>,
 }
 
 /// How the render ended.
@@ -80,6 +82,8 @@ struct Inner {
     png_cache: Mutex<Option<CachedPng>>,
     /// The stops `auto` exposure gives the image of a pass: (pass, stops).
     auto_cache: Mutex<Option<(u32, f32)>>,
+    /// The render's metadata: saves write render files with it.
+    meta: Mutex<Option<RenderMeta>>,
 }
 
 /// Shared between the render (which publishes passes) and the server
@@ -113,20 +117,31 @@ impl PreviewState {
                     elapsed: Duration::ZERO,
                     taken: Instant::now(),
                     image: Arc::new(Bitmap::new(width, height)),
+                    film: None,
                 }),
                 phase: Mutex::new(Phase::Rendering),
                 base: base.to_path_buf(),
                 scene_name,
                 png_cache: Mutex::new(None),
                 auto_cache: Mutex::new(None),
+                meta: Mutex::new(None),
             }),
         }
+    }
+
+    /// Saves become render files with `meta` (the render's, its samples
+    /// and time brought up to the pass saved), which `--resume` and
+    /// `merge` take; each pass then keeps a copy of the film.
+    pub fn set_meta(&self, meta: RenderMeta) {
+        *lock(&self.inner.meta) = Some(meta);
     }
 
     /// Takes a snapshot of a finished pass: the film is normalised here, on
     /// the calling thread, and swapped in under a short lock.
     pub fn publish(&self, info: &PassInfo) {
         let image = Arc::new(info.film.to_bitmap());
+        let keep_film = lock(&self.inner.meta).is_some();
+        let film = keep_film.then(|| Arc::new(info.film.clone()));
         let mut s = lock(&self.inner.snapshot);
         s.pass += 1;
         s.spp_done = info.spp_done;
@@ -135,6 +150,7 @@ impl PreviewState {
         s.elapsed = info.elapsed;
         s.taken = Instant::now();
         s.image = image;
+        s.film = film;
     }
 
     /// Marks the render as finished with its outputs written.
@@ -275,7 +291,14 @@ impl PreviewState {
         let base = suffixed(&self.inner.base, &format!("-preview-{}spp", s.spp_done));
         let exr = with_ext(&base, "exr");
         let png = with_ext(&base, "png");
-        save_image(&exr, &s.image).map_err(SaveError::Image)?;
+        let meta = lock(&self.inner.meta).clone();
+        match (meta, &s.film) {
+            (Some(meta), Some(film)) => {
+                let meta = meta.progressed(s.spp_done, s.elapsed.as_secs_f64());
+                save_render(&exr, &meta, film, &s.image).map_err(SaveError::Image)?
+            }
+            _ => save_image(&exr, &s.image).map_err(SaveError::Image)?,
+        }
         save_png_tonemapped(
             &png,
             &s.image,
@@ -540,6 +563,14 @@ mod tests {
         assert_eq!(saved.exr, dir.path().join("render.v1-preview-3spp.exr"));
         assert_eq!(saved.png, dir.path().join("render.v1-preview-3spp.png"));
         assert!(saved.exr.exists() && saved.png.exists());
+        // With the render's metadata, a save is a render file of the
+        // samples so far, which --resume and merge take.
+        state.set_meta(meta());
+        state.publish(&info(&film, 5, 0.25));
+        let saved = state.save(Look::default()).unwrap();
+        let file = crate::render_file::RenderFile::load(&saved.exr).unwrap();
+        assert_eq!(file.meta, meta().progressed(5, 0.25));
+        assert_eq!(file.film.data(), film.data());
     }
 
     #[test]

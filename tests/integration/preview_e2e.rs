@@ -561,8 +561,10 @@ fn preview_page_in_headless_chromium() {
         "{:?}",
         saved.saved
     );
-    let (img, _) = lente::image::load_image(&exr).unwrap();
-    assert_eq!((img.width, img.height), (64, 64));
+    // A render file of the samples so far (it can be continued).
+    let file = lente::render_file::RenderFile::load(&exr).unwrap();
+    assert_eq!((file.film.width, file.film.height), (64, 64));
+    assert_eq!(file.meta.spp(), spp);
     assert!(png.exists());
 
     screenshot(&mut cdp, &page, "preview.png");
