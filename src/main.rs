@@ -741,6 +741,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         first_sample: first,
         film,
         aovs,
+        rows: None,
     };
     let threads = threads.unwrap_or_else(rayon::current_num_threads);
     let pool = rayon::ThreadPoolBuilder::new()

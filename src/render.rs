@@ -72,6 +72,10 @@ pub struct RenderOptions {
     pub film: Option<Film>,
     /// Output variables accumulated beside the image (none: no cost).
     pub aovs: AovList,
+    /// Only these rows `y0..y1` of the image (a strip, for renders split
+    /// across machines by memory): the film is that tall, and its pixels
+    /// are bit for bit those rows of the whole render. `None`: all rows.
+    pub rows: Option<(u32, u32)>,
 }
 
 impl RenderOptions {
@@ -84,6 +88,7 @@ impl RenderOptions {
             first_sample: 0,
             film: None,
             aovs: AovList::default(),
+            rows: None,
         }
     }
 }
@@ -276,13 +281,23 @@ pub fn render_with_passes(
     let start = Instant::now();
     let (w, h) = (scene.camera.width(), scene.camera.height());
     let tiles = tiles(w, h);
+    // A strip: the film holds rows r0..r1, and the units are those of the
+    // whole render (same tiles, slices and order, so each pixel sums the
+    // same blocks in the same order) whose samples can reach those rows.
+    let (r0, r1) = match opts.rows {
+        Some((a, b)) => (a.min(h), b.min(h).max(a.min(h))),
+        None => (0, h),
+    };
+    let reach = job.filter.radius().ceil() as u32 + 1;
+    let reaches = |t: &Tile| t.y < r1 + reach && t.y + t.h + reach > r0;
+    let film_h = (r1 - r0) as usize;
     let never = AtomicBool::new(false);
     let abandon = opts.abandon.as_deref().unwrap_or(&never);
     let first = opts.first_sample.min(job.spp);
     let passes = pass_schedule_from(first, job.spp);
     let progress = Progress::new(
         opts.progress,
-        w as u64 * h as u64,
+        w as u64 * film_h as u64,
         job.spp - first,
         passes.len(),
     );
@@ -290,12 +305,11 @@ pub fn render_with_passes(
     let aov_channels = opts.aovs.channel_count();
     let mut film = match &opts.film {
         Some(f)
-            if (f.width, f.height) == (w as usize, h as usize)
-                && f.aov_channels() == aov_channels =>
+            if (f.width, f.height) == (w as usize, film_h) && f.aov_channels() == aov_channels =>
         {
             f.clone()
         }
-        _ => Film::new(w as usize, h as usize).with_aovs(aov_channels),
+        _ => Film::new(w as usize, film_h).with_aovs(aov_channels),
     };
     let mut spp_done = first;
     for (pass, &(s0, s1)) in passes.iter().enumerate() {
@@ -303,7 +317,10 @@ pub fn render_with_passes(
             break;
         }
         progress.start_pass(pass);
-        let units = work_units(&tiles, s0, s1);
+        let mut units = work_units(&tiles, s0, s1);
+        if opts.rows.is_some() {
+            units.retain(|u| reaches(&u.tile));
+        }
         let blocks: Mutex<Vec<Option<FilmBlock>>> = Mutex::new(vec![None; units.len()]);
         units.par_iter().enumerate().for_each(|(i, unit)| {
             if cancel.load(Ordering::Relaxed) {
@@ -326,13 +343,14 @@ pub fn render_with_passes(
             break;
         }
         // Merge in unit order: the sum is then independent of scheduling.
-        for b in blocks
+        for mut b in blocks
             .into_inner()
             .expect("lock not poisoned")
-            .iter()
+            .into_iter()
             .flatten()
         {
-            film.merge(b);
+            b.y0 -= r0 as i32;
+            film.merge(&b);
         }
         spp_done = s1;
         on_pass(&PassInfo {

@@ -12,8 +12,12 @@ use lente::math::Vec3;
 use lente::render::{render, RenderJob, RenderOptions};
 
 fn small_scene() -> TestScene {
+    scene_sized(40, 30)
+}
+
+fn scene_sized(width: u32, height: u32) -> TestScene {
     let mut d = desc(
-        look_at(Vec3::new(0.0, 0.0, -0.95), Vec3::ZERO, 70.0, 40, 30),
+        look_at(Vec3::new(0.0, 0.0, -0.95), Vec3::ZERO, 70.0, width, height),
         path(Strategy::Mis),
     );
     d.shapes.push(shape(
@@ -152,4 +156,33 @@ fn an_abandoned_unit_stops_at_once() {
     let go = AtomicBool::new(false);
     let block = lente::render::render_tile(&scene, &job, tile, (0, 1), 1, &Default::default(), &go);
     assert!(block.is_some());
+}
+
+#[test]
+fn strips_are_the_rows_of_the_whole_render_bit_for_bit() {
+    // 100 rows: four rows of 32-pixel tiles; strips that cut tiles and
+    // stop short of and on tile edges, with the Gaussian filter's reach.
+    let scene = scene_sized(24, 100);
+    let job = RenderJob {
+        integrator: scene.integrator,
+        spp: 6,
+        filter: lente::image::Filter::default(),
+        aovs: Default::default(),
+    };
+    let mut opts = RenderOptions::new(5);
+    opts.aovs = "albedo,depth".parse().unwrap();
+    let whole = render(&scene, &job, &opts, &AtomicBool::new(false)).film;
+    let w = 24;
+    for (y0, y1) in [(0, 17), (17, 64), (64, 65), (65, 100), (0, 100)] {
+        opts.rows = Some((y0, y1));
+        let strip = render(&scene, &job, &opts, &AtomicBool::new(false)).film;
+        assert_eq!((strip.width, strip.height), (24, (y1 - y0) as usize));
+        let rows = y0 as usize * w..y1 as usize * w;
+        assert!(
+            strip.data() == &whole.data()[rows.clone()],
+            "rows {y0}..{y1} differ"
+        );
+        let n = strip.aov_channels();
+        assert!(strip.aov_sums() == &whole.aov_sums()[rows.start * n..rows.end * n]);
+    }
 }
