@@ -35,6 +35,7 @@ __all__ = [
     "read",
     "write",
     "merge",
+    "stack",
     "__version__",
 ]
 
@@ -131,6 +132,7 @@ class Scene:
         samples: Optional[Tuple[int, int]] = None,
         aovs: Optional[Union[str, Sequence[str]]] = None,
         progress: Progress = True,
+        rows: Optional[Tuple[int, int]] = None,
     ) -> Image:
         """Renders the scene and returns the image.
 
@@ -141,9 +143,10 @@ class Scene:
         variables, e.g. ``["albedo", "normal"]`` or Mitsuba's
         ``"dd:depth,nn:sh_normal"``, returned in ``image.aovs``.
         progress: True for a bar (tqdm if installed), False for none, or a
-        callable ``f(spp_done, spp_total)``.
+        callable ``f(spp_done, spp_total)``. rows=(y0, y1): only those rows
+        (a strip, bit for bit those rows of the whole image).
         """
-        film = self.render_film(spp, seed, threads, samples, aovs, progress)
+        film = self.render_film(spp, seed, threads, samples, aovs, progress, rows)
         return Image(film["image"], film["aovs"], film["spp"], film["seconds"])
 
     def render_film(
@@ -154,6 +157,7 @@ class Scene:
         samples: Optional[Tuple[int, int]] = None,
         aovs: Optional[Union[str, Sequence[str]]] = None,
         progress: Progress = False,
+        rows: Optional[Tuple[int, int]] = None,
     ) -> Dict[str, Any]:
         """Like :meth:`render`, but returns the film state that merges
         exactly (:func:`merge`): a dict with ``sums`` (H x W x 3),
@@ -174,7 +178,10 @@ class Scene:
         else:
             aov_text = ",".join(aovs)
         with _progress_reporter(progress, s0, s1) as report:
-            return self._native.render(s0, s1, int(seed), threads, aov_text, report)
+            return self._native.render(
+                s0, s1, int(seed), threads, aov_text, report,
+                None if rows is None else (int(rows[0]), int(rows[1])),
+            )
 
 
 class _NoProgress:
@@ -260,6 +267,15 @@ def write(path: PathLike, image: Any) -> None:
 def read(path: PathLike) -> Image:
     """Reads an EXR, HDR, PFM or PNG as a linear H x W x 3 image."""
     return Image(_lente.read(os.fspath(path)))
+
+
+def stack(strips: Sequence["Image"]) -> Image:
+    """Strips of one render (``rows=`` from top to bottom) as one image."""
+    if not strips:
+        raise ValueError("nothing to stack")
+    image = np.concatenate([np.asarray(s) for s in strips], axis=0)
+    aovs = {k: np.concatenate([s.aovs[k] for s in strips], axis=0) for k in strips[0].aovs}
+    return Image(image, aovs, strips[0].spp, sum(s.seconds or 0.0 for s in strips))
 
 
 def merge(films: Iterable[Dict[str, Any]]) -> Image:

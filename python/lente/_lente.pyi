@@ -32,6 +32,7 @@ class NativeScene:
         threads: Optional[int],
         aovs: str,
         progress: Optional[Callable[[int, int], Any]],
+        rows: Optional[Tuple[int, int]] = None,
     ) -> Dict[str, Any]: ...
 
 def load(path: Union[str, PathLike[str]], params: List[Tuple[str, str]]) -> NativeScene: ...

@@ -30,9 +30,9 @@ import functools
 import os
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
-from . import Image, load, merge, write
+from . import Image, load, merge, stack, write
 
-__all__ = ["render", "sample_ranges"]
+__all__ = ["render", "sample_ranges", "row_strips"]
 
 
 def sample_ranges(spp: int, tasks: int) -> List[Tuple[int, int]]:
@@ -43,6 +43,11 @@ def sample_ranges(spp: int, tasks: int) -> List[Tuple[int, int]]:
     tasks = max(1, min(int(tasks), spp))
     bounds = [spp * i // tasks for i in range(tasks + 1)]
     return [(bounds[i], bounds[i + 1]) for i in range(tasks)]
+
+
+def row_strips(height: int, strips: int) -> List[Tuple[int, int]]:
+    """``height`` rows cut into ``strips`` contiguous strips."""
+    return sample_ranges(height, strips)
 
 
 @functools.lru_cache(maxsize=4)
@@ -59,9 +64,10 @@ def _render_range(
     seed: int,
     threads: Optional[int],
     aovs: str,
+    rows: Optional[Tuple[int, int]] = None,
 ) -> Dict[str, Any]:
     film = _scene(path, params).render_film(
-        samples=(s0, s1), seed=seed, threads=threads, aovs=aovs, progress=False
+        samples=(s0, s1), seed=seed, threads=threads, aovs=aovs, progress=False, rows=rows
     )
     # The normalised image and AOVs are rebuilt after the merge.
     return {k: film[k] for k in ("sums", "weights", "aov_sums", "spp", "seconds")}
@@ -74,6 +80,7 @@ def render(
     params: Optional[Dict[str, Any]] = None,
     seed: int = 0,
     tasks: Optional[int] = None,
+    strips: int = 1,
     threads_per_task: Optional[int] = None,
     aovs: Optional[Union[str, Sequence[str]]] = None,
     client: Any = None,
@@ -85,7 +92,9 @@ def render(
 
     spp: samples per pixel (default: the scene's). tasks: sample ranges to
     cut the render into (default: two per worker thread of the cluster, at
-    most spp). threads_per_task: threads each task renders with (default:
+    most spp). strips: also cut the image into this many strips of rows,
+    each task holding only its strip's film (for images too large for one
+    worker's memory); the strips are bit for bit rows of the whole image. threads_per_task: threads each task renders with (default:
     all the worker's cores). client: a ``dask.distributed.Client``
     (default: the current one). retries: extra attempts for a task that
     raises; a task whose worker dies is re-run by the scheduler anyway.
@@ -103,24 +112,35 @@ def render(
         tasks = 2 * threads
     aov_text = aovs if isinstance(aovs, str) or aovs is None else ",".join(aovs)
     ranges = sample_ranges(int(spp), tasks)
+    if strips > 1:
+        height = _scene(path, params_key).height
+        row_ranges: List[Optional[Tuple[int, int]]] = list(row_strips(height, strips))
+    else:
+        row_ranges = [None]
+    tag = f"{os.path.basename(path)}-{seed}-{os.getpid()}-{id(ranges)}"
     futures = [
-        client.submit(
-            _render_range,
-            path,
-            params_key,
-            s0,
-            s1,
-            int(seed),
-            threads_per_task,
-            aov_text or "",
-            key=f"lente-{os.path.basename(path)}-{seed}-{s0}-{s1}-{os.getpid()}-{id(ranges)}",
-            pure=False,
-            retries=retries,
-        )
-        for s0, s1 in ranges
+        [
+            client.submit(
+                _render_range,
+                path,
+                params_key,
+                s0,
+                s1,
+                int(seed),
+                threads_per_task,
+                aov_text or "",
+                rows,
+                key=f"lente-{tag}-{s0}-{s1}-{rows}",
+                pure=False,
+                retries=retries,
+            )
+            for s0, s1 in ranges
+        ]
+        for rows in row_ranges
     ]
-    films = client.gather(futures)
-    image = merge(films)
+    # Strip by strip: only one strip's films are here at a time.
+    parts = [merge(client.gather(strip)) for strip in futures]
+    image = parts[0] if len(parts) == 1 else stack(parts)
     if output is not None:
         write(output, image)
     return image

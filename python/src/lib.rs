@@ -109,12 +109,12 @@ impl NativeScene {
     }
 
     /// Renders samples `s0..s1` of every pixel (the whole render: 0..spp)
-    /// with `threads` threads; `progress(spp_done, spp_total)` is called
+    /// of rows `y0..y1` (`rows`; default all) with `threads` threads; `progress(spp_done, spp_total)` is called
     /// after each pass. Returns a dict: `image` (H x W x 3 float32),
     /// `aovs` (channel name -> H x W float32), and the film state that
     /// merges exactly: `sums` (H x W x 3), `weights` (H x W), `aov_sums`
     /// (channel name -> H x W); `spp`, `seconds`.
-    #[pyo3(signature = (s0, s1, seed, threads, aovs, progress))]
+    #[pyo3(signature = (s0, s1, seed, threads, aovs, progress, rows=None))]
     // The arguments are the Python method's, one for one.
     #[allow(clippy::too_many_arguments)]
     fn render<'py>(
@@ -126,7 +126,16 @@ impl NativeScene {
         threads: Option<usize>,
         aovs: &str,
         progress: Option<Py<PyAny>>,
+        rows: Option<(u32, u32)>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        if let Some((y0, y1)) = rows {
+            if y1 <= y0 || y1 > self.scene.camera.height() {
+                return Err(PyValueError::new_err(format!(
+                    "rows {y0}..{y1}: need 0 <= y0 < y1 <= {}",
+                    self.scene.camera.height()
+                )));
+            }
+        }
         if s1 <= s0 {
             return Err(PyValueError::new_err(format!(
                 "samples {s0}..{s1}: the end must be after the start"
@@ -150,6 +159,7 @@ impl NativeScene {
         opts.progress = ProgressMode::Off;
         opts.first_sample = s0;
         opts.aovs = aov_list.clone();
+        opts.rows = rows;
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads.unwrap_or(0))
             .build()

@@ -54,6 +54,15 @@ def test_a_cluster_render_is_the_local_one(client, cbox, tmp_path):
     np.testing.assert_allclose(image, whole, rtol=1e-5, atol=1e-7)
 
 
+def test_strips_bound_each_tasks_memory_and_change_nothing(client, cbox):
+    image = lente.distributed.render(
+        cbox, spp=12, params={"res": 40}, tasks=3, strips=3, client=client
+    )
+    expected = local_merge(cbox, 12, 3, res=40)
+    assert image.shape == (40, 40, 3)
+    assert np.array_equal(image, expected)
+
+
 def test_a_killed_worker_changes_nothing(client, cbox):
     spp, tasks = 64, 8
     expected = local_merge(cbox, spp, tasks, res=64)

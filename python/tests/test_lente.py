@@ -147,3 +147,18 @@ def test_ctrl_c_stops_a_render_with_keyboard_interrupt(cbox):
     out, _ = child.communicate(timeout=60)
     assert child.returncode == 3, out
     assert out.startswith("interrupted after")
+
+
+def test_strips_stack_into_the_whole_image_bit_for_bit(cbox):
+    scene = lente.load(cbox, res=48)
+    whole = scene.render(spp=4, seed=2, aovs="albedo", progress=False)
+    strips = [
+        scene.render(spp=4, seed=2, aovs="albedo", rows=r, progress=False)
+        for r in [(0, 7), (7, 40), (40, 48)]
+    ]
+    assert [s.shape[0] for s in strips] == [7, 33, 8]
+    stacked = lente.stack(strips)
+    assert np.array_equal(stacked, whole)
+    assert np.array_equal(stacked.aovs["albedo.G"], whole.aovs["albedo.G"])
+    with pytest.raises(ValueError, match="rows"):
+        scene.render(spp=1, rows=(10, 60), progress=False)
