@@ -19,6 +19,15 @@ impl Bitmap {
         }
     }
 
+    /// A bitmap of the same size with `f` applied to every pixel.
+    pub fn map(&self, f: impl Fn(Rgb) -> Rgb) -> Bitmap {
+        Bitmap {
+            width: self.width,
+            height: self.height,
+            pixels: self.pixels.iter().map(|&p| f(p)).collect(),
+        }
+    }
+
     pub fn get(&self, x: usize, y: usize) -> Rgb {
         self.pixels[y * self.width + x]
     }

@@ -32,25 +32,17 @@ pub fn false_colour(t: f32) -> Rgb {
 /// pixels stay black; non-finite ones show red.
 pub fn exposure_zones(image: &Bitmap, stops: f32) -> Bitmap {
     let scale = stops.exp2();
-    Bitmap {
-        width: image.width,
-        height: image.height,
-        pixels: image
-            .pixels
-            .iter()
-            .map(|&p| {
-                let l = luminance(p) * scale;
-                if l.is_nan() || l == f32::INFINITY {
-                    false_colour(1.0)
-                } else if l <= 0.0 {
-                    Rgb::ZERO
-                } else {
-                    let ev = (l / MIDDLE_GREY).log2();
-                    false_colour((ev + ZONE_STOPS) / (2.0 * ZONE_STOPS))
-                }
-            })
-            .collect(),
-    }
+    image.map(|p| {
+        let l = luminance(p) * scale;
+        if l.is_nan() || l == f32::INFINITY {
+            false_colour(1.0)
+        } else if l <= 0.0 {
+            Rgb::ZERO
+        } else {
+            let ev = (l / MIDDLE_GREY).log2();
+            false_colour((ev + ZONE_STOPS) / (2.0 * ZONE_STOPS))
+        }
+    })
 }
 
 #[cfg(test)]

@@ -175,18 +175,10 @@ impl Look {
 pub fn tonemap(image: &Bitmap, exposure_stops: f32, op: Tonemap) -> Bitmap {
     let scale = exposure_stops.exp2();
     let scale = if scale.is_finite() { scale } else { 1.0 };
-    Bitmap {
-        width: image.width,
-        height: image.height,
-        pixels: image
-            .pixels
-            .iter()
-            .map(|&p| {
-                let q = p * scale;
-                Rgb::new(op.map(q.x), op.map(q.y), op.map(q.z))
-            })
-            .collect(),
-    }
+    image.map(|p| {
+        let q = p * scale;
+        Rgb::new(op.map(q.x), op.map(q.y), op.map(q.z))
+    })
 }
 
 /// Tone maps and saves as an 8-bit sRGB PNG (atomically, like

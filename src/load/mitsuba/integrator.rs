@@ -137,16 +137,39 @@ impl<'d> Ctx<'d> {
             ));
         }
         p.finish(&mut self.warnings);
+        let integrator = self.first_nested_integrator(
+            node,
+            owner,
+            children,
+            format!(
+                "{owner} without a nested <integrator> renders only AOVs, which lente does \
+                 not do: put the integrator of the image inside it (e.g. <integrator \
+                 type=\"path\"/>), or use lente render --aov"
+            ),
+            "lente renders the image of the first integrator inside <integrator \
+             type=\"aov\">; this one is ignored",
+        )?;
+        self.aovs = self
+            .aovs
+            .union(&list)
+            .map_err(|e| self.err(node.pos, format!("{owner}: {e}")))?;
+        Ok(integrator)
+    }
+
+    /// The first integrator nested in a wrapping one (`aov`, `moment`):
+    /// `missing` is the error without one; later ones are ignored with
+    /// the warning `ignored`; anything else nested is misplaced.
+    fn first_nested_integrator(
+        &mut self,
+        node: &'d SceneNode,
+        owner: &str,
+        children: &[Child<'d>],
+        missing: String,
+        ignored: &str,
+    ) -> Result<Integrator> {
         let mut nested = children.iter();
         let Some(first) = nested.next() else {
-            return Err(self.err(
-                node.pos,
-                format!(
-                    "{owner} without a nested <integrator> renders only AOVs, which lente \
-                     does not do: put the integrator of the image inside it (e.g. \
-                     <integrator type=\"path\"/>), or use lente render --aov"
-                ),
-            ));
+            return Err(self.err(node.pos, missing));
         };
         if first.node.tag != "integrator" {
             return Err(self.misplaced(first, owner));
@@ -156,17 +179,8 @@ impl<'d> Ctx<'d> {
             if other.node.tag != "integrator" {
                 return Err(self.misplaced(other, owner));
             }
-            self.warn(
-                other.at,
-                "lente renders the image of the first integrator inside <integrator \
-                 type=\"aov\">; this one is ignored"
-                    .to_string(),
-            );
+            self.warn(other.at, ignored.to_string());
         }
-        self.aovs = self
-            .aovs
-            .union(&list)
-            .map_err(|e| self.err(node.pos, format!("{owner}: {e}")))?;
         Ok(integrator)
     }
 
@@ -181,28 +195,14 @@ impl<'d> Ctx<'d> {
         children: &[Child<'d>],
     ) -> Result<Integrator> {
         p.finish(&mut self.warnings);
-        let mut nested = children.iter();
-        let Some(first) = nested.next() else {
-            return Err(self.err(
-                node.pos,
-                format!("{owner} needs a nested <integrator> (the one whose moments it records)"),
-            ));
-        };
-        if first.node.tag != "integrator" {
-            return Err(self.misplaced(first, owner));
-        }
-        let integrator = self.enter(first, |c| c.integrator(first.node))?;
-        for other in nested {
-            if other.node.tag != "integrator" {
-                return Err(self.misplaced(other, owner));
-            }
-            self.warn(
-                other.at,
-                "only the first integrator inside <integrator type=\"moment\"> is rendered; \
-                 this one is ignored"
-                    .to_string(),
-            );
-        }
+        let integrator = self.first_nested_integrator(
+            node,
+            owner,
+            children,
+            format!("{owner} needs a nested <integrator> (the one whose moments it records)"),
+            "only the first integrator inside <integrator type=\"moment\"> is rendered; this \
+             one is ignored",
+        )?;
         self.warn(
             node.pos,
             "<integrator type=\"moment\"> renders its nested integrator; lente writes no \
