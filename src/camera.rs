@@ -1,5 +1,6 @@
-//! The perspective camera, pinhole or thin lens (Nori's and Mitsuba's
-//! conventions: image x runs towards camera -x, y towards camera -y).
+//! The perspective camera, pinhole or thin lens, and Mitsuba's
+//! orthographic one (Nori's and Mitsuba's conventions: image x runs
+//! towards camera -x, y towards camera -y).
 
 use crate::math::{Ray, Transform, Vec2, Vec3, PI};
 use crate::sampling::warp;
@@ -11,6 +12,18 @@ pub enum Aperture {
     Circular,
     /// A regular polygon with `blades` sides rotated by `rotation` radians.
     Polygon { blades: u32, rotation: f32 },
+}
+
+/// How camera rays leave the camera.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Projection {
+    /// From the eye (or the lens) through the image plane.
+    #[default]
+    Perspective,
+    /// Mitsuba's `orthographic`: parallel rays along camera +z from the
+    /// plane z = near_clip, over x in [-1, 1] and y in [-h/w, h/w] of
+    /// camera space (`to_world` scales it; the field of view is unused).
+    Orthographic,
 }
 
 /// Everything a scene file says about the camera.
@@ -34,6 +47,7 @@ pub struct CameraParams {
     /// Set `focal_distance` to the depth of the first surface on the
     /// optical axis when the scene is built.
     pub autofocus: bool,
+    pub projection: Projection,
 }
 
 /// Which extent of the image a scene's field of view spans (Mitsuba's
@@ -105,6 +119,7 @@ impl Default for CameraParams {
             focal_distance: 1.0,
             aperture: Aperture::Circular,
             autofocus: false,
+            projection: Projection::Perspective,
         }
     }
 }
@@ -314,6 +329,9 @@ impl Camera {
 
     /// Generates a world-space ray (unit direction) through `film` (pixels).
     pub fn generate_ray(&self, film: Vec2, aperture: Vec2) -> Ray {
+        if self.params.projection == Projection::Orthographic {
+            return self.orthographic_ray(film);
+        }
         let d = self.camera_direction(film);
         let (o, d) = if self.params.lens_radius > 0.0 {
             let lens = self.lens_point(aperture);
@@ -332,6 +350,23 @@ impl Camera {
             self.params.near_clip * inv_z,
             self.params.far_clip * inv_z,
         )
+    }
+}
+
+impl Camera {
+    /// Mitsuba's orthographic ray: from the near plane, along +z, over
+    /// the near clip to the far one.
+    fn orthographic_ray(&self, film: Vec2) -> Ray {
+        let sx = film.x / self.params.width as f32;
+        let sy = film.y / self.params.height as f32;
+        let p = Vec3::new(
+            1.0 - 2.0 * sx,
+            (1.0 - 2.0 * sy) * self.inv_aspect,
+            self.params.near_clip,
+        );
+        let o = self.params.to_world.point(p);
+        let d = self.params.to_world.vector(Vec3::Z).normalize();
+        Ray::with_range(o, d, 0.0, self.params.far_clip - self.params.near_clip)
     }
 }
 
@@ -357,6 +392,36 @@ pub fn regular_polygon_area(blades: u32) -> f32 {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn orthographic_rays_are_parallel_and_span_the_scaled_plane() {
+        let params = CameraParams {
+            width: 40,
+            height: 20,
+            near_clip: 0.5,
+            far_clip: 10.0,
+            to_world: Transform::new(crate::math::Mat4::from_scale(Vec3::new(3.0, 3.0, 1.0)))
+                .unwrap(),
+            projection: Projection::Orthographic,
+            ..CameraParams::default()
+        };
+        let cam = Camera::new(params).unwrap();
+        let corner = cam.generate_ray(Vec2::ZERO, Vec2::ZERO);
+        let centre = cam.generate_ray(Vec2::new(20.0, 10.0), Vec2::ZERO);
+        let far = cam.generate_ray(Vec2::new(40.0, 20.0), Vec2::ZERO);
+        for r in [corner, centre, far] {
+            assert!((r.d - Vec3::Z).length() < 1e-6, "{:?}", r.d);
+            assert_eq!(r.o.z, 0.5);
+        }
+        // Image x runs towards camera -x: the top-left pixel sees +x, +y.
+        assert!(
+            (corner.o - Vec3::new(3.0, 1.5, 0.5)).length() < 1e-5,
+            "{:?}",
+            corner.o
+        );
+        assert!((centre.o - Vec3::new(0.0, 0.0, 0.5)).length() < 1e-5);
+        assert!((far.o - Vec3::new(-3.0, -1.5, 0.5)).length() < 1e-5);
+    }
+
     use super::*;
 
     fn cam(lens_radius: f32) -> Camera {

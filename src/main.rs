@@ -988,8 +988,20 @@ fn cmd_info(scene_path: &Path, defines: &[(String, String)]) -> Result<()> {
     println!("scene       {}", scene_path.display());
     println!("integrator  {}", job.integrator.name());
     println!("image       {}x{}, {} spp", c.width, c.height, spp);
-    println!("camera      fov {:.3} deg (horizontal)", c.fov_x_deg);
-    if c.lens_radius > 0.0 {
+    if c.projection == lente::camera::Projection::Orthographic {
+        // The sensor plane spans x in [-1, 1] before to_world.
+        let plane = c.to_world.vector(lente::math::Vec3::X).length() * 2.0;
+        println!(
+            "camera      orthographic, {plane:.4} x {:.4} world units",
+            plane * c.height as f32 / c.width as f32
+        );
+    } else {
+        println!("camera      fov {:.3} deg (horizontal)", c.fov_x_deg);
+    }
+    let orthographic = c.projection == lente::camera::Projection::Orthographic;
+    if orthographic {
+        // No lens.
+    } else if c.lens_radius > 0.0 {
         let aperture = match c.aperture {
             lente::camera::Aperture::Circular => "circular".to_string(),
             lente::camera::Aperture::Polygon { blades, rotation } => {

@@ -402,6 +402,7 @@ impl<'a> Ctx<'a> {
                 }
             },
             autofocus,
+            projection: crate::camera::Projection::Perspective,
         };
         params
             .validate()

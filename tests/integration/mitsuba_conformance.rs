@@ -175,6 +175,12 @@ const CASES: &[Case] = &[
         renders: 16,
     },
     Case {
+        file: "orthographic.xml",
+        covers: "orthographic: a scaled sensor plane (scale then lookat), near_clip; directional, constant; rectangle, sphere, cube; diffuse, roughplastic",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
         file: "spot.xml",
         covers: "spot: beam width and cutoff (the linear falloff), Mitsuba's default beam width with a projected sRGB bitmap, tilted; diffuse, roughconductor",
         spp: 192,

@@ -19,16 +19,16 @@ pub(super) struct SensorDesc {
 }
 
 impl<'d> Ctx<'d> {
-    /// `perspective` and `thinlens` (Mitsuba's `sensors/perspective.cpp`,
-    /// `thinlens.cpp`, `render/sensor.cpp`): image x runs towards camera -x
-    /// and y towards -y, exactly lente's camera, so `to_world` is used as it
-    /// is.
+    /// `perspective`, `thinlens` and `orthographic` (Mitsuba's
+    /// `sensors/perspective.cpp`, `thinlens.cpp`, `orthographic.cpp`,
+    /// `render/sensor.cpp`): image x runs towards camera -x and y towards
+    /// -y, exactly lente's camera, so `to_world` is used as it is (with its
+    /// scale, which sizes the orthographic sensor plane).
     pub(super) fn sensor(&mut self, node: &'d SceneNode) -> Result<SensorDesc> {
         let ty = self.object_type(
             node,
-            &["perspective", "thinlens"],
+            &["perspective", "thinlens", "orthographic"],
             &[
-                "orthographic",
                 "telecentric",
                 "radiancemeter",
                 "irradiancemeter",
@@ -67,7 +67,13 @@ impl<'d> Ctx<'d> {
             None => 4,
         };
         let aspect = width as f64 / height as f64;
-        let (fov_x, fov_axis) = horizontal_fov(&mut p, aspect)?;
+        let orthographic = ty == "orthographic";
+        let (fov_x, fov_axis) = if orthographic {
+            // Unused: the sensor plane's size is to_world's scale.
+            (30.0, crate::camera::FovAxis::X)
+        } else {
+            horizontal_fov(&mut p, aspect)?
+        };
         let near_clip = p.get_float("near_clip", 1e-2)?;
         let far_clip = p.get_float("far_clip", 1e4)?;
         // Mitsuba asks more of near_clip than lente's camera does.
@@ -80,7 +86,7 @@ impl<'d> Ctx<'d> {
         // Read by both types (Mitsuba's ProjectiveCamera); default far_clip.
         let focus_distance = p.get_float("focus_distance", far_clip)?;
         let to_world = p.get_transform("to_world", Transform::IDENTITY)?;
-        if has_scale(&to_world) {
+        if has_scale(&to_world) && !orthographic {
             return Err(p.error(
                 "to_world",
                 "scale factors in a sensor's to_world are not allowed (Mitsuba refuses them too); \
@@ -126,6 +132,11 @@ impl<'d> Ctx<'d> {
             focal_distance,
             aperture: Aperture::Circular,
             autofocus: false,
+            projection: if orthographic {
+                crate::camera::Projection::Orthographic
+            } else {
+                crate::camera::Projection::Perspective
+            },
         };
         camera
             .validate()
@@ -411,6 +422,7 @@ pub(super) fn default_sensor(bounds: Aabb) -> SensorDesc {
         focal_distance: 1e4,
         aperture: Aperture::Circular,
         autofocus: false,
+        projection: crate::camera::Projection::Perspective,
     };
     if !bounds.is_empty() {
         let c = bounds.center();
