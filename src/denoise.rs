@@ -183,21 +183,14 @@ impl Denoiser {
         &self.path
     }
 
-    /// The library's version as "major.minor.patch" (asks a device, so it
-    /// also checks that OIDN runs on this machine).
-    pub fn version(&self) -> Result<String, DenoiseError> {
-        let device = Device::new(&self.api, None)?;
-        let v = device.int("version");
-        Ok(format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100))
-    }
-
     /// Denoises `input.color` with `threads` CPU threads (None: OIDN's
-    /// choice); the result has its size.
+    /// choice): the image (of its size) and the library's version as
+    /// "major.minor.patch".
     pub fn denoise(
         &self,
         input: &DenoiseInput,
         threads: Option<usize>,
-    ) -> Result<Bitmap, DenoiseError> {
+    ) -> Result<(Bitmap, String), DenoiseError> {
         let (w, h) = (input.color.width, input.color.height);
         for aux in [input.albedo, input.normal].into_iter().flatten() {
             if (aux.width, aux.height) != (w, h) {
@@ -258,14 +251,19 @@ impl Denoiser {
         filter.flag("hdr", true);
         filter.flag("cleanAux", albedo.is_some());
         filter.run()?;
-        Ok(Bitmap {
+        let image = Bitmap {
             width: w,
             height: h,
             pixels: output
                 .chunks_exact(3)
                 .map(|p| Rgb::new(p[0], p[1], p[2]))
                 .collect(),
-        })
+        };
+        let v = device.int("version");
+        Ok((
+            image,
+            format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100),
+        ))
     }
 }
 
@@ -299,13 +297,12 @@ pub fn denoise_film(
         albedo: albedo.as_ref(),
         normal: normal.as_ref(),
     };
-    let image = denoiser.denoise(&input, threads)?;
+    let (image, version) = denoiser.denoise(&input, threads)?;
     let aux = match (&albedo, &normal) {
         (Some(_), Some(_)) => "albedo and normal, prefiltered",
         (Some(_), None) => "albedo, prefiltered",
         _ => "colour only",
     };
-    let version = denoiser.version().unwrap_or_else(|_| "?".into());
     Ok((
         image,
         format!("Open Image Denoise {version} (RT, HDR; {aux})"),

@@ -751,11 +751,13 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     // The pass callback only reads the film: the image is the same bit for
     // bit with or without a preview or checkpoints.
     let on_pass = |info: &PassInfo| {
-        if let Some((state, _)) = &preview {
-            state.publish(info);
+        // Normalised once for the page and tev.
+        let image = (preview.is_some() || tev.is_some()).then(|| Arc::new(info.film.to_bitmap()));
+        if let (Some((state, _)), Some(image)) = (&preview, &image) {
+            state.publish_image(info, image.clone());
         }
-        if let Some(tev) = &tev {
-            tev.publish(Arc::new(info.film.to_bitmap()));
+        if let (Some(tev), Some(image)) = (&tev, &image) {
+            tev.publish(image.clone());
         }
         if let Some(c) = checkpointer.as_mut() {
             match c.after_pass(info) {
@@ -776,20 +778,22 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
 
     let secs = out.elapsed.as_secs_f64();
     let mut written = meta.progressed(out.spp, secs);
+    let noisy = out.image;
     let (image, denoise_error) = match &denoiser {
         Some(d) => match denoise_film(d, &out.film, &opts.aovs, Some(threads)) {
             Ok((image, description)) => {
                 written.denoiser = Some(description);
                 (image, None)
             }
-            Err(e) => (out.image.clone(), Some(e)),
+            Err(e) => (noisy, Some(e)),
         },
-        None => (out.image.clone(), None),
+        None => (noisy, None),
     };
+    let image = Arc::new(image);
     save_render(&exr, &written, &out.film, &image)?;
     look.save_png(&png, &image)?;
     if let Some(tev) = tev {
-        if !tev.finish(Arc::new(image.clone()), Duration::from_secs(5)) {
+        if !tev.finish(image.clone(), Duration::from_secs(5)) {
             eprintln!("warning: tev did not take the final image within 5 s");
         }
     }

@@ -261,35 +261,42 @@ fn film_dict<'py>(
 /// PNG (by extension; PNG sRGB-encoded and clamped), atomically.
 #[pyfunction]
 fn write(path: PathBuf, array: PyReadonlyArrayDyn<'_, f32>) -> PyResult<()> {
+    let bitmap = bitmap_from(&array, true)?;
+    lente::image::io::save_image(Path::new(&path), &bitmap)
+        .map_err(|e| RenderError::new_err(e.to_string()))
+}
+
+/// The bitmap of an H x W x 3 array; with `any_layout` also of H x W
+/// (grey) and H x W x 4 (alpha dropped).
+fn bitmap_from(array: &PyReadonlyArrayDyn<'_, f32>, any_layout: bool) -> PyResult<Bitmap> {
     let a = array.as_array();
     let shape = a.shape().to_vec();
-    let (h, w, channels) = match shape[..] {
-        [h, w] => (h, w, 1),
-        [h, w, 3] => (h, w, 3),
-        [h, w, 4] => (h, w, 4),
-        _ => {
+    let (h, w, grey) = match shape[..] {
+        [h, w, 3] => (h, w, false),
+        [h, w] if any_layout => (h, w, true),
+        [h, w, 4] if any_layout => (h, w, false),
+        _ if any_layout => {
             return Err(PyValueError::new_err(format!(
                 "expected an H x W x 3 (or H x W, or H x W x 4) array, not shape {shape:?}"
             )))
         }
+        _ => return Err(PyValueError::new_err("expected an H x W x 3 array")),
     };
     let pixels = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
-            if channels == 1 {
+            if grey {
                 Rgb::splat(a[[y, x]])
             } else {
                 Rgb::new(a[[y, x, 0]], a[[y, x, 1]], a[[y, x, 2]])
             }
         })
         .collect();
-    let bitmap = Bitmap {
+    Ok(Bitmap {
         width: w,
         height: h,
         pixels,
-    };
-    lente::image::io::save_image(Path::new(&path), &bitmap)
-        .map_err(|e| RenderError::new_err(e.to_string()))
+    })
 }
 
 /// Reads an EXR, HDR, PFM or PNG as an H x W x 3 float32 array (PNG
@@ -305,19 +312,7 @@ fn read<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, numpy::PyArr
 /// Jupyter's `_repr_png_`.
 #[pyfunction]
 fn png_bytes(array: PyReadonlyArrayDyn<'_, f32>) -> PyResult<Vec<u8>> {
-    let a = array.as_array();
-    let [h, w, 3] = a.shape()[..] else {
-        return Err(PyValueError::new_err("expected an H x W x 3 array"));
-    };
-    let pixels = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| Rgb::new(a[[y, x, 0]], a[[y, x, 1]], a[[y, x, 2]]))
-        .collect();
-    let bitmap = Bitmap {
-        width: w,
-        height: h,
-        pixels,
-    };
+    let bitmap = bitmap_from(&array, false)?;
     lente::image::io::png::encode_scaled(&bitmap, 1.0, false)
         .map_err(|e| RenderError::new_err(e.to_string()))
 }

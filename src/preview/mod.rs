@@ -139,7 +139,12 @@ impl PreviewState {
     /// Takes a snapshot of a finished pass: the film is normalised here, on
     /// the calling thread, and swapped in under a short lock.
     pub fn publish(&self, info: &PassInfo) {
-        let image = Arc::new(info.film.to_bitmap());
+        self.publish_image(info, Arc::new(info.film.to_bitmap()));
+    }
+
+    /// [`Self::publish`] with the pass's image already normalised (by a
+    /// caller that also hands it elsewhere, e.g. to tev).
+    pub fn publish_image(&self, info: &PassInfo, image: Arc<Bitmap>) {
         let keep_film = lock(&self.inner.meta).is_some();
         let film = keep_film.then(|| Arc::new(info.film.clone()));
         let mut s = lock(&self.inner.snapshot);

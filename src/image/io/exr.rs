@@ -204,8 +204,16 @@ pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
         Encoding::SMALL_LOSSLESS,
         channels,
     );
+    write_layer(&Image::from_layer(layer))
+}
+
+/// The bytes of an EXR file of one layer.
+fn write_layer<'c, C>(image: &'c Image<Layer<C>>) -> Result<Vec<u8>, Malformed>
+where
+    C: exr::image::write::channels::WritableChannels<'c>,
+{
     let mut out = Cursor::new(Vec::new());
-    Image::from_layer(layer)
+    image
         .write()
         .to_buffered(&mut out)
         .map_err(|e| format!("cannot encode OpenEXR: {e}"))?;
@@ -277,12 +285,7 @@ pub fn encode_channels(image: &Channels) -> Result<Vec<u8>, Malformed> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list.into()),
     );
-    let mut out = Cursor::new(Vec::new());
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(&mut out)
-        .map_err(|e| format!("cannot encode OpenEXR: {e}"))?;
-    Ok(out.into_inner())
+    write_layer(&Image::from_layer(layer))
 }
 
 /// The first layer's channels (as 32-bit floats) and the text attributes
