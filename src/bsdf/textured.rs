@@ -7,7 +7,7 @@
 use super::params::{BsdfError, BsdfParam};
 use super::{
     Bsdf, BsdfSample, Conductor, Diffuse, Microfacet, Plastic, RoughConductor, RoughDielectric,
-    RoughPlastic, ThinDielectric,
+    RoughPlastic, RoughSubstrate, SchlickConductor, ThinDielectric,
 };
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
@@ -29,6 +29,8 @@ enum Local<'a> {
     ThinDielectric(ThinDielectric),
     RoughDielectric(RoughDielectric),
     Microfacet(Microfacet),
+    SchlickConductor(SchlickConductor),
+    RoughSubstrate(RoughSubstrate),
 }
 
 /// The parameters a model takes from textures.
@@ -41,6 +43,9 @@ fn texturable(base: &Bsdf) -> &'static [BsdfParam] {
         Bsdf::RoughConductor(_) => &[SpecularReflectance, Eta, K, Alpha, AlphaV],
         Bsdf::ThinDielectric(_) => &[SpecularReflectance, SpecularTransmittance],
         Bsdf::RoughDielectric(_) => &[SpecularReflectance, SpecularTransmittance, Alpha, AlphaV],
+        // The Zaragoza Nori fork's: R0, kd and alpha take its textures.
+        Bsdf::SchlickConductor(_) => &[SpecularReflectance, Alpha],
+        Bsdf::RoughSubstrate(_) => &[Diffuse, Alpha],
         _ => &[],
     }
 }
@@ -143,6 +148,18 @@ impl Textured {
                 alpha(P::AlphaV, &mut b.distr.alpha_v);
                 Local::RoughDielectric(b)
             }
+            Bsdf::SchlickConductor(b) => {
+                let mut b = *b;
+                rgb(P::SpecularReflectance, &mut b.r0);
+                alpha(P::Alpha, &mut b.alpha);
+                Local::SchlickConductor(b)
+            }
+            Bsdf::RoughSubstrate(b) => {
+                let mut b = *b;
+                rgb(P::Diffuse, &mut b.kd);
+                alpha(P::Alpha, &mut b.alpha);
+                Local::RoughSubstrate(b)
+            }
             _ => unreachable!("Textured::new accepts only texturable models"),
         }
     }
@@ -153,6 +170,7 @@ impl Textured {
             Local::Diffuse(b) => b.albedo,
             Local::Plastic(b) => b.diffuse_reflectance,
             Local::RoughPlastic(_, kd, _) => kd,
+            Local::RoughSubstrate(b) => b.kd,
             _ => self.eval(at, wi, Vec3::Z) * std::f32::consts::PI,
         }
     }
@@ -165,6 +183,8 @@ impl Textured {
             Local::RoughConductor(b) => b.eval(wi, wo),
             Local::RoughDielectric(b) => b.eval(wi, wo),
             Local::Microfacet(b) => b.eval(wi, wo),
+            Local::SchlickConductor(b) => b.eval(wi, wo),
+            Local::RoughSubstrate(b) => b.eval(wi, wo),
             Local::Conductor(_) | Local::ThinDielectric(_) => Rgb::ZERO,
         }
     }
@@ -177,6 +197,8 @@ impl Textured {
             Local::RoughConductor(b) => b.pdf(wi, wo),
             Local::RoughDielectric(b) => b.pdf(wi, wo),
             Local::Microfacet(b) => b.pdf(wi, wo),
+            Local::SchlickConductor(b) => b.pdf(wi, wo),
+            Local::RoughSubstrate(b) => b.pdf(wi, wo),
             Local::Conductor(_) | Local::ThinDielectric(_) => 0.0,
         }
     }
@@ -191,6 +213,8 @@ impl Textured {
             Local::ThinDielectric(b) => b.sample(wi, u_lobe),
             Local::RoughDielectric(b) => b.sample(wi, u, u_lobe),
             Local::Microfacet(b) => b.sample(wi, u, u_lobe),
+            Local::SchlickConductor(b) => b.sample(wi, u),
+            Local::RoughSubstrate(b) => b.sample(wi, u, u_lobe),
         }
     }
 }

@@ -24,7 +24,7 @@ pub use serialized::{
 pub use shapes::{
     cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
 };
-pub use sphere::{Sphere, SphereError};
+pub use sphere::{Sphere, SphereError, SphereUv};
 pub use triangle::{intersect_triangle, PackedTriangle, RayShear};
 
 use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};

@@ -32,6 +32,21 @@ pub struct Sphere {
     /// azimuth u starts and turns to.
     pub x_axis: Vec3,
     pub y_axis: Vec3,
+    /// Which (u, v) a hit gets.
+    pub uv: SphereUv,
+}
+
+/// A sphere's surface parameterisation, about its polar axis (object z)
+/// with the azimuth measured from object x.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SphereUv {
+    /// Mitsuba's: u = atan2(y, x) / 2pi in [0, 1), v = acos(z) / pi (0 at
+    /// the top).
+    #[default]
+    Mitsuba,
+    /// ETH Zurich's Nori course (its textured-sphere assignment):
+    /// u = 1/2 + atan2(y, x) / 2pi, v = 1/2 + asin(z) / pi (1 at the top).
+    Eth,
 }
 
 /// A sphere that cannot be. Each message completes a sentence that starts
@@ -71,6 +86,7 @@ impl Sphere {
             axis: Vec3::Z,
             x_axis: Vec3::X,
             y_axis: Vec3::Y,
+            uv: SphereUv::Mitsuba,
         };
         s.check()?;
         Ok(s)
@@ -143,6 +159,7 @@ impl Sphere {
             axis: t.vector(self.axis).normalize(),
             x_axis: t.vector(self.x_axis).normalize(),
             y_axis: t.vector(self.y_axis).normalize(),
+            uv: self.uv,
         };
         moved.check()?;
         *self = moved;
@@ -178,15 +195,22 @@ impl Sphere {
         }
     }
 
-    /// Outward normal and Mitsuba's spherical (u, v) at a surface point:
-    /// in object space, u = atan2(y, x) / 2pi in [0, 1), v = acos(z) / pi.
+    /// Outward normal and spherical (u, v) at a surface point, in
+    /// object space ([`SphereUv`]).
     pub fn normal_uv(&self, p: Vec3) -> (Vec3, Vec2) {
         let n = ((p - self.center) / self.radius).normalize();
         let (x, y, z) = (n.dot(self.x_axis), n.dot(self.y_axis), n.dot(self.axis));
         let phi = y.atan2(x);
-        let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
         let theta = z.clamp(-1.0, 1.0).acos();
-        (n, Vec2::new(phi / (2.0 * PI), theta / PI))
+        let uv = match self.uv {
+            SphereUv::Mitsuba => {
+                let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
+                Vec2::new(phi / (2.0 * PI), theta / PI)
+            }
+            // asin(z) / pi = 1/2 - acos(z) / pi.
+            SphereUv::Eth => Vec2::new(0.5 + phi / (2.0 * PI), 1.0 - theta / PI),
+        };
+        (n, uv)
     }
 
     /// The surface point at parameter `t` of `ray` (shape index left 0 for

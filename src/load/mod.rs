@@ -9,6 +9,7 @@ mod error;
 pub mod mitsuba;
 pub mod nori;
 pub mod nori_testfile;
+mod nori_texture;
 mod objects;
 pub mod props;
 mod reader;
@@ -86,18 +87,20 @@ pub(crate) fn decode_utf8(path: &Path, bytes: Vec<u8>, what: &str) -> Result<Str
     }
 }
 
-/// True if a `<scene version="0...">` is written in Nori's syntax: Nori
-/// forks' files carry `version="0.5.0"` (Nori's own template had it), but
-/// only Nori names its objects `<mesh>` and `<camera>` (Mitsuba 0.x writes
-/// `<shape>` and `<sensor>`). A Mitsuba 2 or 3 version with Nori's tags is
-/// left to the Mitsuba reader, which says which tag to use instead.
+/// True if a `<scene version="...">` is written in Nori's syntax: Nori
+/// forks' files carry `version="0.5.0"` (Nori's own template had it), and
+/// students copy Mitsuba's `version="3.0.0"` into theirs, but only Nori
+/// names its objects `<mesh>` and `<camera>` (Mitsuba writes `<shape>` and
+/// `<sensor>`). With a Mitsuba 2 or 3 version it takes Nori's `<camera>`
+/// (a `<mesh>` alone is more likely a slip in a Mitsuba file); a file with
+/// tags of both is left to the Mitsuba reader, which says which tag to use
+/// instead.
 fn is_nori_syntax(root: &xml::SceneNode) -> bool {
-    root.attr_value("version")
-        .is_some_and(|v| v.trim().starts_with("0."))
-        && root
-            .children
-            .iter()
-            .any(|c| matches!(c.tag.as_str(), "mesh" | "camera"))
+    let has = |tags: &[&str]| root.children.iter().any(|c| tags.contains(&c.tag.as_str()));
+    let old = root
+        .attr_value("version")
+        .is_some_and(|v| v.trim().starts_with("0."));
+    !has(&["shape", "sensor"]) && (has(&["camera"]) || (old && has(&["mesh"])))
 }
 
 /// Reads a scene from text; `path` names it in messages and is the base of

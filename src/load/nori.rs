@@ -18,7 +18,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::objects::{self, EnvMapNames, EnvMapSpec, Texels};
+use super::nori_texture::{read_texture, NamedTexture};
+use super::objects::{self, EnvMapNames, EnvMapSpec, Texels, TextureImages};
 use super::props::{int_in, non_negative};
 use super::props::{Kind, Props};
 use super::reader::{self, Dialect, LookAtError};
@@ -29,12 +30,13 @@ use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
 use crate::emitter::{ConstantLight, Emitter, EmitterError, EnvFilter, PointLight, TexelRows};
-use crate::geometry::{load_obj, Geometry, Sphere};
+use crate::geometry::{load_obj, Geometry, Sphere, SphereUv};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Mat4, Transform, Vec3, PI};
 use crate::render::RenderJob;
 use crate::scene::{SceneDesc, ShapeDesc};
+use crate::texture::Texture;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -66,19 +68,16 @@ static NORI: Dialect = Dialect {
     ],
     transform_ops: &["translate", "matrix", "rotate", "scale", "lookat"],
     scene_only: &[],
-    other_tags: &[],
+    // Textures take a `name` too: read by nori_texture.
+    other_tags: &["texture"],
     object_attributes: &["type"],
     color_tag: "color",
     xyz_attributes: false,
     matrix3: false,
+    pairs: true,
     look_at,
     shape_tag: "mesh",
     element_hints: &[
-        (
-            "texture",
-            "textures, as the Zaragoza fork writes them, are not supported; give the \
-             property a constant <color> instead",
-        ),
         ("rgb", "that is Mitsuba's; Nori writes <color>"),
         ("shape", "that is Mitsuba's; Nori writes <mesh>"),
         ("sensor", "that is Mitsuba's; Nori writes <camera>"),
@@ -189,6 +188,10 @@ struct Ctx<'a> {
     /// Relative file names are resolved against this folder.
     dir: PathBuf,
     warnings: Vec<Warning>,
+    /// Images read for `textmap` textures, shared by file.
+    texture_images: TextureImages,
+    /// The ETH camera warning was given.
+    eth_warned: bool,
 }
 
 /// A camera with its filter and the sampler nested in it, if any.
@@ -196,8 +199,12 @@ type CameraDesc = (CameraParams, Filter, Option<(u32, Pos)>);
 
 /// An emitter read from the file, before it is placed.
 enum EmitterDesc {
-    Area(Rgb),
-    Free { emitter: Emitter, environment: bool },
+    /// An area emitter's radiance, and its texture if it varies.
+    Area(Rgb, Option<Texture>),
+    Free {
+        emitter: Emitter,
+        environment: bool,
+    },
 }
 
 impl<'a> Ctx<'a> {
@@ -210,6 +217,8 @@ impl<'a> Ctx<'a> {
             file,
             dir,
             warnings: Vec::new(),
+            texture_images: TextureImages::default(),
+            eth_warned: false,
         }
     }
 
@@ -309,7 +318,7 @@ impl<'a> Ctx<'a> {
                 },
                 "emitter" => match self.emitter(node, false)? {
                     free @ EmitterDesc::Free { .. } => handle_free(self, free, node.pos)?,
-                    EmitterDesc::Area(_) => unreachable!("checked by emitter()"),
+                    EmitterDesc::Area(..) => unreachable!("checked by emitter()"),
                 },
                 _ => return Err(self.misplaced(node, "<scene>")),
             }
@@ -347,6 +356,7 @@ impl<'a> Ctx<'a> {
             "medium" | "phase" => "; participating media are not supported",
             "camera" | "integrator" | "mesh" => "; it belongs directly inside <scene>",
             "sampler" => "; it belongs inside <scene> or the <camera>",
+            "texture" => "; a <texture> sets a colour of the <bsdf> or area <emitter> it stands in",
             "emitter" => {
                 "; an area emitter belongs inside a <mesh>, others directly inside <scene>"
             }
@@ -367,7 +377,17 @@ impl<'a> Ctx<'a> {
         let far_clip = p.get_float("farClip", 1e4)?;
         let to_world = p.get_transform("toWorld", Transform::IDENTITY)?;
         let lens_radius = p.get_float("lensRadius", 0.0)?;
-        let focal_distance = p.opt_float("focalDistance")?;
+        let mut focal_distance = p.opt_float("focalDistance")?;
+        if focal_distance.is_none() && p.has("focalLength") {
+            // ETH students' thin lenses (pbrt's, section 6.2.3) name the
+            // distance to the plane in focus so.
+            focal_distance = p.opt_float("focalLength")?;
+            p.warn(
+                "focalLength",
+                "'focalLength' is read as the distance to the plane in focus, as ETH students' \
+                 thin-lens cameras use it (lente's name: 'focalDistance')",
+            );
+        }
         let autofocus = p.get_bool("autofocus", false)?;
         let blades = p.get_int("apertureBlades", 0)?;
         let rotation = p.get_float("apertureRotation", 0.0)?;
@@ -589,7 +609,7 @@ impl<'a> Ctx<'a> {
         let owner = format!("<mesh type=\"{ty}\">");
         let (mut p, objects) = self.read_object(node, &owner)?;
         let mut bsdf: Option<(Bsdf, Pos)> = None;
-        let mut area: Option<(Rgb, Pos)> = None;
+        let mut area: Option<(Rgb, Option<Texture>, Pos)> = None;
 
         enum Source {
             Obj(PathBuf),
@@ -603,7 +623,12 @@ impl<'a> Ctx<'a> {
                 }
                 Source::Obj(self.dir.join(name))
             }
-            "sphere" => Source::Sphere(objects::sphere(&mut p)?),
+            "sphere" => {
+                let mut sphere = objects::sphere(&mut p)?;
+                // ETH's course gives its spheres this (u, v) for textures.
+                sphere.uv = SphereUv::Eth;
+                Source::Sphere(sphere)
+            }
             _ => unreachable!(),
         };
         let filename_pos = p.value_pos("filename");
@@ -623,14 +648,16 @@ impl<'a> Ctx<'a> {
                     bsdf = Some((self.bsdf(ch)?, ch.pos));
                 }
                 "emitter" => {
-                    if let Some((_, first)) = area {
+                    if let Some((_, _, first)) = area {
                         return Err(self.err(
                             ch.pos,
                             format!("a mesh can have only one <emitter> (the first is at {first})"),
                         ));
                     }
                     match self.emitter(ch, true)? {
-                        EmitterDesc::Area(radiance) => area = Some((radiance, ch.pos)),
+                        EmitterDesc::Area(radiance, texture) => {
+                            area = Some((radiance, texture, ch.pos))
+                        }
                         EmitterDesc::Free { .. } => unreachable!("checked by emitter()"),
                     }
                 }
@@ -653,8 +680,8 @@ impl<'a> Ctx<'a> {
         Ok(ShapeDesc {
             geometry,
             bsdf: bsdf.map_or_else(Bsdf::default, |b| b.0),
-            area_radiance: area.map(|a| a.0),
-            area_texture: None,
+            area_radiance: area.as_ref().map(|a| a.0),
+            area_texture: area.and_then(|a| a.1),
         })
     }
 
@@ -662,9 +689,40 @@ impl<'a> Ctx<'a> {
         let ty = self.object_type(node, BSDF_TYPES)?;
         let owner = format!("<bsdf type=\"{ty}\">");
         let (mut p, objects) = self.read_object(node, &owner)?;
+        // The properties the forks' textures may set, by BSDF.
+        let texturable: &[(&str, BsdfParam)] = match ty {
+            "diffuse" => &[("albedo", BsdfParam::Diffuse)],
+            "roughconductor" => &[
+                ("R0", BsdfParam::SpecularReflectance),
+                ("alpha", BsdfParam::Alpha),
+            ],
+            "roughsubstrate" => &[("kd", BsdfParam::Diffuse), ("alpha", BsdfParam::Alpha)],
+            _ => &[],
+        };
+        let mut textures: Vec<(BsdfParam, Texture)> = Vec::new();
+        let mut means: Vec<(&str, Rgb)> = Vec::new();
+        for ch in objects {
+            let t = self.texture_child(ch, &owner, &p, texturable)?;
+            let (name, param) = *texturable
+                .iter()
+                .find(|(n, _)| *n == t.name)
+                .expect("checked");
+            // The fork reads a roughness texture's channel mean.
+            let texture = match (param, t.texture) {
+                (BsdfParam::Alpha, Texture::Bitmap(b)) => Texture::Bitmap(b.channel_means()),
+                (_, t) => t,
+            };
+            means.push((name, texture.mean()));
+            textures.push((param, texture));
+        }
+        // A textured parameter's constant is its texture's mean.
+        let mean = |name: &str| means.iter().find(|(n, _)| *n == name).map(|m| m.1);
         let bsdf = match ty {
             "diffuse" => {
-                let albedo = p.get_rgb("albedo", Rgb::splat(0.5))?;
+                let albedo = match mean("albedo") {
+                    Some(m) => m,
+                    None => p.get_rgb("albedo", Rgb::splat(0.5))?,
+                };
                 if albedo.max_element() > 1.0 {
                     p.warn(
                         "albedo",
@@ -698,23 +756,92 @@ impl<'a> Ctx<'a> {
             }
             // The Zaragoza fork's rough metal and coated diffuse.
             "roughconductor" => {
-                let alpha = p.get_float("alpha", 0.1)?;
-                let r0 = p.get_rgb("R0", Rgb::splat(0.5))?;
+                let alpha = match mean("alpha") {
+                    Some(m) => crate::texture::channel_mean(m),
+                    None => p.get_float("alpha", 0.1)?,
+                };
+                let r0 = match mean("R0") {
+                    Some(m) => m,
+                    None => p.get_rgb("R0", Rgb::splat(0.5))?,
+                };
                 SchlickConductor::new(alpha, r0).map(Bsdf::SchlickConductor)
             }
             "roughsubstrate" => {
-                let alpha = p.get_float("alpha", 0.1)?;
+                let alpha = match mean("alpha") {
+                    Some(m) => crate::texture::channel_mean(m),
+                    None => p.get_float("alpha", 0.1)?,
+                };
                 let int_ior = p.get_float("intIOR", 1.5046)?;
                 let ext_ior = p.get_float("extIOR", 1.000277)?;
-                let kd = p.get_rgb("kd", Rgb::splat(0.5))?;
+                let kd = match mean("kd") {
+                    Some(m) => m,
+                    None => p.get_rgb("kd", Rgb::splat(0.5))?,
+                };
                 RoughSubstrate::new(alpha, int_ior, ext_ior, kd).map(Bsdf::RoughSubstrate)
             }
             _ => unreachable!(),
         };
-        let bsdf = bsdf.map_err(|e| p.param_error(nori_bsdf_name(ty, e.param()), &e))?;
+        let bsdf = bsdf
+            .and_then(|b| Bsdf::textured(b, textures))
+            .map_err(|e| p.param_error(nori_bsdf_name(ty, e.param()), &e))?;
         p.finish(&mut self.warnings);
-        self.no_children(objects, &owner)?;
         Ok(bsdf)
+    }
+
+    /// A `<texture>` child of `owner`, which takes textures for the
+    /// properties `texturable` names; the property may not be given as a
+    /// value too.
+    fn texture_child(
+        &mut self,
+        ch: &SceneNode,
+        owner: &str,
+        p: &Props,
+        texturable: &[(&str, BsdfParam)],
+    ) -> Result<NamedTexture> {
+        if ch.tag != "texture" {
+            return Err(self.misplaced(ch, owner));
+        }
+        let t = read_texture(
+            &NORI,
+            self.file,
+            &self.dir,
+            ch,
+            &mut self.texture_images,
+            &mut self.warnings,
+        )?;
+        if t.eth && !self.eth_warned {
+            self.eth_warned = true;
+            self.warn(
+                t.pos,
+                "this texture type is ETH Zurich's Nori course framework's, whose camera \
+                 mirrors images left to right (its sample-to-camera x scale is +1/2, Nori's \
+                 -1/2); lente renders Nori's and Mitsuba's image. For ETH's, put <scale \
+                 value=\"-1,1,1\"/> first in the camera's toWorld",
+            );
+        }
+        if !texturable.iter().any(|(n, _)| *n == t.name) {
+            let takes = if texturable.is_empty() {
+                "takes no textures".to_string()
+            } else {
+                let names: Vec<String> = texturable.iter().map(|(n, _)| format!("'{n}'")).collect();
+                format!("takes textures for {}", names.join(", "))
+            };
+            return Err(self.err(
+                t.pos,
+                format!("{owner} has no texture '{}'; it {takes}", t.name),
+            ));
+        }
+        if p.has(&t.name) {
+            return Err(self.err(
+                t.pos,
+                format!(
+                    "'{}' is given twice, as a value at {} and as this texture; give one",
+                    t.name,
+                    p.value_pos(&t.name)
+                ),
+            ));
+        }
+        Ok(t)
     }
 
     /// The radiant intensity (W/sr) of a point light, from whichever of
@@ -780,7 +907,19 @@ impl<'a> Ctx<'a> {
         let owner = format!("<emitter type=\"{ty}\">");
         NORI.check_emitter_place(self.file, node, ty, in_mesh)?;
         let (mut p, objects) = self.read_object(node, &owner)?;
-        self.no_children(objects, &owner)?;
+        // Only the Zaragoza fork's area emitter takes a texture.
+        let texturable: &[(&str, BsdfParam)] = if ty == "area" {
+            &[("radiance", BsdfParam::Diffuse)]
+        } else {
+            &[]
+        };
+        let mut texture = None;
+        for ch in objects {
+            if texture.is_some() {
+                return Err(self.err(ch.pos, format!("{owner} has only one texture, 'radiance'")));
+            }
+            texture = Some(self.texture_child(ch, &owner, &p, texturable)?.texture);
+        }
         let desc = match ty {
             "area" => {
                 fork_hint(
@@ -789,7 +928,11 @@ impl<'a> Ctx<'a> {
                     "'scale' is read by the Zaragoza fork's area emitter, which never applies \
                      it; lente ignores it too (scale 'radiance' instead)",
                 )?;
-                EmitterDesc::Area(p.require_rgb("radiance")?)
+                match texture {
+                    Some(Texture::Constant(c)) => EmitterDesc::Area(c, None),
+                    Some(t) => EmitterDesc::Area(t.mean(), Some(t)),
+                    None => EmitterDesc::Area(p.require_rgb("radiance")?, None),
+                }
             }
             "point" | "pointlight" => {
                 let zaragoza = ty == "pointlight";
@@ -1045,6 +1188,9 @@ fn fork_hint(p: &mut Props, name: &str, message: &str) -> Result<()> {
         }
         Kind::Texture => {
             let _ = p.opt_texture(name)?;
+        }
+        Kind::Pair => {
+            let _ = p.get_pair(name, crate::math::Vec2::ZERO)?;
         }
     }
     p.warn(name, message);

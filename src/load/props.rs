@@ -11,7 +11,7 @@ use std::path::Path;
 use super::xml::{Attribute, Pos};
 use super::{SceneError, Warning};
 use crate::color::{Rgb, Spectrum, SpectrumUse};
-use crate::math::{Transform, Vec3};
+use crate::math::{Transform, Vec2, Vec3};
 use crate::texture::Texture;
 
 /// The type of a property, named as the scene file spells it.
@@ -27,6 +27,8 @@ pub enum Kind {
     Transform,
     Texture,
     Spectrum,
+    /// A `<point>` or `<vector>` of two numbers (ETH's Nori textures).
+    Pair,
 }
 
 impl Kind {
@@ -42,6 +44,7 @@ impl Kind {
             Kind::Transform => "transform",
             Kind::Texture => "texture",
             Kind::Spectrum => "spectrum",
+            Kind::Pair => "point or vector of two numbers",
         }
     }
 }
@@ -63,6 +66,8 @@ pub enum Value {
     /// A spectrum; it becomes a colour when read, in the way its object's
     /// [`SpectrumUse`] says.
     Spectrum(Spectrum),
+    /// Two numbers given as a `<point>` or `<vector>` (Nori dialect only).
+    Pair(Vec2),
 }
 
 impl Value {
@@ -78,6 +83,7 @@ impl Value {
             Value::Transform(_) => Kind::Transform,
             Value::Texture(_) => Kind::Texture,
             Value::Spectrum(_) => Kind::Spectrum,
+            Value::Pair(_) => Kind::Pair,
         }
     }
 }
@@ -310,6 +316,21 @@ impl<'a> Props<'a> {
                 }
                 return Ok(Some(Value::Color(rgb)));
             }
+            // Two numbers where three belong.
+            (Kind::Point | Kind::Vector, Value::Pair(_)) => {
+                return Err(SceneError::new(
+                    self.file,
+                    p.value_pos,
+                    "expected 3 numbers, found 2",
+                ));
+            }
+            (Kind::Pair, _) => {
+                return Err(SceneError::new(
+                    self.file,
+                    p.value_pos,
+                    format!("'{name}' of {} takes two numbers", self.owner),
+                ));
+            }
             _ => {}
         }
         Err(SceneError::new(
@@ -404,6 +425,15 @@ impl<'a> Props<'a> {
 
     pub fn get_vector(&mut self, name: &str, default: Vec3) -> Result<Vec3> {
         Ok(self.opt_vector(name)?.unwrap_or(default))
+    }
+
+    /// Two finite numbers, written as a `<point>` or `<vector>` of two.
+    pub fn get_pair(&mut self, name: &str, default: Vec2) -> Result<Vec2> {
+        match self.lookup(name, Kind::Pair)? {
+            None => Ok(default),
+            Some(Value::Pair(v)) if v.is_finite() => Ok(v),
+            Some(_) => Err(self.error(name, format!("'{name}' must be two finite numbers"))),
+        }
     }
 
     /// A colour with finite, non-negative components.

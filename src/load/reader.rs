@@ -14,7 +14,7 @@ use std::path::Path;
 use super::props::{self, Props, Value};
 use super::xml::{describe, Attribute, Pos, SceneNode};
 use super::SceneError;
-use crate::math::{Mat3, Mat4, Transform, Vec3, Vec4};
+use crate::math::{Mat3, Mat4, Transform, Vec2, Vec3, Vec4};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -62,6 +62,9 @@ pub(crate) struct Dialect {
     pub xyz_attributes: bool,
     /// A `<matrix>` may be 3x3 as well as 4x4.
     pub matrix3: bool,
+    /// A `<point>` or `<vector>` may hold two numbers (a [`Value::Pair`]:
+    /// ETH's Nori writes its textures' `scale` and `delta` so).
+    pub pairs: bool,
     /// The dialect's `<lookat>`: origin, target and `up` (None if not given).
     pub look_at: fn(Vec3, Vec3, Option<Vec3>) -> std::result::Result<Mat4, LookAtError>,
     /// The element of a shape (`mesh`, `shape`), where area emitters go.
@@ -194,6 +197,19 @@ impl Dialect {
                 ));
             }
         }
+        self.type_of(file, node, known, unsupported, hint)
+    }
+
+    /// An object element's type, one of `known` (its other attributes
+    /// checked by the caller: [`Dialect::object_type`] takes only `type`).
+    pub fn type_of<'n>(
+        &self,
+        file: &Path,
+        node: &'n SceneNode,
+        known: &[&str],
+        unsupported: &[&str],
+        hint: &dyn Fn(&str) -> Option<&'static str>,
+    ) -> Result<&'n str> {
         let Some(t) = node.attr("type") else {
             return Err(SceneError::new(
                 file,
@@ -283,6 +299,12 @@ impl Dialect {
                 ("integer", Some(v)) => Value::Int(props::parse_int(file, v)?),
                 ("float", Some(v)) => Value::Float(props::parse_float(file, v)?),
                 ("string", Some(v)) => Value::String(v.value.clone()),
+                ("point" | "vector", Some(v))
+                    if self.pairs && props::tokens(&v.value).len() == 2 =>
+                {
+                    let n = props::parse_numbers(file, v)?;
+                    Value::Pair(Vec2::new(n[0], n[1]))
+                }
                 ("point", _) => Value::Point(self.xyz(file, node, 0.0, self.xyz_attributes)?),
                 ("vector", _) => Value::Vector(self.xyz(file, node, 0.0, self.xyz_attributes)?),
                 (t, Some(v)) if t == self.color_tag => {

@@ -118,12 +118,34 @@ pub fn parse(text: &str) -> Result<SceneNode, XmlError> {
         allow_dtd: false,
         ..Default::default()
     };
+    let late = late_declaration(text);
+    let text = late.as_deref().unwrap_or(text);
     let doc = match roxmltree::Document::parse_with_options(text, opts) {
         Ok(doc) => doc,
         Err(e) => return Err(describe_error(text, &e)),
     };
     let mapper = PosMapper::new(text);
     convert(&doc, &mapper, doc.root_element(), 0)
+}
+
+/// A copy of `text` with its XML declaration blanked out when blank
+/// lines or spaces come before it (XML allows nothing there, but Nori's
+/// and Mitsuba's parser, pugixml, skip it, and students' files have it);
+/// spaces keep every line and column where it was. None when the
+/// declaration is first or absent.
+fn late_declaration(text: &str) -> Option<String> {
+    let body = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let lead = body.len() - body.trim_start().len();
+    if lead == 0 || !body[lead..].starts_with("<?xml") {
+        return None;
+    }
+    let start = text.len() - body.len() + lead;
+    let end = start + text[start..].find("?>")? + 2;
+    let blank: String = text[start..end]
+        .chars()
+        .map(|c| if c == '\n' { '\n' } else { ' ' })
+        .collect();
+    Some(format!("{}{blank}{}", &text[..start], &text[end..]))
 }
 
 /// Deepest element nesting accepted (the tree is built recursively).

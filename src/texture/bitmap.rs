@@ -51,6 +51,15 @@ impl TextureImage {
         self.width
     }
 
+    /// The same image with every texel multiplied by `c`.
+    pub fn scaled(&self, c: Rgb) -> TextureImage {
+        TextureImage::new(Bitmap {
+            width: self.width,
+            height: self.height,
+            pixels: self.texels.iter().map(|t| *t * c).collect(),
+        })
+    }
+
     pub fn height(&self) -> usize {
         self.height
     }
@@ -143,6 +152,25 @@ impl BitmapTexture {
 
     pub fn image(&self) -> &Arc<TextureImage> {
         &self.image
+    }
+
+    /// The same lookup of a grey image holding each texel's channel mean
+    /// (so `eval_1`, the luminance, is the mean of `eval`'s channels).
+    pub fn channel_means(&self) -> BitmapTexture {
+        let img = &*self.image;
+        let grey = TextureImage::new(Bitmap {
+            width: img.width,
+            height: img.height,
+            pixels: img
+                .texels
+                .iter()
+                .map(|t| Rgb::splat(super::channel_mean(*t)))
+                .collect(),
+        });
+        BitmapTexture {
+            image: Arc::new(grey),
+            ..self.clone()
+        }
     }
 
     /// The filtered texel value at `uv`.

@@ -6,10 +6,12 @@
 mod bitmap;
 mod checkerboard;
 mod mesh_attribute;
+mod nori_checker;
 
 pub use bitmap::{BitmapTexture, FilterType, TextureImage, WrapMode};
 pub use checkerboard::Checkerboard;
 pub use mesh_attribute::{BindError, MeshAttributeTexture};
+pub use nori_checker::{CheckerRule, NoriChecker};
 
 use crate::color::{luminance, Rgb};
 use crate::math::{Vec2, Vec3};
@@ -47,6 +49,8 @@ pub enum Texture {
     Constant(Rgb),
     Bitmap(BitmapTexture),
     Checkerboard(Checkerboard),
+    /// The Nori forks' checkerboards (ETH's and the Zaragoza fork's).
+    NoriChecker(NoriChecker),
     /// A mesh's per-vertex or per-face data (boxed: rare).
     MeshAttribute(Box<MeshAttributeTexture>),
 }
@@ -66,6 +70,7 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Bitmap(t) => t.eval(at.uv),
             Texture::Checkerboard(t) => t.eval(at.uv),
+            Texture::NoriChecker(t) => t.eval(at.uv),
             Texture::MeshAttribute(t) => t.eval(at),
         }
     }
@@ -80,6 +85,7 @@ impl Texture {
             Texture::Constant(c) => channel_mean(*c),
             Texture::Bitmap(t) => luminance(t.eval(at.uv)),
             Texture::Checkerboard(t) => t.eval_1(at.uv),
+            Texture::NoriChecker(t) => t.eval_1(at.uv),
             // One channel is stored in all three; three read as luminance.
             Texture::MeshAttribute(t) => luminance(t.eval(at)),
         }
@@ -112,6 +118,7 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Bitmap(t) => t.image().mean(),
             Texture::Checkerboard(t) => (t.color0 + t.color1) * 0.5,
+            Texture::NoriChecker(t) => t.mean(),
             Texture::MeshAttribute(t) => t.mean(),
         }
     }
@@ -132,6 +139,7 @@ impl Texture {
             Texture::Constant(c) => c.max_element(),
             Texture::Bitmap(t) => t.image().max_value(),
             Texture::Checkerboard(t) => t.color0.max_element().max(t.color1.max_element()),
+            Texture::NoriChecker(t) => t.max_value(),
             Texture::MeshAttribute(t) => t.max_value(),
         }
     }

@@ -731,7 +731,7 @@ fn other_roots() {
     // A version attribute selects the Mitsuba dialect.
     assert_error(
         "mitsuba",
-        "<!-- m -->\n<scene version=\"3.0.0\">\n<camera type=\"perspective\"/>\n</scene>\n",
+        "<!-- m -->\n<scene version=\"3.0.0\">\n<camera type=\"perspective\"/>\n<shape type=\"sphere\"/>\n</scene>\n",
         3,
         1,
         &["<camera>", "Mitsuba writes <sensor>"],

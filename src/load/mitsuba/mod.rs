@@ -85,6 +85,7 @@ static MITSUBA: Dialect = Dialect {
     color_tag: "rgb",
     xyz_attributes: true,
     matrix3: true,
+    pairs: false,
     look_at,
     shape_tag: "shape",
     element_hints: &[
