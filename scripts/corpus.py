@@ -130,24 +130,52 @@ def mitsuba_load(path):
 
 
 def resized_copy(path, width, size):
-    """A copy of the scene next to it with its film `width` pixels wide (the
-    height keeps the aspect); None when the film is not in this file."""
-    tree = ET.parse(path)
-    film = tree.getroot().find(".//film")
-    if film is None or size is None:
+    """A copy of the scene next to it whose film is `width` pixels wide
+    (the height keeps the aspect): the film is resized in the file, or in
+    a copy of the included file that holds it (the copy of the scene then
+    includes that). Returns (copy, extra copies), or None when no film is
+    found."""
+    if size is None:
         return None
     height = max(1, round(size[1] * width / size[0]))
-    found = set()
-    for el in film.findall("integer"):
-        if el.get("name") in ("width", "height"):
-            el.set("value", str(width if el.get("name") == "width" else height))
-            found.add(el.get("name"))
-    for name, value in (("width", width), ("height", height)):
-        if name not in found:
-            ET.SubElement(film, "integer", name=name, value=str(value))
-    copy = os.path.join(os.path.dirname(path), ".corpus-" + os.path.basename(path))
-    tree.write(copy)
-    return copy
+
+    def resize(film):
+        found = set()
+        for el in film.findall("integer"):
+            if el.get("name") in ("width", "height"):
+                el.set("value", str(width if el.get("name") == "width" else height))
+                found.add(el.get("name"))
+        for name, value in (("width", width), ("height", height)):
+            if name not in found:
+                ET.SubElement(film, "integer", name=name, value=str(value))
+
+    def copy_name(p):
+        return os.path.join(os.path.dirname(p), ".corpus-" + os.path.basename(p))
+
+    tree = ET.parse(path)
+    film = tree.getroot().find(".//film")
+    extra = []
+    if film is not None:
+        resize(film)
+    else:
+        for inc in tree.getroot().iter("include"):
+            name = inc.get("filename", "")
+            inc_path = os.path.join(os.path.dirname(path), name)
+            if "$" in name or not os.path.exists(inc_path):
+                continue
+            inc_tree = ET.parse(inc_path)
+            inc_film = inc_tree.getroot().find(".//film")
+            if inc_film is None:
+                continue
+            resize(inc_film)
+            inc_tree.write(copy_name(inc_path))
+            extra.append(copy_name(inc_path))
+            inc.set("filename", os.path.join(os.path.dirname(name), ".corpus-" + os.path.basename(name)))
+            break
+        if not extra:
+            return None
+    tree.write(copy_name(path))
+    return copy_name(path), extra
 
 
 # --- Student's t tail, for Welch's test ------------------------------------
@@ -254,7 +282,8 @@ def main():
     ap.add_argument("--renders", type=int, default=16)
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--width", type=int, default=96)
-    ap.add_argument("--only", default="")
+    ap.add_argument("--only", default="",
+                    help="only files whose path contains this text (comma-separated: any)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     try:
@@ -273,7 +302,7 @@ def main():
             files += [os.path.join(d, n) for n in names
                       if n.endswith(".xml") and not n.startswith(".corpus-")]
         for path in sorted(files):
-            if args.only and args.only not in path:
+            if args.only and not any(o in path for o in args.only.split(",")):
                 continue
             try:
                 text = open(path, encoding="utf-8", errors="replace").read()
@@ -295,17 +324,18 @@ def main():
                 mits_col = "ok" if mok else (
                     "asset missing: " if MISSING.search(mmsg) else "fails: ") + mmsg
                 if ok and mok and args.compare:
-                    copy = resized_copy(path, args.width, size)
-                    if copy is None:
-                        match_col = "not compared: the film is not in this file"
+                    copies = resized_copy(path, args.width, size)
+                    if copies is None:
+                        match_col = "not compared: no film found to resize"
                     else:
                         try:
-                            match_col = compare(np, mi, args.lente, copy, args.renders,
+                            match_col = compare(np, mi, args.lente, copies[0], args.renders,
                                                 args.spp, args.out)
                         except Exception as e:  # a failed render is a finding
                             match_col = "compare failed: %s" % str(e).splitlines()[-1][:150]
                         finally:
-                            os.remove(copy)
+                            for c in [copies[0]] + copies[1]:
+                                os.remove(c)
             row = (top, rel, kind, lente_col, mits_col, match_col)
             rows.append(row)
             print("%-8s %-60s lente: %s | mitsuba: %s | %s" % (kind, rel, lente_col[:90],
