@@ -7,7 +7,7 @@
 
 use std::sync::Arc;
 
-use super::UvTransform;
+use super::{bounded, UvTransform};
 use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
 use crate::math::Vec2;
@@ -113,17 +113,6 @@ impl WrapMode {
             }
         };
         j as usize
-    }
-}
-
-/// A texel coordinate within +-2^30 (NaN and infinities become 0), so
-/// any uv reads some texel and the interpolation weights stay finite.
-#[inline]
-fn bounded(x: f32) -> f32 {
-    if x.is_finite() {
-        x.clamp(-1073741824.0, 1073741824.0)
-    } else {
-        0.0
     }
 }
 

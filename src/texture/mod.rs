@@ -200,6 +200,18 @@ impl UvTransform {
     }
 }
 
+/// A texel or square coordinate within +-2^30 (NaN and infinities become
+/// 0), so any uv reads some texel or square, integer casts stay defined
+/// and interpolation weights stay finite.
+#[inline]
+pub(crate) fn bounded(x: f32) -> f32 {
+    if x.is_finite() {
+        x.clamp(-1073741824.0, 1073741824.0)
+    } else {
+        0.0
+    }
+}
+
 /// The mean of a colour's channels: Mitsuba's `eval_1` of a constant
 /// (`srgb`) colour.
 #[inline]

@@ -13,6 +13,7 @@
 //!   either side of u = 0 are one double-width square, and the remainder
 //!   keeps its sign for negative uv).
 
+use super::bounded;
 use crate::color::Rgb;
 use crate::math::Vec2;
 
@@ -36,17 +37,6 @@ pub struct NoriChecker {
     pub same: Rgb,
     /// The value where they differ.
     pub differ: Rgb,
-}
-
-/// A square coordinate as an integer that any input maps to: NaN reads 0
-/// and values beyond +-2^30 are clamped (C's casts are undefined there).
-#[inline]
-fn bounded(x: f32) -> f32 {
-    if x.is_finite() {
-        x.clamp(-1073741824.0, 1073741824.0)
-    } else {
-        0.0
-    }
 }
 
 impl NoriChecker {
