@@ -699,30 +699,35 @@ impl<'a> Ctx<'a> {
             "roughsubstrate" => &[("kd", BsdfParam::Diffuse), ("alpha", BsdfParam::Alpha)],
             _ => &[],
         };
+        let names: Vec<&str> = texturable.iter().map(|(n, _)| *n).collect();
         let mut textures: Vec<(BsdfParam, Texture)> = Vec::new();
-        let mut means: Vec<(&str, Rgb)> = Vec::new();
         for ch in objects {
-            let t = self.texture_child(ch, &owner, &p, texturable)?;
-            let (name, param) = *texturable
-                .iter()
-                .find(|(n, _)| *n == t.name)
-                .expect("checked");
+            let (i, t) = self.texture_child(ch, &owner, &p, &names)?;
+            let param = texturable[i].1;
             // The fork reads a roughness texture's channel mean.
             let texture = match (param, t.texture) {
                 (BsdfParam::Alpha, Texture::Bitmap(b)) => Texture::Bitmap(b.channel_means()),
                 (_, t) => t,
             };
-            means.push((name, texture.mean()));
             textures.push((param, texture));
         }
         // A textured parameter's constant is its texture's mean.
-        let mean = |name: &str| means.iter().find(|(n, _)| *n == name).map(|m| m.1);
+        let mean = |name: &str| {
+            let (_, param) = texturable.iter().find(|(n, _)| *n == name)?;
+            let (_, t) = textures.iter().find(|(q, _)| q == param)?;
+            Some(t.mean())
+        };
+        let rgb = |p: &mut Props, name: &str, default: f32| match mean(name) {
+            Some(m) => Ok(m),
+            None => p.get_rgb(name, Rgb::splat(default)),
+        };
+        let float = |p: &mut Props, name: &str, default: f32| match mean(name) {
+            Some(m) => Ok(crate::texture::channel_mean(m)),
+            None => p.get_float(name, default),
+        };
         let bsdf = match ty {
             "diffuse" => {
-                let albedo = match mean("albedo") {
-                    Some(m) => m,
-                    None => p.get_rgb("albedo", Rgb::splat(0.5))?,
-                };
+                let albedo = rgb(&mut p, "albedo", 0.5)?;
                 if albedo.max_element() > 1.0 {
                     p.warn(
                         "albedo",
@@ -756,27 +761,15 @@ impl<'a> Ctx<'a> {
             }
             // The Zaragoza fork's rough metal and coated diffuse.
             "roughconductor" => {
-                let alpha = match mean("alpha") {
-                    Some(m) => crate::texture::channel_mean(m),
-                    None => p.get_float("alpha", 0.1)?,
-                };
-                let r0 = match mean("R0") {
-                    Some(m) => m,
-                    None => p.get_rgb("R0", Rgb::splat(0.5))?,
-                };
+                let alpha = float(&mut p, "alpha", 0.1)?;
+                let r0 = rgb(&mut p, "R0", 0.5)?;
                 SchlickConductor::new(alpha, r0).map(Bsdf::SchlickConductor)
             }
             "roughsubstrate" => {
-                let alpha = match mean("alpha") {
-                    Some(m) => crate::texture::channel_mean(m),
-                    None => p.get_float("alpha", 0.1)?,
-                };
+                let alpha = float(&mut p, "alpha", 0.1)?;
                 let int_ior = p.get_float("intIOR", 1.5046)?;
                 let ext_ior = p.get_float("extIOR", 1.000277)?;
-                let kd = match mean("kd") {
-                    Some(m) => m,
-                    None => p.get_rgb("kd", Rgb::splat(0.5))?,
-                };
+                let kd = rgb(&mut p, "kd", 0.5)?;
                 RoughSubstrate::new(alpha, int_ior, ext_ior, kd).map(Bsdf::RoughSubstrate)
             }
             _ => unreachable!(),
@@ -789,15 +782,15 @@ impl<'a> Ctx<'a> {
     }
 
     /// A `<texture>` child of `owner`, which takes textures for the
-    /// properties `texturable` names; the property may not be given as a
-    /// value too.
+    /// properties `texturable` names, and the index there of the one it
+    /// sets; the property may not be given as a value too.
     fn texture_child(
         &mut self,
         ch: &SceneNode,
         owner: &str,
         p: &Props,
-        texturable: &[(&str, BsdfParam)],
-    ) -> Result<NamedTexture> {
+        texturable: &[&str],
+    ) -> Result<(usize, NamedTexture)> {
         if ch.tag != "texture" {
             return Err(self.misplaced(ch, owner));
         }
@@ -819,18 +812,18 @@ impl<'a> Ctx<'a> {
                  value=\"-1,1,1\"/> first in the camera's toWorld",
             );
         }
-        if !texturable.iter().any(|(n, _)| *n == t.name) {
+        let Some(i) = texturable.iter().position(|n| *n == t.name) else {
             let takes = if texturable.is_empty() {
                 "takes no textures".to_string()
             } else {
-                let names: Vec<String> = texturable.iter().map(|(n, _)| format!("'{n}'")).collect();
+                let names: Vec<String> = texturable.iter().map(|n| format!("'{n}'")).collect();
                 format!("takes textures for {}", names.join(", "))
             };
             return Err(self.err(
                 t.pos,
                 format!("{owner} has no texture '{}'; it {takes}", t.name),
             ));
-        }
+        };
         if p.has(&t.name) {
             return Err(self.err(
                 t.pos,
@@ -841,7 +834,7 @@ impl<'a> Ctx<'a> {
                 ),
             ));
         }
-        Ok(t)
+        Ok((i, t))
     }
 
     /// The radiant intensity (W/sr) of a point light, from whichever of
@@ -908,17 +901,13 @@ impl<'a> Ctx<'a> {
         NORI.check_emitter_place(self.file, node, ty, in_mesh)?;
         let (mut p, objects) = self.read_object(node, &owner)?;
         // Only the Zaragoza fork's area emitter takes a texture.
-        let texturable: &[(&str, BsdfParam)] = if ty == "area" {
-            &[("radiance", BsdfParam::Diffuse)]
-        } else {
-            &[]
-        };
+        let texturable: &[&str] = if ty == "area" { &["radiance"] } else { &[] };
         let mut texture = None;
         for ch in objects {
             if texture.is_some() {
                 return Err(self.err(ch.pos, format!("{owner} has only one texture, 'radiance'")));
             }
-            texture = Some(self.texture_child(ch, &owner, &p, texturable)?.texture);
+            texture = Some(self.texture_child(ch, &owner, &p, texturable)?.1.texture);
         }
         let desc = match ty {
             "area" => {

@@ -15,7 +15,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::objects::TextureImages;
-use super::props::{int_in, Props};
+use super::props::{int_in, non_negative, Props};
 use super::reader::{check_attributes, Dialect};
 use super::xml::{Pos, SceneNode};
 use super::{SceneError, Warning};
@@ -79,10 +79,6 @@ pub(super) fn read_texture(
         texture,
         eth: !matches!(ty, "checker" | "textmap"),
     })
-}
-
-fn non_negative(p: &mut Props, name: &str, default: f32) -> Result<f32> {
-    super::props::non_negative(p, name, default)
 }
 
 /// ETH's `Checkerboard<T>`: `value1` where the squares' parities agree,
@@ -189,7 +185,7 @@ fn textmap(
     let image = if color == Rgb::ONE {
         image
     } else {
-        Arc::new(image.scaled(color))
+        Arc::new(image.map(|t| t * color))
     };
     // The fork reads texel (x, y) at x = (1 - u) w, y = (1 - v) h and
     // interpolates towards x + 1, y + 1; lente's bilinear lookup is

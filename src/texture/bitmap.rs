@@ -51,12 +51,12 @@ impl TextureImage {
         self.width
     }
 
-    /// The same image with every texel multiplied by `c`.
-    pub fn scaled(&self, c: Rgb) -> TextureImage {
+    /// The same size of image with `f` of every texel.
+    pub fn map(&self, f: impl Fn(Rgb) -> Rgb) -> TextureImage {
         TextureImage::new(Bitmap {
             width: self.width,
             height: self.height,
-            pixels: self.texels.iter().map(|t| *t * c).collect(),
+            pixels: self.texels.iter().map(|t| f(*t)).collect(),
         })
     }
 
@@ -146,16 +146,7 @@ impl BitmapTexture {
     /// The same lookup of a grey image holding each texel's channel mean
     /// (so `eval_1`, the luminance, is the mean of `eval`'s channels).
     pub fn channel_means(&self) -> BitmapTexture {
-        let img = &*self.image;
-        let grey = TextureImage::new(Bitmap {
-            width: img.width,
-            height: img.height,
-            pixels: img
-                .texels
-                .iter()
-                .map(|t| Rgb::splat(super::channel_mean(*t)))
-                .collect(),
-        });
+        let grey = self.image.map(|t| Rgb::splat(super::channel_mean(t)));
         BitmapTexture {
             image: Arc::new(grey),
             ..self.clone()
