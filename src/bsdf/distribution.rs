@@ -9,7 +9,7 @@
 //! axis), y = bitangent (`alpha_v`), z = normal.
 
 use super::params::{self, BsdfError, BsdfParam};
-use crate::math::{Vec2, Vec3, PI};
+use crate::math::{sin_cos_turns, Vec2, Vec3, PI};
 use crate::sampling::warp;
 
 /// Which normal distribution a rough BSDF uses (Mitsuba's `distribution`).
@@ -212,7 +212,7 @@ impl MicrofacetDistribution {
     fn sample_all_normals(&self, u: Vec2) -> Vec3 {
         let (au, av) = (self.alpha_u, self.alpha_v);
         let (sin_phi, cos_phi, alpha_2) = if self.is_isotropic() {
-            let (s, c) = (2.0 * PI * u.y).sin_cos();
+            let (s, c) = sin_cos_turns(u.y);
             (s, c, au * au)
         } else {
             // Azimuth of the anisotropic ellipse, quadrant by quadrant.

@@ -16,7 +16,7 @@ use super::fresnel::{schlick, schlick_weight};
 use super::rough_dielectric::{half_vector, mulsign, refract_about};
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::{luminance, Rgb};
-use crate::math::{reflect, Vec2, Vec3, INV_PI, PI};
+use crate::math::{reflect, sin_cos_turns, Vec2, Vec3, INV_PI, PI};
 use crate::sampling::warp;
 use crate::texture::{SurfacePoint, Texture};
 
@@ -148,7 +148,7 @@ impl Gtr1 {
     }
 
     fn sample(&self, u: Vec2) -> Vec3 {
-        let (sin_phi, cos_phi) = (2.0 * PI * u.x).sin_cos();
+        let (sin_phi, cos_phi) = sin_cos_turns(u.x);
         let a2 = self.alpha * self.alpha;
         let cos2 = (1.0 - a2.powf(1.0 - u.y)) / (1.0 - a2);
         let sin = (1.0 - cos2).max(0.0).sqrt();

@@ -6,7 +6,7 @@
 
 use super::{Bitmap, Filter, MAX_FILTER_RADIUS};
 use crate::color::Rgb;
-use crate::math::Vec2;
+use crate::math::{ceil_i32, floor_i32, Vec2};
 
 /// Accumulated weighted radiance and weight for one tile plus its border.
 #[derive(Clone, Debug)]
@@ -91,10 +91,10 @@ impl FilmBlock {
     fn footprint(&self, pos: Vec2) -> Footprint {
         let px = pos.x - 0.5;
         let py = pos.y - 0.5;
-        let xmin = ((px - self.radius).ceil() as i32).max(self.x0);
-        let xmax = ((px + self.radius).floor() as i32).min(self.x0 + self.width as i32 - 1);
-        let ymin = ((py - self.radius).ceil() as i32).max(self.y0);
-        let ymax = ((py + self.radius).floor() as i32).min(self.y0 + self.height as i32 - 1);
+        let xmin = ceil_i32(px - self.radius).max(self.x0);
+        let xmax = floor_i32(px + self.radius).min(self.x0 + self.width as i32 - 1);
+        let ymin = ceil_i32(py - self.radius).max(self.y0);
+        let ymax = floor_i32(py + self.radius).min(self.y0 + self.height as i32 - 1);
         // The filter is separable: its weights along x are the same for
         // every row, so they are evaluated once (at most 2 r + 1 of them).
         let mut wx = [0.0f32; 2 * MAX_FILTER_RADIUS as usize + 2];

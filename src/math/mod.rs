@@ -2,12 +2,14 @@
 
 mod approx;
 mod frame;
+mod prefetch;
 mod ray;
 mod transform;
 
-pub use approx::{fast_atan2, FAST_ATAN2_MAX_ERROR};
+pub use approx::{fast_atan2, sin_cos_turns, FAST_ATAN2_MAX_ERROR, SIN_COS_TURNS_MAX_ERROR};
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+pub use prefetch::prefetch;
 pub use ray::{barycentric_error, gamma, offset_ray_origin, Ray};
 pub use transform::Transform;
 
@@ -57,7 +59,54 @@ pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 pub const INV_TWO_PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
 pub const INV_FOUR_PI: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
 
+/// floor(x) as an integer, saturating at the ends of i32 (NaN gives 0).
+/// `f32::floor` is a libm call on the x86_64 baseline (no SSE4.1); this is
+/// a conversion and a compare, for the per-sample paths (film splats,
+/// texel lookups).
+#[inline]
+pub fn floor_i32(x: f32) -> i32 {
+    // Every float of magnitude 2^23 or more is an integer, so `i as f32`
+    // is exact wherever `x as i32` did not saturate.
+    let i = x as i32;
+    i.saturating_sub(((i as f32) > x) as i32)
+}
+
+/// ceil(x) as an integer, as [`floor_i32`] does floor.
+#[inline]
+pub fn ceil_i32(x: f32) -> i32 {
+    let i = x as i32;
+    i.saturating_add(((i as f32) < x) as i32)
+}
+
 /// Reflect `wi` about normal `n` (both pointing away from the surface).
 pub fn reflect(wi: Vec3, n: Vec3) -> Vec3 {
     2.0 * wi.dot(n) * n - wi
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_and_ceil_match_std() {
+        let mut xs = vec![0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 2.5, -2.5, 1e-30, -1e-30];
+        xs.extend([
+            8388607.5,
+            -8388607.5,
+            16777217.0,
+            2147483520.0,
+            -2147483648.0,
+        ]);
+        for k in -2000..=2000 {
+            xs.push(k as f32 * 0.37);
+        }
+        for x in xs {
+            assert_eq!(floor_i32(x), x.floor() as i32, "floor {x}");
+            assert_eq!(ceil_i32(x), x.ceil() as i32, "ceil {x}");
+        }
+        for x in [3e9f32, -3e9, f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+            assert_eq!(floor_i32(x), x.floor() as i32, "floor {x}");
+            assert_eq!(ceil_i32(x), x.ceil() as i32, "ceil {x}");
+        }
+    }
 }

@@ -159,6 +159,16 @@ impl AliasRows {
         self.totals[r]
     }
 
+    /// The cell [`sample`](Self::sample) starts from in any row, before its
+    /// table entry is read: the cell drawn unless the entry sends `u` to
+    /// its alias. Knowing it early lets a caller prefetch what it will read
+    /// for the cell while the entry itself is fetched.
+    #[inline]
+    pub fn first_guess(&self, u: f32) -> usize {
+        let u = if u >= 0.0 { u.min(1.0) } else { 0.0 };
+        ((u * self.len as f32) as usize).min(self.len - 1)
+    }
+
     /// [`AliasTable::sample`] in row `r`.
     #[inline]
     pub fn sample(&self, r: usize, u: f32) -> (usize, f32) {

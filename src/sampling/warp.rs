@@ -1,7 +1,7 @@
 //! Warps from the unit square to other domains, each with its pdf.
 //! Names follow Nori's warp tester.
 
-use crate::math::{Vec2, Vec3, INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
+use crate::math::{sin_cos_turns, Vec2, Vec3, INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
 
 pub fn square_to_uniform_square(s: Vec2) -> Vec2 {
     s
@@ -40,12 +40,14 @@ pub fn square_to_uniform_disk(s: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, (PI / 4.0) * (o.y / o.x))
+    // The angle in turns: pi/4 (y/x), or pi/2 - pi/4 (x/y).
+    let (r, turns) = if o.x.abs() > o.y.abs() {
+        (o.x, 0.125 * (o.y / o.x))
     } else {
-        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
+        (o.y, 0.25 - 0.125 * (o.x / o.y))
     };
-    r * Vec2::new(theta.cos(), theta.sin())
+    let (sin, cos) = sin_cos_turns(turns);
+    r * Vec2::new(cos, sin)
 }
 
 pub fn square_to_uniform_disk_pdf(p: Vec2) -> f32 {
@@ -59,8 +61,8 @@ pub fn square_to_uniform_disk_pdf(p: Vec2) -> f32 {
 pub fn square_to_uniform_sphere(s: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * s.y;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * s.x;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = sin_cos_turns(s.x);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 pub fn square_to_uniform_sphere_pdf(_v: Vec3) -> f32 {
@@ -70,8 +72,8 @@ pub fn square_to_uniform_sphere_pdf(_v: Vec3) -> f32 {
 pub fn square_to_uniform_hemisphere(s: Vec2) -> Vec3 {
     let z = s.y;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * s.x;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = sin_cos_turns(s.x);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 pub fn square_to_uniform_hemisphere_pdf(v: Vec3) -> f32 {
@@ -101,8 +103,8 @@ pub fn square_to_cosine_hemisphere_pdf(v: Vec3) -> f32 {
 pub fn square_to_uniform_cone(s: Vec2, cos_max: f32) -> Vec3 {
     let z = 1.0 - s.y * (1.0 - cos_max);
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * s.x;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = sin_cos_turns(s.x);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 pub fn square_to_uniform_cone_pdf(v: Vec3, cos_max: f32) -> f32 {
@@ -125,8 +127,8 @@ pub fn square_to_beckmann(s: Vec2, alpha: f32) -> Vec3 {
     let cos_theta = 1.0 / (1.0 + tan2).sqrt();
     // sin = tan cos: exact near the pole, where 1 - cos^2 cancels.
     let sin_theta = tan2.sqrt() * cos_theta;
-    let phi = 2.0 * PI * s.y;
-    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+    let (sin_phi, cos_phi) = sin_cos_turns(s.y);
+    Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta)
 }
 
 /// The Beckmann distribution D(m) (not yet multiplied by cos theta).

@@ -18,7 +18,7 @@
 
 use super::EnvFilter;
 use crate::color::Rgb;
-use crate::math::Vec2;
+use crate::math::{floor_i32, prefetch, Vec2};
 
 /// Where texel rows sit along v.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -124,16 +124,16 @@ impl TexelGrid {
     pub fn locate(&self, uv: Vec2) -> CellPoint {
         let w = self.width;
         let x = uv.x * w as f32 - self.col_offset();
-        let xf = x.floor();
+        let xf = floor_i32(x);
         // x is in [-0.5, W): the column wraps by at most one turn.
-        let col = match xf as i64 {
+        let col = match xf {
             c if c < 0 => w - 1,
             c if c as usize >= w => 0,
             c => c as usize,
         };
-        let fx = (x - xf).clamp(0.0, 1.0);
-        let band = ((uv.y * self.band_scale + self.band_offset).floor() as i64)
-            .clamp(0, self.bands() as i64 - 1) as usize;
+        let fx = (x - xf as f32).clamp(0.0, 1.0);
+        let band = floor_i32(uv.y * self.band_scale + self.band_offset)
+            .clamp(0, self.bands() as i32 - 1) as usize;
         let fy = ((uv.y - self.edges[band]) * self.inv_heights[band]).clamp(0.0, 1.0);
         CellPoint { col, band, fx, fy }
     }
@@ -161,6 +161,23 @@ impl TexelGrid {
                 let top = pixels[r0 + p.col].lerp(pixels[r0 + c1], p.fx);
                 let bottom = pixels[r1 + p.col].lerp(pixels[r1 + c1], p.fx);
                 top.lerp(bottom, p.fy)
+            }
+        }
+    }
+
+    /// Prefetches the texels [`lookup`](Self::lookup) reads in a cell.
+    #[inline]
+    pub fn prefetch(&self, pixels: &[Rgb], col: usize, band: usize) {
+        let w = self.width;
+        match self.filter {
+            EnvFilter::Nearest => prefetch(&pixels[self.rows[band] * w + col]),
+            EnvFilter::Bilinear => {
+                // Column col + 1 shares col's cache line or the next one.
+                let c1 = if col + 1 == w { 0 } else { col + 1 };
+                for r in [self.rows[band], self.rows[band + 1]] {
+                    prefetch(&pixels[r * w + col]);
+                    prefetch(&pixels[r * w + c1]);
+                }
             }
         }
     }

@@ -1,7 +1,7 @@
 //! Directions to lat-long (u, v) and back (the convention is in the
 //! module docs of `envmap`).
 
-use crate::math::{fast_atan2, Vec2, Vec3, INV_PI, INV_TWO_PI, PI};
+use crate::math::{fast_atan2, sin_cos_turns, Vec2, Vec3, INV_PI, INV_TWO_PI};
 
 /// (u, v) to the local unit direction.
 #[inline]
@@ -12,8 +12,8 @@ pub fn uv_to_dir(uv: Vec2) -> Vec3 {
 /// (u, v) to the local unit direction and its sin(theta).
 #[inline]
 pub fn uv_to_dir_sin(uv: Vec2) -> (Vec3, f32) {
-    let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
-    let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+    let (sin_phi, cos_phi) = sin_cos_turns(uv.x);
+    let (sin_theta, cos_theta) = sin_cos_turns(0.5 * uv.y);
     let d = Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
     (d, sin_theta)
 }

@@ -292,7 +292,9 @@ impl EnvMap {
     #[inline]
     pub fn sample(&self, u: Vec2, which: LightPdf) -> Option<(Vec3, Rgb, f32)> {
         let warp = self.warp(which)?;
-        let p = warp.sample(u);
+        let pixels = &self.image.pixels;
+        let pick = warp.pick(u, |col, band| self.grid.prefetch(pixels, col, band));
+        let p = warp.place(pick);
         // A point on an edge where the density vanishes (a pole, or the
         // border of a compensated density's support) is pulled towards its
         // cell's centre: this moves a vanishing fraction of samples by a

@@ -11,8 +11,18 @@
 
 use super::grid::{CellPoint, TexelGrid};
 use super::EnvFilter;
-use crate::math::Vec2;
+use crate::math::{prefetch, Vec2};
 use crate::sampling::{sample_linear, AliasRows, AliasTable};
+
+/// A cell picked by [`EnvWarp::pick`], with uniform numbers in [0, 1)
+/// left for the position inside it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CellPick {
+    pub col: usize,
+    pub band: usize,
+    ux: f32,
+    uy: f32,
+}
 
 /// A normalised density over (u, v) in [0, 1]^2.
 #[derive(Clone, Debug)]
@@ -121,11 +131,31 @@ impl EnvWarp {
         (v[t + col], v[t + c1], v[b + col], v[b + c1])
     }
 
-    /// A point drawn from the density with `u` in [0, 1)^2.
+    /// Sampling a point with `u` in [0, 1)^2, first half: the cell, from
+    /// the alias tables, with the unused randomness. Before the cell's
+    /// alias entry arrives from memory, the cell it most likely names (the
+    /// one drawn; an alias is a bright cell, which stays cached) has its
+    /// corner values prefetched and is passed to `prefetch_cell(col, band)`
+    /// for the caller's own reads, so these misses overlap instead of
+    /// following one another.
     #[inline]
-    pub fn sample(&self, u: Vec2) -> CellPoint {
+    pub fn pick(&self, u: Vec2, prefetch_cell: impl Fn(usize, usize)) -> CellPick {
         let (band, uy) = self.bands.sample(u.y);
+        let guess = self.cells.first_guess(u.x);
+        let w = self.width;
+        prefetch(&self.values[band * w + guess]);
+        if self.bilinear {
+            prefetch(&self.values[(band + 1) * w + guess]);
+        }
+        prefetch_cell(guess, band);
         let (col, ux) = self.cells.sample(band, u.x);
+        CellPick { col, band, ux, uy }
+    }
+
+    /// Sampling, second half: the point inside the picked cell.
+    #[inline]
+    pub fn place(&self, pick: CellPick) -> CellPoint {
+        let CellPick { col, band, ux, uy } = pick;
         if !self.bilinear {
             return CellPoint {
                 col,
