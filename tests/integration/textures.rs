@@ -1,4 +1,4 @@
-//! Textures read from Mitsuba files (`bitmap`, `checkerboard`): what the
+//! Textures read from Mitsuba files (`bitmap`, `checkerboard`, `rawconstant`): what the
 //! reader builds, shared images, errors that name the property, and the
 //! textured BSDF's consistency (weight = eval cos / pdf at every uv).
 
@@ -111,6 +111,37 @@ fn texture_errors_name_the_property() {
         e.contains("'alpha'") && e.contains("cannot be a texture"),
         "{e}"
     );
+}
+
+/// `rawconstant` hands its float or vector over as it is: no colour
+/// conversion, no clamping; a value of another type, or none, is an error
+/// at the place.
+#[test]
+fn rawconstant_values_are_taken_raw() {
+    let desc = load(
+        r#"<shape type="sphere"><bsdf type="diffuse">
+               <texture type="rawconstant" name="reflectance"><vector name="value" value="0.2, 0.5, 0.9"/></texture>
+           </bsdf></shape>
+           <shape type="sphere"><bsdf type="diffuse">
+               <texture type="rawconstant" name="reflectance"><float name="value" value="0.25"/></texture>
+           </bsdf></shape>"#,
+    );
+    let albedo = |i: usize| match &desc.scene.shapes[i].bsdf {
+        Bsdf::Diffuse(d) => d.albedo,
+        other => panic!("diffuse expected: {other:?}"),
+    };
+    assert_eq!(albedo(0), Rgb::new(0.2, 0.5, 0.9));
+    assert_eq!(albedo(1), Rgb::splat(0.25));
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="diffuse"><texture type="rawconstant" name="reflectance">
+           <string name="value" value="red"/></texture></bsdf></shape>"#,
+    );
+    assert!(e.contains("float or a vector, found a string"), "{e}");
+    let e = load_err(
+        r#"<shape type="sphere"><bsdf type="diffuse"><texture type="rawconstant" name="reflectance"/>
+           </bsdf></shape>"#,
+    );
+    assert!(e.contains("needs a 'value'"), "{e}");
 }
 
 /// At several uvs of a checkerboard-textured rough conductor and diffuse

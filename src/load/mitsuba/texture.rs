@@ -4,10 +4,10 @@
 
 use super::Ctx;
 use crate::image::io::Transfer;
-use crate::load::props::{Props, Value};
+use crate::load::props::{Kind, Props, Value};
 use crate::load::xml::{describe, SceneNode};
 use crate::load::SceneError;
-use crate::math::Transform;
+use crate::math::{Transform, Vec3};
 use crate::texture::{
     BitmapTexture, Checkerboard, FilterType, MeshAttributeTexture, Texture, UvTransform, WrapMode,
 };
@@ -25,6 +25,7 @@ impl<'d> Ctx<'d> {
                 &[
                     "uniform",
                     "srgb",
+                    "rawconstant",
                     "bitmap",
                     "checkerboard",
                     "mesh_attribute",
@@ -37,7 +38,7 @@ impl<'d> Ctx<'d> {
             )
             .map_err(|mut e| {
                 e.message
-                    .push_str(" (lente's textures: bitmap, checkerboard, mesh_attribute, uniform, srgb; spectra: blackbody, regular, irregular, d65)");
+                    .push_str(" (lente's textures: bitmap, checkerboard, mesh_attribute, uniform, srgb, rawconstant; spectra: blackbody, regular, irregular, d65)");
                 e
             })?;
         let owner = describe(node);
@@ -54,6 +55,7 @@ impl<'d> Ctx<'d> {
                 p.get_bool("unbounded", false)?;
                 Value::Color(c)
             }
+            "rawconstant" => raw_constant(&mut p)?,
             "blackbody" | "regular" | "irregular" | "d65" => {
                 super::spectrum::spectrum_object(ty, &mut p)?
             }
@@ -130,6 +132,31 @@ impl<'d> Ctx<'d> {
             .texture_images
             .load(p, "filename", path, transfer, &mut self.warnings)?;
         Ok(BitmapTexture::new(image, filter, wrap, to_uv))
+    }
+}
+
+/// `rawconstant` (`spectra/rawconstant.cpp`): a float or a 3-vector
+/// `value` taken as it is, with no colour conversion (a constant normal
+/// map, say).
+fn raw_constant(p: &mut Props) -> Result<Value> {
+    match p.kind_of("value") {
+        Some(Kind::Float) => Ok(Value::Float(p.require_float("value")?)),
+        Some(Kind::Vector) => {
+            let v = p.get_vector("value", Vec3::ZERO)?;
+            Ok(Value::Color(crate::color::Rgb::new(v.x, v.y, v.z)))
+        }
+        Some(Kind::Point) => {
+            let v = p.require_point("value")?;
+            Ok(Value::Color(crate::color::Rgb::new(v.x, v.y, v.z)))
+        }
+        Some(other) => Err(p.error(
+            "value",
+            format!(
+                "a rawconstant's 'value' is a float or a vector, found a {}",
+                other.name()
+            ),
+        )),
+        None => Err(p.object_error("a rawconstant needs a 'value' (a float or a vector)")),
     }
 }
 
