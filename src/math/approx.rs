@@ -48,9 +48,9 @@ pub fn fast_atan2(y: f32, x: f32) -> f32 {
     r.copysign(y)
 }
 
-/// Largest absolute error of [`sin_cos_turns`], measured by its test over
-/// 4 million angles (the polynomials' ~6e-8 plus the rounding of the
-/// reduced angle).
+/// Bound on the absolute error of [`sin_cos_turns`], checked by its test
+/// over 4 million angles (it measures 1.04e-7: the polynomials plus the
+/// rounding of the reduced angle).
 pub const SIN_COS_TURNS_MAX_ERROR: f32 = 2e-7;
 
 /// (sin, cos) of `2 pi t`: the angle in turns, as samplers have it (a
@@ -58,7 +58,7 @@ pub const SIN_COS_TURNS_MAX_ERROR: f32 = 2e-7;
 /// [`SIN_COS_TURNS_MAX_ERROR`] and without a libm call or a branch. The
 /// reduction to the nearest quarter turn is exact in floating point, so
 /// only the polynomials on [-pi/4, pi/4] err: Cephes' single-precision
-/// minimax coefficients (S. Moshier), the ones Mitsuba's Dr.Jit uses too.
+/// minimax coefficients (S. Moshier).
 /// NaN gives NaN; the angle must be under 2^20 turns.
 #[inline]
 pub fn sin_cos_turns(t: f32) -> (f32, f32) {

@@ -165,8 +165,7 @@ impl AliasRows {
     /// for the cell while the entry itself is fetched.
     #[inline]
     pub fn first_guess(&self, u: f32) -> usize {
-        let u = if u >= 0.0 { u.min(1.0) } else { 0.0 };
-        ((u * self.len as f32) as usize).min(self.len - 1)
+        drawn_cell(self.len, u).0
     }
 
     /// [`AliasTable::sample`] in row `r`.
@@ -176,13 +175,18 @@ impl AliasRows {
     }
 }
 
+/// The cell of `n` that `u` draws before its entry is read, and `u`
+/// scaled to [0, n]. NaN and negative input count as 0.
 #[inline]
-fn sample_entries(entries: &[Entry], u: f32) -> (usize, f32) {
-    let n = entries.len();
-    // NaN and negative input count as 0.
+fn drawn_cell(n: usize, u: f32) -> (usize, f32) {
     let u = if u >= 0.0 { u.min(1.0) } else { 0.0 };
     let x = u * n as f32;
-    let i = (x as usize).min(n - 1);
+    ((x as usize).min(n - 1), x)
+}
+
+#[inline]
+fn sample_entries(entries: &[Entry], u: f32) -> (usize, f32) {
+    let (i, x) = drawn_cell(entries.len(), u);
     let frac = (x - i as f32).clamp(0.0, 1.0);
     let e = entries[i];
     let (cell, rest) = if frac < e.keep {

@@ -18,8 +18,8 @@ use crate::sampling::{sample_linear, AliasRows, AliasTable};
 /// left for the position inside it.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct CellPick {
-    pub col: usize,
-    pub band: usize,
+    col: usize,
+    band: usize,
     ux: f32,
     uy: f32,
 }

@@ -141,12 +141,13 @@ impl<'d> Ctx<'d> {
 fn raw_constant(p: &mut Props) -> Result<Value> {
     match p.kind_of("value") {
         Some(Kind::Float) => Ok(Value::Float(p.require_float("value")?)),
-        Some(Kind::Vector) => {
-            let v = p.get_vector("value", Vec3::ZERO)?;
-            Ok(Value::Color(crate::color::Rgb::new(v.x, v.y, v.z)))
-        }
-        Some(Kind::Point) => {
-            let v = p.require_point("value")?;
+        Some(kind @ (Kind::Vector | Kind::Point)) => {
+            let v = if kind == Kind::Vector {
+                p.opt_vector("value")?
+            } else {
+                p.opt_point("value")?
+            };
+            let v = v.unwrap_or(Vec3::ZERO);
             Ok(Value::Color(crate::color::Rgb::new(v.x, v.y, v.z)))
         }
         Some(other) => Err(p.error(
