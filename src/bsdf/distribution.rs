@@ -2,12 +2,13 @@
 //! (`include/mitsuba/render/microfacet.h`): anisotropic Beckmann and GGX,
 //! Smith's separable masking-shadowing, and two samplers: all normals
 //! (D(m) cos theta_m) or only the normals visible from `wi` (Heitz and
-//! D'Eon 2014; Heitz 2018's exact GGX routine, Jakob's numerical
-//! inversion for Beckmann).
+//! D'Eon 2014; Heitz 2018's exact GGX routine, a tabulated guess refined
+//! by one Halley step for Beckmann: [`super::beckmann_slopes`]).
 //!
 //! Directions are in the local shading frame: x = tangent (the `alpha_u`
 //! axis), y = bitangent (`alpha_v`), z = normal.
 
+use super::beckmann_slopes::beckmann_visible_slopes;
 use super::params::{self, BsdfError, BsdfParam};
 use crate::math::{sin_cos_turns, Vec2, Vec3, PI};
 use crate::sampling::warp;
@@ -275,80 +276,6 @@ impl MicrofacetDistribution {
     }
 }
 
-/// Jakob's numerical inversion of the Beckmann visible-slope CDF (the
-/// routine Mitsuba uses): three Newton steps in the erf domain.
-fn beckmann_visible_slopes(cos_theta_i: f32, u: Vec2) -> Vec2 {
-    const INV_SQRT_PI: f64 = 0.564_189_583_547_756_3;
-    let cos = cos_theta_i as f64;
-    let tan_theta_i = (1.0 - cos * cos).max(0.0).sqrt() / cos;
-    let cot_theta_i = 1.0 / tan_theta_i;
-    // Search interval, parameterised in the erf domain.
-    let maxval = erf(cot_theta_i);
-    let ux = (u.x as f64).clamp(1e-6, 1.0 - 1e-6);
-    let uy = (u.y as f64).clamp(1e-6, 1.0 - 1e-6);
-    // Initial guess: the analytic solution for theta_i = pi/2.
-    let mut x = maxval - (maxval + 1.0) * erf((-ux.ln()).sqrt());
-    // Normalisation of the CDF.
-    let target =
-        ux * (1.0 + maxval + INV_SQRT_PI * tan_theta_i * (-cot_theta_i * cot_theta_i).exp());
-    for _ in 0..3 {
-        let slope = erfinv(x);
-        let value = 1.0 + x + INV_SQRT_PI * tan_theta_i * (-slope * slope).exp() - target;
-        let derivative = 1.0 - slope * tan_theta_i;
-        x -= value / derivative;
-    }
-    Vec2::new(erfinv(x) as f32, erfinv(2.0 * uy - 1.0) as f32)
-}
-
-/// erf, Abramowitz and Stegun 7.1.26 (absolute error < 1.5e-7).
-pub fn erf(x: f64) -> f64 {
-    let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
-    let poly = t
-        * (0.254_829_592
-            + t * (-0.284_496_736
-                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
-    let y = 1.0 - poly * (-x * x).exp();
-    if x.is_nan() {
-        x
-    } else if x < 0.0 {
-        -y
-    } else {
-        y
-    }
-}
-
-/// Inverse of erf on (-1, 1), Giles' single-precision approximation
-/// ("Approximating the erfinv function", 2010; relative error ~1e-7);
-/// the argument is clamped just inside the open interval.
-pub fn erfinv(x: f64) -> f64 {
-    let x = x.clamp(-1.0 + 1e-12, 1.0 - 1e-12);
-    let mut w = -((1.0 - x) * (1.0 + x)).ln();
-    let p = if w < 5.0 {
-        w -= 2.5;
-        let mut p = 2.810_226_36e-08;
-        p = 3.432_739_39e-07 + p * w;
-        p = -3.523_387_7e-06 + p * w;
-        p = -4.391_506_54e-06 + p * w;
-        p = 0.000_218_580_87 + p * w;
-        p = -0.001_253_725_03 + p * w;
-        p = -0.004_177_681_64 + p * w;
-        p = 0.246_640_727 + p * w;
-        1.501_409_41 + p * w
-    } else {
-        w = w.sqrt() - 3.0;
-        let mut p = -0.000_200_214_257;
-        p = 0.000_100_950_558 + p * w;
-        p = 0.001_349_343_22 + p * w;
-        p = -0.003_673_428_44 + p * w;
-        p = 0.005_739_507_73 + p * w;
-        p = -0.007_622_461_3 + p * w;
-        p = 0.009_438_870_47 + p * w;
-        p = 1.001_674_06 + p * w;
-        2.832_976_82 + p * w
-    };
-    p * x
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -405,27 +332,6 @@ mod tests {
                     assert!((p - d.pdf(wi, m)).abs() <= 1e-5 * p.max(1.0));
                 }
             }
-        }
-    }
-
-    #[test]
-    fn erf_and_erfinv_match_statrs() {
-        use statrs::function::erf as reference;
-        for i in -400..=400 {
-            let x = i as f64 / 100.0;
-            assert!((erf(x) - reference::erf(x)).abs() < 2e-7, "erf({x})");
-        }
-        for i in 1..2000 {
-            let y = -1.0 + i as f64 / 1000.0;
-            let (a, b) = (erfinv(y), reference::erf_inv(y));
-            assert!(
-                (a - b).abs() <= 1e-6 * b.abs().max(1e-3),
-                "erfinv({y}): {a} vs {b}"
-            );
-        }
-        for y in [1.0 - 1e-6, -1.0 + 1e-7, 0.999_999_9] {
-            let (a, b) = (erfinv(y), reference::erf_inv(y));
-            assert!((a - b).abs() <= 1e-5 * b.abs(), "erfinv({y}): {a} vs {b}");
         }
     }
 
