@@ -17,6 +17,7 @@ mod mirror;
 mod normal_map;
 mod params;
 mod plastic;
+mod polarized_plastic;
 pub mod presets;
 mod principled;
 mod rough_conductor;
@@ -48,6 +49,7 @@ pub use mirror::Mirror;
 pub use normal_map::NormalMap;
 pub use params::{BsdfError, BsdfParam};
 pub use plastic::Plastic;
+pub use polarized_plastic::PolarizedPlastic;
 pub use presets::{conductor_preset, ior_preset};
 pub use principled::{specular_to_eta, Principled};
 pub use rough_conductor::RoughConductor;
@@ -77,6 +79,8 @@ pub enum Bsdf {
     /// to its smooth lobe.
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
+    /// Mitsuba's `pplastic`, unpolarised as its RGB variants render it.
+    PolarizedPlastic(PolarizedPlastic),
     TwoSided(TwoSided),
     /// The Zaragoza Nori fork's `roughconductor` (Schlick's Fresnel).
     SchlickConductor(SchlickConductor),
@@ -268,6 +272,23 @@ impl Bsdf {
         )?))
     }
 
+    /// Mitsuba's `pplastic` (see [`PolarizedPlastic::new`]).
+    pub fn polarized_plastic(
+        roughness: Roughness,
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Rgb,
+        specular_reflectance: Rgb,
+    ) -> Result<Bsdf, BsdfError> {
+        Ok(Bsdf::PolarizedPlastic(PolarizedPlastic::new(
+            roughness,
+            int_ior,
+            ext_ior,
+            diffuse_reflectance,
+            specular_reflectance,
+        )?))
+    }
+
     /// Mitsuba's `twosided` (see [`TwoSided::new`]).
     pub fn two_sided(front: Bsdf, back: Option<Bsdf>) -> Result<Bsdf, BsdfError> {
         Ok(Bsdf::TwoSided(TwoSided::new(front, back)?))
@@ -414,6 +435,7 @@ impl Bsdf {
             Bsdf::Microfacet(b) => Some(b.kd),
             Bsdf::Plastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughPlastic(b) => Some(b.diffuse_reflectance),
+            Bsdf::PolarizedPlastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughSubstrate(b) => Some(b.kd),
             Bsdf::Principled(b) => Some(b.base_color.mean()),
             Bsdf::TwoSided(b) => b.front.albedo(),
@@ -474,6 +496,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.eval(wi, wo),
             Bsdf::Plastic(b) => b.eval(wi, wo),
             Bsdf::RoughPlastic(b) => b.eval(wi, wo),
+            Bsdf::PolarizedPlastic(b) => b.eval(wi, wo),
             Bsdf::SchlickConductor(b) => b.eval(wi, wo),
             Bsdf::RoughSubstrate(b) => b.eval(wi, wo),
             Bsdf::TwoSided(b) => b.eval(at, wi, wo),
@@ -499,6 +522,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.pdf(wi, wo),
             Bsdf::Plastic(b) => b.pdf(wi, wo),
             Bsdf::RoughPlastic(b) => b.pdf(wi, wo),
+            Bsdf::PolarizedPlastic(b) => b.pdf(wi, wo),
             Bsdf::SchlickConductor(b) => b.pdf(wi, wo),
             Bsdf::RoughSubstrate(b) => b.pdf(wi, wo),
             Bsdf::TwoSided(b) => b.pdf(at, wi, wo),
@@ -534,6 +558,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.sample(wi, u, u_lobe),
             Bsdf::Plastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
+            Bsdf::PolarizedPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::SchlickConductor(b) => b.sample(wi, u),
             Bsdf::RoughSubstrate(b) => b.sample(wi, u, u_lobe),
             Bsdf::TwoSided(b) => b.sample(at, wi, u, u_lobe),

@@ -6,8 +6,8 @@
 
 use super::params::{BsdfError, BsdfParam};
 use super::{
-    Bsdf, BsdfSample, Conductor, Diffuse, Microfacet, Plastic, RoughConductor, RoughDielectric,
-    RoughPlastic, RoughSubstrate, SchlickConductor, ThinDielectric,
+    Bsdf, BsdfSample, Conductor, Diffuse, Microfacet, Plastic, PolarizedPlastic, RoughConductor,
+    RoughDielectric, RoughPlastic, RoughSubstrate, SchlickConductor, ThinDielectric,
 };
 use crate::color::Rgb;
 use crate::math::{Vec2, Vec3};
@@ -24,6 +24,7 @@ enum Local<'a> {
     Diffuse(Diffuse),
     Plastic(Plastic),
     RoughPlastic(&'a RoughPlastic, Rgb, Rgb),
+    PolarizedPlastic(PolarizedPlastic),
     Conductor(Conductor),
     RoughConductor(RoughConductor),
     ThinDielectric(ThinDielectric),
@@ -39,6 +40,7 @@ fn texturable(base: &Bsdf) -> &'static [BsdfParam] {
     match base {
         Bsdf::Diffuse(_) | Bsdf::Microfacet(_) => &[Diffuse],
         Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => &[Diffuse, SpecularReflectance],
+        Bsdf::PolarizedPlastic(_) => &[Diffuse, SpecularReflectance, Alpha, AlphaV],
         Bsdf::Conductor(_) => &[SpecularReflectance, Eta, K],
         Bsdf::RoughConductor(_) => &[SpecularReflectance, Eta, K, Alpha, AlphaV],
         Bsdf::ThinDielectric(_) => &[SpecularReflectance, SpecularTransmittance],
@@ -118,6 +120,14 @@ impl Textured {
                 rgb(P::SpecularReflectance, &mut ks);
                 Local::RoughPlastic(b, kd, ks)
             }
+            Bsdf::PolarizedPlastic(b) => {
+                let mut b = *b;
+                rgb(P::Diffuse, &mut b.diffuse_reflectance);
+                rgb(P::SpecularReflectance, &mut b.specular_reflectance);
+                alpha(P::Alpha, &mut b.distr.alpha_u);
+                alpha(P::AlphaV, &mut b.distr.alpha_v);
+                Local::PolarizedPlastic(b)
+            }
             Bsdf::Conductor(b) => {
                 let mut b = *b;
                 rgb(P::SpecularReflectance, &mut b.specular_reflectance);
@@ -180,6 +190,7 @@ impl Textured {
             Local::Diffuse(b) => b.eval(wi, wo),
             Local::Plastic(b) => b.eval(wi, wo),
             Local::RoughPlastic(b, kd, ks) => b.eval_tinted(kd, ks, wi, wo),
+            Local::PolarizedPlastic(b) => b.eval(wi, wo),
             Local::RoughConductor(b) => b.eval(wi, wo),
             Local::RoughDielectric(b) => b.eval(wi, wo),
             Local::Microfacet(b) => b.eval(wi, wo),
@@ -194,6 +205,7 @@ impl Textured {
             Local::Diffuse(b) => b.pdf(wi, wo),
             Local::Plastic(b) => b.pdf(wi, wo),
             Local::RoughPlastic(b, _, _) => b.pdf(wi, wo),
+            Local::PolarizedPlastic(b) => b.pdf(wi, wo),
             Local::RoughConductor(b) => b.pdf(wi, wo),
             Local::RoughDielectric(b) => b.pdf(wi, wo),
             Local::Microfacet(b) => b.pdf(wi, wo),
@@ -208,6 +220,7 @@ impl Textured {
             Local::Diffuse(b) => b.sample(wi, u),
             Local::Plastic(b) => b.sample(wi, u, u_lobe),
             Local::RoughPlastic(b, kd, ks) => b.sample_tinted(kd, ks, wi, u, u_lobe),
+            Local::PolarizedPlastic(b) => b.sample(wi, u, u_lobe),
             Local::Conductor(b) => b.sample(wi),
             Local::RoughConductor(b) => b.sample(wi, u),
             Local::ThinDielectric(b) => b.sample(wi, u_lobe),

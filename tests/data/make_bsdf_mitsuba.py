@@ -26,6 +26,9 @@ CONFIGS = [
   ('roughplastic', {'type': 'roughplastic', 'diffuse_reflectance': rgb([0.2, 0.5, 0.8])}),
   ('roughplastic_ggx_nl', {'type': 'roughplastic', 'distribution': 'ggx', 'alpha': 0.3, 'int_ior': 1.6, 'nonlinear': True, 'diffuse_reflectance': rgb([0.6, 0.3, 0.1]), 'specular_reflectance': rgb([0.7, 0.7, 0.7])}),
   ('roughplastic_novis', {'type': 'roughplastic', 'distribution': 'ggx', 'alpha': 0.2, 'sample_visible': False}),
+  ('pplastic', {'type': 'pplastic', 'diffuse_reflectance': rgb([0.2, 0.5, 0.8])}),
+  ('pplastic_ggx_aniso', {'type': 'pplastic', 'distribution': 'ggx', 'alpha_u': 0.1, 'alpha_v': 0.35, 'int_ior': 1.6, 'diffuse_reflectance': rgb([0.6, 0.3, 0.1]), 'specular_reflectance': rgb([0.7, 0.7, 0.7])}),
+  ('pplastic_novis', {'type': 'pplastic', 'alpha': 0.2, 'sample_visible': False, 'eta': 1.33}),
 ]
 
 def d(th, ph, below=False):

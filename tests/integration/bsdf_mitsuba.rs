@@ -8,7 +8,7 @@
 //! documented deviation: see [`mitsuba_bias`].
 
 use crate::common::UV0;
-use lente::bsdf::{conductor_preset, Bsdf, MicrofacetType};
+use lente::bsdf::{conductor_preset, Bsdf, MicrofacetType, Roughness};
 use lente::color::Rgb;
 use lente::math::{Vec2, Vec3};
 
@@ -195,6 +195,35 @@ fn bsdf(name: &str) -> Bsdf {
         "roughplastic_novis" => {
             Bsdf::rough_plastic(Ggx, 0.2, 1.49, air, Rgb::splat(0.5), one, false, false).unwrap()
         }
+        "pplastic" => Bsdf::polarized_plastic(
+            Roughness::isotropic(Beckmann, 0.1, true),
+            1.49,
+            air,
+            Rgb::new(0.2, 0.5, 0.8),
+            one,
+        )
+        .unwrap(),
+        "pplastic_ggx_aniso" => Bsdf::polarized_plastic(
+            Roughness {
+                distribution: Ggx,
+                alpha_u: 0.1,
+                alpha_v: 0.35,
+                sample_visible: true,
+            },
+            1.6,
+            air,
+            Rgb::new(0.6, 0.3, 0.1),
+            Rgb::splat(0.7),
+        )
+        .unwrap(),
+        "pplastic_novis" => Bsdf::polarized_plastic(
+            Roughness::isotropic(Beckmann, 0.2, false),
+            1.33,
+            1.0,
+            Rgb::splat(0.5),
+            one,
+        )
+        .unwrap(),
         _ => panic!("unknown config {name}"),
     }
 }

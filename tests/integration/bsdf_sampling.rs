@@ -3,12 +3,12 @@
 //! rough conductors and dielectrics with Beckmann and GGX, isotropic and
 //! anisotropic, with and without visible-normal sampling, near-mirror
 //! roughness (on finer grids), grazing incidence, dielectrics from outside
-//! and inside; the smooth lobe of plastic; roughplastic; twosided from
+//! and inside; the smooth lobe of plastic; roughplastic; pplastic; twosided from
 //! below; principled (every lobe, transmission from both sides). Plus the
 //! tests that this test rejects wrong pdfs.
 
 use crate::common::UV0;
-use lente::bsdf::{conductor_preset, Bsdf, MicrofacetDistribution, MicrofacetType};
+use lente::bsdf::{conductor_preset, Bsdf, MicrofacetDistribution, MicrofacetType, Roughness};
 use lente::color::Rgb;
 use lente::math::Vec3;
 use lente::stats::{sidak, sphere_histogram, Histogram};
@@ -361,6 +361,39 @@ fn plastics_and_twosided_sampling_match_pdf() {
             dir(30.0, 0.0, false),
             60,
             80,
+        ),
+        case(
+            "pplastic ggx anisotropic 0.08 / 0.4",
+            Bsdf::polarized_plastic(
+                Roughness {
+                    distribution: Ggx,
+                    alpha_u: 0.08,
+                    alpha_v: 0.4,
+                    sample_visible: true,
+                },
+                1.6,
+                1.0,
+                Rgb::new(0.1, 0.5, 0.2),
+                Rgb::new(0.9, 0.8, 0.6),
+            )
+            .unwrap(),
+            dir(40.0, 30.0, false),
+            60,
+            80,
+        ),
+        case(
+            "pplastic beckmann 0.3 all normals, grazing",
+            Bsdf::polarized_plastic(
+                Roughness::isotropic(Beckmann, 0.3, false),
+                1.33,
+                1.0,
+                Rgb::splat(0.4),
+                Rgb::ONE,
+            )
+            .unwrap(),
+            dir(75.0, 200.0, false),
+            30,
+            60,
         ),
         case(
             "roughplastic ggx 0.3 all normals, grazing",

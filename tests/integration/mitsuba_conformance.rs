@@ -7,7 +7,7 @@
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
-//! normalmap, bumpmap, principled), texture (checkerboard, mesh_attribute,
+//! normalmap, bumpmap, principled, pplastic), texture (checkerboard, mesh_attribute,
 //! bitmap) and emitter (envmap, constant, area (also textured), point, spot, projector,
 //! directional) that
 //! lente reads from Mitsuba files.
@@ -195,6 +195,12 @@ const CASES: &[Case] = &[
     Case {
         file: "instancing.xml",
         covers: "shapegroup and instance: a group of an OBJ (roughconductor), a sphere (checkerboard uvs) and a rectangle (bumpmap over roughplastic) placed as it is, rotated and scaled unevenly, and mirrored; area, point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "pplastic.xml",
+        covers: "pplastic: defaults (Beckmann) with a checkerboard diffuse reflectance, anisotropic GGX with int_ior by name and a tinted specular reflectance, eta with sample_visible off; area, point and constant lights",
         spp: 192,
         renders: 16,
     },

@@ -117,6 +117,24 @@ fn flip_normals_and_mirrors() {
     close_f(m.area(), 4.0 * PI, 0.01);
 }
 
+/// pplastic's IOR comes as `eta` or as `int_ior`/`ext_ior`, never both;
+/// `eta` must be positive.
+#[test]
+fn pplastic_ior_errors() {
+    assert_err(
+        &scene("<shape type=\"sphere\"><bsdf type=\"pplastic\">\n<float name=\"eta\" value=\"1.3\"/><float name=\"int_ior\" value=\"1.5\"/></bsdf></shape>"),
+        5,
+        26,
+        &["either 'eta' or 'int_ior'"],
+    );
+    assert_err(
+        &scene("<shape type=\"sphere\"><bsdf type=\"pplastic\">\n<float name=\"eta\" value=\"-2\"/></bsdf></shape>"),
+        5,
+        26,
+        &["eta", "positive"],
+    );
+}
+
 #[test]
 fn shape_errors() {
     assert_err(

@@ -67,6 +67,7 @@ impl<'d> Ctx<'d> {
                 "roughconductor",
                 "plastic",
                 "roughplastic",
+                "pplastic",
                 "twosided",
                 "mask",
                 "blendbsdf",
@@ -78,7 +79,6 @@ impl<'d> Ctx<'d> {
                 "principledthin",
                 "hair",
                 "measured",
-                "pplastic",
                 "polarizer",
                 "retarder",
                 "circular",
@@ -177,6 +177,27 @@ impl<'d> Ctx<'d> {
                         r.sample_visible,
                     )
                 }
+            }
+            "pplastic" => {
+                let diffuse = tex.rgb(&mut p, BsdfParam::Diffuse, 0.5)?;
+                let specular = tex.rgb(&mut p, BsdfParam::SpecularReflectance, 1.0)?;
+                let (int_ior, ext_ior) = if p.has("eta") {
+                    if p.has("int_ior") || p.has("ext_ior") {
+                        return Err(p.error("eta", "give either 'eta' or 'int_ior' and 'ext_ior'"));
+                    }
+                    let eta = p.require_float("eta")?;
+                    if !(eta.is_finite() && eta > 0.0) {
+                        return Err(p.error("eta", format!("'eta' must be positive, found {eta}")));
+                    }
+                    (eta, 1.0)
+                } else {
+                    (
+                        ior(&mut p, "int_ior", 1.49)?,
+                        ior(&mut p, "ext_ior", 1.000277)?,
+                    )
+                };
+                let r = roughness(&mut p, &mut tex)?;
+                Bsdf::polarized_plastic(r, int_ior, ext_ior, diffuse, specular)
             }
             "mask" => {
                 let opacity = p.get_texture("opacity", Rgb::splat(0.5))?;
