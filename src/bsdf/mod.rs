@@ -18,6 +18,7 @@ mod normal_map;
 mod params;
 mod plastic;
 mod polarized_plastic;
+mod polarizer;
 pub mod presets;
 mod principled;
 mod rough_conductor;
@@ -50,6 +51,7 @@ pub use normal_map::NormalMap;
 pub use params::{BsdfError, BsdfParam};
 pub use plastic::Plastic;
 pub use polarized_plastic::PolarizedPlastic;
+pub use polarizer::Polarizer;
 pub use presets::{conductor_preset, ior_preset};
 pub use principled::{specular_to_eta, Principled};
 pub use rough_conductor::RoughConductor;
@@ -81,6 +83,8 @@ pub enum Bsdf {
     RoughPlastic(RoughPlastic),
     /// Mitsuba's `pplastic`, unpolarised as its RGB variants render it.
     PolarizedPlastic(PolarizedPlastic),
+    /// Mitsuba's `polarizer`, unpolarised: half the light passes.
+    Polarizer(Polarizer),
     TwoSided(TwoSided),
     /// The Zaragoza Nori fork's `roughconductor` (Schlick's Fresnel).
     SchlickConductor(SchlickConductor),
@@ -289,6 +293,11 @@ impl Bsdf {
         )?))
     }
 
+    /// Mitsuba's `polarizer` (see [`Polarizer`]).
+    pub fn polarizer(transmittance: Rgb) -> Result<Bsdf, BsdfError> {
+        Ok(Bsdf::Polarizer(Polarizer::new(transmittance)?))
+    }
+
     /// Mitsuba's `twosided` (see [`TwoSided::new`]).
     pub fn two_sided(front: Bsdf, back: Option<Bsdf>) -> Result<Bsdf, BsdfError> {
         Ok(Bsdf::TwoSided(TwoSided::new(front, back)?))
@@ -399,7 +408,8 @@ impl Bsdf {
             | Bsdf::RoughDielectric(_)
             // Light passes through a mask's holes (Mitsuba counts its null
             // lobe as transmission too: twosided refuses a mask).
-            | Bsdf::Mask(_) => true,
+            | Bsdf::Mask(_)
+            | Bsdf::Polarizer(_) => true,
             Bsdf::Principled(b) => b.spec_trans.is_some(),
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
             Bsdf::Blend(b) => b.first.has_transmission() || b.second.has_transmission(),
@@ -417,7 +427,8 @@ impl Bsdf {
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
-            | Bsdf::ThinDielectric(_) => true,
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Polarizer(_) => true,
             Bsdf::TwoSided(b) => b.front.is_specular() && b.back.is_specular(),
             Bsdf::Mask(b) => b.nested.is_specular(),
             Bsdf::Blend(b) => b.first.is_specular() && b.second.is_specular(),
@@ -508,7 +519,8 @@ impl Bsdf {
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
-            | Bsdf::ThinDielectric(_) => Rgb::ZERO,
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Polarizer(_) => Rgb::ZERO,
         }
     }
 
@@ -534,7 +546,8 @@ impl Bsdf {
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
-            | Bsdf::ThinDielectric(_) => 0.0,
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Polarizer(_) => 0.0,
         }
     }
 
@@ -559,6 +572,7 @@ impl Bsdf {
             Bsdf::Plastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::PolarizedPlastic(b) => b.sample(wi, u, u_lobe),
+            Bsdf::Polarizer(b) => b.sample(wi),
             Bsdf::SchlickConductor(b) => b.sample(wi, u),
             Bsdf::RoughSubstrate(b) => b.sample(wi, u, u_lobe),
             Bsdf::TwoSided(b) => b.sample(at, wi, u, u_lobe),

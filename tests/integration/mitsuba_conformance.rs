@@ -7,7 +7,7 @@
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
-//! normalmap, bumpmap, principled, pplastic), texture (checkerboard, mesh_attribute,
+//! normalmap, bumpmap, principled, pplastic, polarizer), texture (checkerboard, mesh_attribute,
 //! bitmap) and emitter (envmap, constant, area (also textured), point, spot, projector,
 //! directional) that
 //! lente reads from Mitsuba files.
@@ -201,6 +201,12 @@ const CASES: &[Case] = &[
     Case {
         file: "pplastic.xml",
         covers: "pplastic: defaults (Beckmann) with a checkerboard diffuse reflectance, anisotropic GGX with int_ior by name and a tinted specular reflectance, eta with sample_visible off; area, point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "polarizer.xml",
+        covers: "polarizer (RGB: half the light passes whatever theta): crossed pair, tinted transmittance; shadow rays blocked; area, point and constant lights",
         spp: 192,
         renders: 16,
     },

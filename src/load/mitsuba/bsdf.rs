@@ -28,6 +28,7 @@ fn param_name(ty: &str, param: BsdfParam) -> &'static str {
         BsdfParam::Diffuse if ty == "diffuse" => "reflectance",
         BsdfParam::Diffuse => "diffuse_reflectance",
         BsdfParam::SpecularReflectance => "specular_reflectance",
+        BsdfParam::SpecularTransmittance if ty == "polarizer" => "transmittance",
         BsdfParam::SpecularTransmittance => "specular_transmittance",
         BsdfParam::IntIor => "int_ior",
         BsdfParam::ExtIor => "ext_ior",
@@ -68,6 +69,7 @@ impl<'d> Ctx<'d> {
                 "plastic",
                 "roughplastic",
                 "pplastic",
+                "polarizer",
                 "twosided",
                 "mask",
                 "blendbsdf",
@@ -79,7 +81,6 @@ impl<'d> Ctx<'d> {
                 "principledthin",
                 "hair",
                 "measured",
-                "polarizer",
                 "retarder",
                 "circular",
                 "null",
@@ -198,6 +199,15 @@ impl<'d> Ctx<'d> {
                 };
                 let r = roughness(&mut p, &mut tex)?;
                 Bsdf::polarized_plastic(r, int_ior, ext_ior, diffuse, specular)
+            }
+            "polarizer" => {
+                let transmittance = tex.rgb(&mut p, BsdfParam::SpecularTransmittance, 1.0)?;
+                // The angle matters only to polarised light, which RGB
+                // rendering (lente's and Mitsuba's RGB variants') does not
+                // carry: read and dropped, as there (README, Differences).
+                p.opt_texture("theta")?;
+                p.get_bool("polarizing", true)?;
+                Bsdf::polarizer(transmittance)
             }
             "mask" => {
                 let opacity = p.get_texture("opacity", Rgb::splat(0.5))?;
