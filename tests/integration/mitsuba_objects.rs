@@ -498,6 +498,23 @@ fn integrators() {
     let (i, w) = integ("<integrator type=\"volpath\"/>");
     assert_eq!(w.len(), 1);
     assert!(matches!(i, Integrator::Path { .. }));
+    // The light tracer: path tracing with its parameters, and one warning.
+    let (i, w) = integ(
+        "<integrator type=\"ptracer\"><integer name=\"max_depth\" value=\"4\"/><integer name=\"samples_per_pass\" value=\"1024\"/></integrator>",
+    );
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].message.contains("same expected image"));
+    assert_eq!(
+        i,
+        Integrator::Path {
+            strategy: Strategy::Mis,
+            params: PathParams {
+                max_depth: Some(4),
+                rr_depth: 5,
+                hide_emitters: false
+            }
+        }
+    );
     let (i, w) = integ(
         "<integrator type=\"moment\"><integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/></integrator><integrator type=\"direct\"/></integrator>",
     );

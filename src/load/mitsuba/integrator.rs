@@ -1,5 +1,6 @@
 //! Integrators: Mitsuba's `path` and `direct` (and the volumetric and
-//! differentiable path tracers, rendered with `path`).
+//! differentiable path tracers and the light tracer `ptracer`, rendered
+//! with `path`).
 
 use super::{Child, Ctx};
 use crate::integrator::{Integrator, PathParams, Strategy};
@@ -25,11 +26,11 @@ impl<'d> Ctx<'d> {
                 "prb_basic",
                 "moment",
                 "aov",
+                "ptracer",
             ],
             &[
                 "depth",
                 "stokes",
-                "ptracer",
                 "prbvolpath",
                 "direct_projective",
                 "prb_projective",
@@ -78,7 +79,19 @@ impl<'d> Ctx<'d> {
                 }
             }
         } else {
-            if ty != "path" {
+            if ty == "ptracer" {
+                // How the light tracer batches its particles: nothing to
+                // do with the image.
+                p.get_int("samples_per_pass", -1)?;
+                self.warn(
+                    node.pos,
+                    format!(
+                        "the ptracer integrator (a light tracer) is rendered with lente's path \
+                         tracer: the same expected image, with other noise (caustics seen \
+                         through glass and mirrors are noisier, lit surfaces cleaner)"
+                    ),
+                );
+            } else if ty != "path" {
                 self.warn(
                     node.pos,
                     format!(
