@@ -85,11 +85,9 @@ impl<'d> Ctx<'d> {
                 p.get_int("samples_per_pass", -1)?;
                 self.warn(
                     node.pos,
-                    format!(
-                        "the ptracer integrator (a light tracer) is rendered with lente's path \
-                         tracer: the same expected image, with other noise (caustics seen \
-                         through glass and mirrors are noisier, lit surfaces cleaner)"
-                    ),
+                    "the ptracer integrator (a light tracer) is rendered with lente's path \
+                     tracer: the same expected image, with other noise (caustics noisier, \
+                     most other light cleaner)",
                 );
             } else if ty != "path" {
                 self.warn(
