@@ -29,7 +29,9 @@ use crate::bsdf::{Bsdf, BsdfParam, Mirror, RoughSubstrate, SchlickConductor};
 use crate::camera::{Aperture, CameraParam, CameraParams, MAX_RESOLUTION};
 use crate::color::Rgb;
 use crate::emitter::sky::{bake_sky, SkyParams};
-use crate::emitter::{ConstantLight, Emitter, EmitterError, EnvFilter, PointLight, TexelRows};
+use crate::emitter::{
+    ConstantLight, DirectionalLight, Emitter, EmitterError, EnvFilter, PointLight, TexelRows,
+};
 use crate::geometry::{load_obj, Geometry, Sphere, SphereUv};
 use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
@@ -122,6 +124,7 @@ const EMITTER_TYPES: &[&str] = &[
     "area",
     "point",
     "pointlight",
+    "directional",
     "environment",
     "envmap",
     "constant",
@@ -948,6 +951,32 @@ impl<'a> Ctx<'a> {
                 })?;
                 EmitterDesc::Free {
                     emitter: Emitter::Point(light),
+                    environment: false,
+                }
+            }
+            "directional" => {
+                // ETH students' `directionallight.cpp` (gianluca-m's):
+                // `power` is the irradiance on a surface facing the light;
+                // `direction` is where the light travels.
+                let d = p.require_vector("direction")?;
+                let irradiance = p.require_rgb("power")?;
+                let length = d.length();
+                if length.is_finite() && length > 0.0 && (length - 1.0).abs() > 1e-3 {
+                    p.warn(
+                        "direction",
+                        format!(
+                            "the fork's directional light uses 'direction' unnormalised, which \
+                             scales its direct light by the length ({length:.3} here); lente \
+                             normalises it, as Mitsuba does"
+                        ),
+                    );
+                }
+                let light = DirectionalLight::new(d, irradiance).map_err(|e| match e {
+                    EmitterError::Direction(_) => p.param_error("direction", &e),
+                    _ => p.param_error("power", &e),
+                })?;
+                EmitterDesc::Free {
+                    emitter: Emitter::Directional(light),
                     environment: false,
                 }
             }

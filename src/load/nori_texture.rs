@@ -4,7 +4,10 @@
 //!
 //! - ETH Zurich's course framework: `checkerboard_color`,
 //!   `checkerboard_float` (`value1`, `value2`, `scale` and `delta` as two
-//!   numbers), `constant_color`, `constant_float` (`value`);
+//!   numbers), `constant_color`, `constant_float` (`value`), and the
+//!   students' `image_texture` (an 8-bit image, nearest texel, v
+//!   reversed, `scale` and `shift`, sRGB-decoded unless `linear_rgb` is
+//!   false);
 //! - the Universidad de Zaragoza fork: `checker` (`scalex`, `scaley`
 //!   integers; its squares are 0.9 and 0.1, and its `color`, read for both,
 //!   makes the texture uniform) and `textmap` (an 8-bit image read as it
@@ -36,6 +39,7 @@ pub(super) const TEXTURE_TYPES: &[&str] = &[
     "constant_float",
     "checker",
     "textmap",
+    "image_texture",
 ];
 
 /// A texture child: the property it sets, where, and its value.
@@ -70,6 +74,7 @@ pub(super) fn read_texture(
         "constant_color" => Texture::Constant(p.get_rgb("value", Rgb::ZERO)?),
         "constant_float" => Texture::Constant(Rgb::splat(non_negative(&mut p, "value", 0.0)?)),
         "checker" => zaragoza_checker(&mut p)?,
+        "image_texture" => eth_image_texture(&mut p, dir, images, warnings)?,
         _ => textmap(&mut p, dir, images, warnings)?,
     };
     p.finish(warnings);
@@ -114,6 +119,47 @@ fn eth_checkerboard(p: &mut Props, ty: &str) -> Result<Texture> {
         same: value1,
         differ: value2,
     }))
+}
+
+/// The ETH students' `image_texture` (e.g. gianluca-m's
+/// `src/image_texture.cpp`): texel (int(u W sx + shift_x W) mod W,
+/// int((1 - v) H sy + shift_y H) mod H) from the top row, no filtering,
+/// decoded from sRGB when `linear_rgb` (default true). The fork's C `%`
+/// keeps the sign of negative coordinates (reading outside the image);
+/// lente repeats the image there.
+fn eth_image_texture(
+    p: &mut Props,
+    dir: &Path,
+    images: &mut TextureImages,
+    warnings: &mut Vec<Warning>,
+) -> Result<Texture> {
+    let scale = p.get_pair("scale", Vec2::ONE)?;
+    let shift = p.get_pair("shift", Vec2::ZERO)?;
+    let srgb = p.get_bool("linear_rgb", true)?;
+    let name = p.require_string("filename")?;
+    let path = dir.join(name.trim());
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or_default()
+        .to_ascii_lowercase();
+    if !matches!(ext.as_str(), "png" | "jpg" | "jpeg" | "bmp") {
+        return Err(p.error(
+            "filename",
+            format!("image_texture reads 8-bit images (PNG, JPEG, BMP), found '{name}'"),
+        ));
+    }
+    let transfer = if srgb { Transfer::Srgb } else { Transfer::Raw };
+    let image = images.load(p, "filename", path, transfer, warnings)?;
+    Ok(Texture::Bitmap(BitmapTexture::new(
+        image,
+        FilterType::Nearest,
+        WrapMode::Repeat,
+        UvTransform {
+            row0: [scale.x, 0.0, shift.x],
+            row1: [0.0, -scale.y, scale.y + shift.y],
+        },
+    )))
 }
 
 /// The Zaragoza fork's `checker`.
@@ -207,6 +253,41 @@ fn textmap(
 mod tests {
     use super::*;
     use crate::texture::TextureImage;
+
+    /// ETH's ImageTexture::eval, written out, against the lookup
+    /// `image_texture` builds (scale 2 x 1.5, shift 0.25 x 0.1) on a 3x2
+    /// image, at uv off the texel edges.
+    #[test]
+    fn image_texture_reads_texels_as_eth() {
+        let texels: Vec<Rgb> = (0..6).map(|i| Rgb::splat(i as f32)).collect();
+        let bitmap = crate::image::Bitmap {
+            width: 3,
+            height: 2,
+            pixels: texels.clone(),
+        };
+        let image = Arc::new(TextureImage::new(bitmap));
+        let (scale, shift) = (Vec2::new(2.0, 1.5), Vec2::new(0.25, 0.1));
+        let tex = BitmapTexture::new(
+            image,
+            FilterType::Nearest,
+            WrapMode::Repeat,
+            UvTransform {
+                row0: [scale.x, 0.0, shift.x],
+                row1: [0.0, -scale.y, scale.y + shift.y],
+            },
+        );
+        let eth = |u: f32, v: f32| {
+            let x = ((u * 3.0 * scale.x + shift.x * 3.0) as i32) % 3;
+            let y = (((1.0 - v) * 2.0 * scale.y + shift.y * 2.0) as i32) % 2;
+            texels[(x + y * 3) as usize]
+        };
+        for i in 0..40 {
+            for j in 0..40 {
+                let (u, v) = ((i as f32 + 0.37) / 40.0, (j as f32 + 0.61) / 40.0);
+                assert_eq!(tex.eval(Vec2::new(u, v)), eth(u, v), "({u}, {v})");
+            }
+        }
+    }
 
     /// The fork's LDRBitmap::eval, written out, against the lookup
     /// `textmap` builds: equal on a 3x2 image over uv in [0, 1]^2.

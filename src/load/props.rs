@@ -427,6 +427,13 @@ impl<'a> Props<'a> {
         Ok(self.opt_vector(name)?.unwrap_or(default))
     }
 
+    pub fn require_vector(&mut self, name: &str) -> Result<Vec3> {
+        match self.opt_vector(name)? {
+            Some(v) => Ok(v),
+            None => Err(self.missing(name, Kind::Vector)),
+        }
+    }
+
     /// Two finite numbers, written as a `<point>` or `<vector>` of two.
     pub fn get_pair(&mut self, name: &str, default: Vec2) -> Result<Vec2> {
         match self.lookup(name, Kind::Pair)? {

@@ -976,3 +976,33 @@ fn students_files_load_as_nori_does() {
         load_err("\n<?xml version=\"1.0\"?>\n<scene>\n  <camera type=\"perspective\"\n</scene>\n");
     assert_eq!(e.line, 5, "{e}");
 }
+
+// ------------------------------------------------------- ETH students' lights
+
+/// The ETH students' `directional` light: `power` is the irradiance of a
+/// surface facing it, `direction` where the light travels (normalised,
+/// with a warning, where the fork uses it as given). A diffuse floor of
+/// albedo 0.5 under irradiance 0.8 from straight above has radiance
+/// 0.5 / pi * 0.8.
+#[test]
+fn eth_directional_light_power_is_irradiance() {
+    let text = floor_scene(
+        "direct",
+        r#"<emitter type="directional">
+    <vector name="direction" value="0, -2, 0"/>
+    <color name="power" value="0.8, 0.8, 0.8"/>
+</emitter>"#,
+    );
+    let desc = one_warning(&text, 16, 37, &["unnormalised", "2.000"]);
+    let pixel = render_image(desc).pixels[0];
+    let want = 0.5 / std::f32::consts::PI * 0.8;
+    assert!(
+        (pixel - Rgb::splat(want)).abs().max_element() < 1e-4 * want,
+        "{pixel} vs {want}"
+    );
+    let err = load_err(&floor_scene(
+        "direct",
+        r#"<emitter type="directional"><color name="power" value="1"/></emitter>"#,
+    ));
+    assert!(err.to_string().contains("direction"), "{err}");
+}
