@@ -926,9 +926,19 @@ fn texture_mistakes_are_located_errors() {
             &["given twice"],
         ),
         (
+            "<bsdf type=\"diffuse\"><texture type=\"perlin_noise\" name=\"albedo\"/></bsdf>",
+            5,
+            &["unknown <texture> type 'perlin_noise'", "textmap", "image_texture"],
+        ),
+        (
             "<bsdf type=\"diffuse\"><texture type=\"image_texture\" name=\"albedo\"/></bsdf>",
             5,
-            &["unknown <texture> type 'image_texture'", "textmap"],
+            &["needs the property 'filename'"],
+        ),
+        (
+            "<bsdf type=\"diffuse\"><texture type=\"image_texture\" name=\"albedo\"><string name=\"filename\" value=\"probe.exr\"/></texture></bsdf>",
+            5,
+            &["8-bit images"],
         ),
         (
             "<bsdf type=\"diffuse\"><texture type=\"checker\"/></bsdf>",
