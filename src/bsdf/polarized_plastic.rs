@@ -10,10 +10,11 @@
 //! reflectances' means) and reports the combined density.
 
 use super::distribution::{MicrofacetDistribution, Roughness};
-use super::params::{self, BsdfError, BsdfParam};
-use super::{fresnel_dielectric, BsdfSample};
+use super::params::BsdfError;
+use super::rough_plastic::sample_glossy_or_diffuse;
+use super::{fresnel_dielectric, BsdfSample, Plastic};
 use crate::color::Rgb;
-use crate::math::{reflect, Vec2, Vec3, INV_PI};
+use crate::math::{Vec2, Vec3, INV_PI};
 use crate::sampling::warp;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,22 +40,21 @@ impl PolarizedPlastic {
         diffuse_reflectance: Rgb,
         specular_reflectance: Rgb,
     ) -> Result<PolarizedPlastic, BsdfError> {
-        let eta = params::relative_ior(int_ior, ext_ior)?;
-        let diffuse_reflectance = params::color(BsdfParam::Diffuse, diffuse_reflectance)?;
-        let specular_reflectance =
-            params::color(BsdfParam::SpecularReflectance, specular_reflectance)?;
-        let d_mean = diffuse_reflectance.element_sum() / 3.0;
-        let s_mean = specular_reflectance.element_sum() / 3.0;
-        Ok(PolarizedPlastic {
-            distr: roughness.distribution()?,
-            eta,
+        // The smooth plastic checks the same parameters and weighs its
+        // lobes the same way.
+        let smooth = Plastic::new(
+            int_ior,
+            ext_ior,
             diffuse_reflectance,
             specular_reflectance,
-            specular_sampling_weight: if d_mean + s_mean > 0.0 {
-                s_mean / (d_mean + s_mean)
-            } else {
-                0.5
-            },
+            false,
+        )?;
+        Ok(PolarizedPlastic {
+            distr: roughness.distribution()?,
+            eta: smooth.eta,
+            diffuse_reflectance: smooth.diffuse_reflectance,
+            specular_reflectance: smooth.specular_reflectance,
+            specular_sampling_weight: smooth.specular_sampling_weight,
         })
     }
 
@@ -93,24 +93,13 @@ impl PolarizedPlastic {
         if wi.z <= 0.0 {
             return None;
         }
-        let wo = if u_lobe < self.specular_sampling_weight {
-            reflect(wi, self.distr.sample(wi, u).0)
-        } else {
-            warp::square_to_cosine_hemisphere(u)
-        };
-        if wo.z <= 0.0 || !wo.is_finite() {
-            return None;
-        }
-        let pdf = self.pdf(wi, wo);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: self.eval(wi, wo) * (wo.z / pdf),
-            pdf,
-            specular: false,
-            eta: 1.0,
-        })
+        sample_glossy_or_diffuse(
+            &self.distr,
+            wi,
+            u,
+            u_lobe < self.specular_sampling_weight,
+            |wo| self.pdf(wi, wo),
+            |wo| self.eval(wi, wo),
+        )
     }
 }

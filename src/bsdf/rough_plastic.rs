@@ -129,8 +129,6 @@ impl RoughPlastic {
         )?;
         let distr = roughness.distribution()?;
         let eta = smooth.eta;
-        let d_mean = diffuse_reflectance.element_sum() / 3.0;
-        let s_mean = specular_reflectance.element_sum() / 3.0;
         // The tables always use visible-normal sampling, as Mitsuba's.
         let table_distr = MicrofacetDistribution {
             sample_visible: true,
@@ -159,11 +157,7 @@ impl RoughPlastic {
             diffuse_reflectance,
             specular_reflectance,
             nonlinear,
-            specular_sampling_weight: if d_mean + s_mean > 0.0 {
-                s_mean / (d_mean + s_mean)
-            } else {
-                0.5
-            },
+            specular_sampling_weight: smooth.specular_sampling_weight,
             internal_reflectance: (2.0 * internal / TRANSMITTANCE_RES as f64) as f32,
             external_transmittance: ext,
         })
@@ -241,26 +235,48 @@ impl RoughPlastic {
             return None;
         }
         let p_spec = self.prob_specular(self.transmittance(wi.z));
-        let wo = if u_lobe < p_spec {
-            reflect(wi, self.distr.sample(wi, u).0)
-        } else {
-            warp::square_to_cosine_hemisphere(u)
-        };
-        if wo.z <= 0.0 || !wo.is_finite() {
-            return None;
-        }
-        let pdf = self.pdf(wi, wo);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: self.eval_tinted(kd, ks, wi, wo) * (wo.z / pdf),
-            pdf,
-            specular: false,
-            eta: 1.0,
-        })
+        sample_glossy_or_diffuse(
+            &self.distr,
+            wi,
+            u,
+            u_lobe < p_spec,
+            |wo| self.pdf(wi, wo),
+            |wo| self.eval_tinted(kd, ks, wi, wo),
+        )
     }
+}
+
+/// One-sample MIS over a plastic's two reflection lobes: `wo` from the
+/// microfacet normals (`glossy`) or the cosine-weighted hemisphere, then
+/// weighted by the model's `eval` over its combined `pdf`. `wi` is in the
+/// upper hemisphere.
+pub(super) fn sample_glossy_or_diffuse(
+    distr: &MicrofacetDistribution,
+    wi: Vec3,
+    u: Vec2,
+    glossy: bool,
+    pdf: impl Fn(Vec3) -> f32,
+    eval: impl Fn(Vec3) -> Rgb,
+) -> Option<BsdfSample> {
+    let wo = if glossy {
+        reflect(wi, distr.sample(wi, u).0)
+    } else {
+        warp::square_to_cosine_hemisphere(u)
+    };
+    if wo.z <= 0.0 || !wo.is_finite() {
+        return None;
+    }
+    let pdf = pdf(wo);
+    if pdf <= 0.0 {
+        return None;
+    }
+    Some(BsdfSample {
+        wo,
+        weight: eval(wo) * (wo.z / pdf),
+        pdf,
+        specular: false,
+        eta: 1.0,
+    })
 }
 
 #[cfg(test)]

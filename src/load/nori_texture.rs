@@ -121,6 +121,23 @@ fn eth_checkerboard(p: &mut Props, ty: &str) -> Result<Texture> {
     }))
 }
 
+/// The forks' image textures read 8-bit files only (stb_image's and
+/// their own LDR loaders): an error at `filename` for any other extension.
+fn eight_bit_only(p: &Props, path: &Path, name: &str, reader: &str) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or_default()
+        .to_ascii_lowercase();
+    if matches!(ext.as_str(), "png" | "jpg" | "jpeg" | "bmp") {
+        return Ok(());
+    }
+    Err(p.error(
+        "filename",
+        format!("{reader} reads 8-bit images (PNG, JPEG, BMP), found '{name}'"),
+    ))
+}
+
 /// The ETH students' `image_texture` (e.g. gianluca-m's
 /// `src/image_texture.cpp`): texel (int(u W sx + shift_x W) mod W,
 /// int((1 - v) H sy + shift_y H) mod H) from the top row, no filtering,
@@ -138,17 +155,7 @@ fn eth_image_texture(
     let srgb = p.get_bool("linear_rgb", true)?;
     let name = p.require_string("filename")?;
     let path = dir.join(name.trim());
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or_default()
-        .to_ascii_lowercase();
-    if !matches!(ext.as_str(), "png" | "jpg" | "jpeg" | "bmp") {
-        return Err(p.error(
-            "filename",
-            format!("image_texture reads 8-bit images (PNG, JPEG, BMP), found '{name}'"),
-        ));
-    }
+    eight_bit_only(p, &path, &name, "image_texture")?;
     let transfer = if srgb { Transfer::Srgb } else { Transfer::Raw };
     let image = images.load(p, "filename", path, transfer, warnings)?;
     Ok(Texture::Bitmap(BitmapTexture::new(
@@ -214,19 +221,7 @@ fn textmap(
         return Err(p.error("filename", "'filename' is empty"));
     }
     let path = dir.join(&name);
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or_default()
-        .to_ascii_lowercase();
-    if !matches!(ext.as_str(), "png" | "jpg" | "jpeg" | "bmp") {
-        return Err(p.error(
-            "filename",
-            format!(
-                "the Zaragoza fork's textmap reads 8-bit images (PNG, JPEG, BMP), found '{name}'"
-            ),
-        ));
-    }
+    eight_bit_only(p, &path, &name, "the Zaragoza fork's textmap")?;
     let image = images.load(p, "filename", path, Transfer::Raw, warnings)?;
     let image = if color == Rgb::ONE {
         image
