@@ -10,7 +10,7 @@ use crate::bsdf::presets::{conductor_preset_names, ior_preset_names};
 use crate::bsdf::{conductor_preset, ior_preset, Bsdf, BsdfError, BsdfParam};
 use crate::bsdf::{MicrofacetType, Principled, Roughness};
 use crate::color::{Rgb, SpectrumUse};
-use crate::load::props::{Kind, Props};
+use crate::load::props::{positive, Kind, Props};
 use crate::load::xml::{describe, SceneNode};
 use crate::load::SceneError;
 use crate::texture::Texture;
@@ -186,11 +186,7 @@ impl<'d> Ctx<'d> {
                     if p.has("int_ior") || p.has("ext_ior") {
                         return Err(p.error("eta", "give either 'eta' or 'int_ior' and 'ext_ior'"));
                     }
-                    let eta = p.require_float("eta")?;
-                    if !(eta.is_finite() && eta > 0.0) {
-                        return Err(p.error("eta", format!("'eta' must be positive, found {eta}")));
-                    }
-                    (eta, 1.0)
+                    (positive(&mut p, "eta", 1.0)?, 1.0)
                 } else {
                     (
                         ior(&mut p, "int_ior", 1.49)?,
@@ -518,10 +514,7 @@ fn principled(p: &mut Props) -> Result<Bsdf> {
             ))
         }
         (true, false) => {
-            let eta = p.require_float("eta")?;
-            if eta <= 0.0 {
-                return Err(p.error("eta", format!("'eta' must be positive, found {eta}")));
-            }
+            let eta = positive(p, "eta", 1.0)?;
             // eta = 1 is not plausible for transmission (Mitsuba's nudge).
             if spec_trans.is_some() && eta == 1.0 {
                 1.001
