@@ -513,6 +513,27 @@ impl<'a> Props<'a> {
             .unwrap_or(Texture::Constant(default)))
     }
 
+    /// Replaces a constant colour's negative components by their
+    /// magnitudes and returns the colour as written, if it had any. For
+    /// values whose every use is squared (a conductor's `eta` and `k`),
+    /// where Mitsuba takes negatives as they are.
+    pub fn make_color_magnitude(&mut self, name: &str) -> Option<Rgb> {
+        let p = self.props.iter_mut().find(|p| p.name == name)?;
+        match &mut p.value {
+            Value::Color(c) if c.min_element() < 0.0 => {
+                let written = *c;
+                *c = c.abs();
+                Some(written)
+            }
+            Value::Float(x) if *x < 0.0 => {
+                let written = Rgb::splat(*x);
+                *x = x.abs();
+                Some(written)
+            }
+            _ => None,
+        }
+    }
+
     /// A warning about property `name` (at its value, or at the object).
     pub fn warn(&mut self, name: &str, message: impl Into<String>) {
         let pos = self.value_pos(name);

@@ -782,6 +782,34 @@ fn bsdfs() {
     assert!(e("<shape type=\"sphere\"><bsdf type=\"twosided\"/></shape>").contains("nested"));
 }
 
+/// A conductor's `eta` and `k` with negative components (RGB fits of
+/// measured data, as Bitterli's living-room-2 has them): Mitsuba renders
+/// them, and its Fresnel term squares them, so lente takes their
+/// magnitudes, with one warning each.
+#[test]
+fn conductor_negative_ior_components_take_their_magnitude() {
+    let (file, warnings) = load(&scene(
+        "<shape type=\"sphere\"><bsdf type=\"roughconductor\">\n<rgb name=\"eta\" value=\"-0.0485, 4.14, 4.67\"/>\n<rgb name=\"k\" value=\"-0.0364, 0.0938, 1.30\"/></bsdf></shape>",
+    ));
+    let want = Bsdf::rough_conductor(
+        lente::bsdf::MicrofacetType::Beckmann,
+        0.1,
+        0.1,
+        Rgb::new(0.0485, 4.14, 4.67),
+        Rgb::new(0.0364, 0.0938, 1.30),
+        Rgb::ONE,
+        true,
+    )
+    .unwrap();
+    assert_eq!(file.scene.shapes[0].bsdf, want);
+    assert_eq!(warnings.len(), 2, "{warnings:?}");
+    assert!(warnings[0]
+        .message
+        .contains("'eta' has negative components"));
+    assert!(warnings[1].message.contains("'k' has negative components"));
+    assert_eq!((warnings[0].line, warnings[1].line), (5, 6));
+}
+
 /// `principled`: Mitsuba's defaults (base colour and roughness 0.5,
 /// specular 0.5 as an IOR), parameters given as zero are absent (its
 /// has_* flags), textures kept; eta = 1 with transmission is nudged.

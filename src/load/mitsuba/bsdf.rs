@@ -423,6 +423,23 @@ fn conductor_ior(p: &mut Props, tex: &mut Textures<'_>) -> Result<(Rgb, Rgb)> {
                 "give either 'material' or 'eta' and 'k', not both",
             ));
         }
+        // Real files have negative components (RGB fits of measured data,
+        // as in Bitterli's living-room-2). Mitsuba takes them as they are;
+        // its Fresnel term, like ours, squares them, so the magnitude
+        // renders the same image.
+        for name in ["eta", "k"] {
+            if let Some(c) = p.make_color_magnitude(name) {
+                p.warn(
+                    name,
+                    format!(
+                        "'{name}' has negative components ({} {} {}); a conductor's Fresnel \
+                         term depends only on their squares, so their magnitudes are used, \
+                         as Mitsuba in effect does",
+                        c.x, c.y, c.z
+                    ),
+                );
+            }
+        }
         // Mitsuba reads these unbounded: spectra are clipped only at zero.
         let before = p.set_spectrum_use(SpectrumUse::Unbounded);
         let eta = tex.rgb(p, BsdfParam::Eta, 0.0)?;
