@@ -16,6 +16,7 @@ pub mod integrator;
 pub mod limits;
 pub mod load;
 pub mod math;
+pub mod medium;
 pub mod preview;
 pub mod progress;
 pub mod render;

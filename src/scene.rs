@@ -7,6 +7,7 @@ use crate::color::Rgb;
 use crate::emitter::{AreaLight, Emitter, EmitterContext, LightChoice};
 use crate::geometry::{Bvh, BvhHit, Geometry, Instance, Intersection};
 use crate::math::{Aabb, Ray, Vec3};
+use crate::medium::{Medium, MediumInterface};
 
 /// A shape as a scene file describes it.
 #[derive(Clone, Debug)]
@@ -18,6 +19,8 @@ pub struct ShapeDesc {
     pub area_radiance: Option<Rgb>,
     /// Radiance varying over the surface (Mitsuba's textured `area`).
     pub area_texture: Option<crate::texture::Texture>,
+    /// The media inside and outside it (indices into [`SceneDesc::media`]).
+    pub media: MediumInterface,
 }
 
 /// The world a scene file describes, before acceleration structures.
@@ -32,6 +35,10 @@ pub struct SceneDesc {
     pub groups: Vec<Vec<ShapeDesc>>,
     /// Placements of the groups.
     pub instances: Vec<Instance>,
+    /// Participating media, named by shapes' [`MediumInterface`]s.
+    pub media: Vec<Medium>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
 }
 
 /// The world, ready to render: geometry and its BVH, BSDFs, emitters and
@@ -53,6 +60,12 @@ pub struct Scene {
     pub bvh: Bvh,
     pub bounds: Aabb,
     pub scene_radius: f32,
+    /// Participating media (only `volpath` sees them).
+    pub media: Vec<Medium>,
+    /// For each shape, the media on its two sides.
+    pub shape_media: Vec<MediumInterface>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
 }
 
 impl Scene {
@@ -86,8 +99,18 @@ impl Scene {
             .shapes
             .into_iter()
             .chain(desc.groups.into_iter().flatten());
+        let n_media = desc.media.len();
+        let check_medium = |m: Option<u32>| match m {
+            Some(i) if i as usize >= n_media => Err(BuildError::NoSuchMedium(i)),
+            _ => Ok(()),
+        };
+        check_medium(desc.camera_medium)?;
+        let mut shape_media = Vec::new();
         for (i, s) in all.enumerate() {
             geometry.push(s.geometry);
+            check_medium(s.media.interior)?;
+            check_medium(s.media.exterior)?;
+            shape_media.push(s.media);
             bsdfs.push(s.bsdf);
             let emitter = match s.area_radiance {
                 Some(radiance) => {
@@ -148,6 +171,9 @@ impl Scene {
             bvh,
             bounds,
             scene_radius,
+            media: desc.media,
+            shape_media,
+            camera_medium: desc.camera_medium,
         })
     }
 
@@ -256,6 +282,8 @@ pub enum BuildError {
     EmitterInGroup { group: usize, shape: usize },
     #[error("instance {0} places a shape group that does not exist")]
     NoSuchGroup(usize),
+    #[error("a medium index ({0}) names no medium of the scene")]
+    NoSuchMedium(u32),
 }
 
 /// The world-space surface point of a BVH hit (through its instance's

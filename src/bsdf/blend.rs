@@ -33,7 +33,7 @@ impl Blend {
     }
 
     #[inline]
-    fn w(&self, at: SurfacePoint) -> f32 {
+    pub(crate) fn w(&self, at: SurfacePoint) -> f32 {
         self.weight.eval_1(at).clamp(0.0, 1.0)
     }
 

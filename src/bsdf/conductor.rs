@@ -39,6 +39,7 @@ impl Conductor {
             pdf: 1.0,
             specular: true,
             eta: 1.0,
+            null: false,
         })
     }
 }

@@ -33,6 +33,7 @@ impl Dielectric {
                 pdf: f,
                 specular: true,
                 eta: 1.0,
+                null: false,
             });
         }
         let wo = Vec3::new(
@@ -47,6 +48,7 @@ impl Dielectric {
             pdf: 1.0 - f,
             specular: true,
             eta: eta_ti,
+            null: false,
         })
     }
 }

@@ -52,6 +52,7 @@ impl Diffuse {
             pdf: warp::square_to_cosine_hemisphere_pdf(wo),
             specular: false,
             eta: 1.0,
+            null: false,
         })
     }
 }

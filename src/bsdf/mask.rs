@@ -29,7 +29,7 @@ impl Mask {
     }
 
     #[inline]
-    fn alpha(&self, at: SurfacePoint) -> f32 {
+    pub(crate) fn alpha(&self, at: SurfacePoint) -> f32 {
         self.opacity.eval_1(at).clamp(0.0, 1.0)
     }
 
@@ -58,6 +58,7 @@ impl Mask {
             pdf: 1.0 - alpha,
             specular: true,
             eta: 1.0,
+            null: true,
         })
     }
 }

@@ -19,6 +19,7 @@ impl Mirror {
             pdf: 1.0,
             specular: true,
             eta: 1.0,
+            null: false,
         })
     }
 }

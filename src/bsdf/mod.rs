@@ -85,6 +85,9 @@ pub enum Bsdf {
     PolarizedPlastic(PolarizedPlastic),
     /// Mitsuba's `polarizer`, unpolarised: half the light passes.
     Polarizer(Polarizer),
+    /// Mitsuba's `null`: no surface at all (a medium's boundary); light
+    /// passes straight through.
+    Null,
     TwoSided(TwoSided),
     /// The Zaragoza Nori fork's `roughconductor` (Schlick's Fresnel).
     SchlickConductor(SchlickConductor),
@@ -117,6 +120,10 @@ pub struct BsdfSample {
     pub specular: bool,
     /// Relative IOR crossed (1 for reflection), for radiance scaling and RR.
     pub eta: f32,
+    /// True for a null lobe: the path goes on straight through, as if the
+    /// surface were not there (a mask's holes, a polarizer, `null`).
+    /// Mitsuba's `volpath` does not count it as a bounce.
+    pub null: bool,
 }
 
 impl BsdfSample {
@@ -134,6 +141,7 @@ impl BsdfSample {
             pdf,
             specular: false,
             eta: 1.0,
+            null: false,
         })
     }
 }
@@ -409,7 +417,8 @@ impl Bsdf {
             // Light passes through a mask's holes (Mitsuba counts its null
             // lobe as transmission too: twosided refuses a mask).
             | Bsdf::Mask(_)
-            | Bsdf::Polarizer(_) => true,
+            | Bsdf::Polarizer(_)
+            | Bsdf::Null => true,
             Bsdf::Principled(b) => b.spec_trans.is_some(),
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
             Bsdf::Blend(b) => b.first.has_transmission() || b.second.has_transmission(),
@@ -428,13 +437,37 @@ impl Bsdf {
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
             | Bsdf::ThinDielectric(_)
-            | Bsdf::Polarizer(_) => true,
+            | Bsdf::Polarizer(_)
+            | Bsdf::Null => true,
             Bsdf::TwoSided(b) => b.front.is_specular() && b.back.is_specular(),
             Bsdf::Mask(b) => b.nested.is_specular(),
             Bsdf::Blend(b) => b.first.is_specular() && b.second.is_specular(),
             Bsdf::Tilted(b) => b.nested.is_specular(),
             Bsdf::Textured(b) => b.base().is_specular(),
             _ => false,
+        }
+    }
+
+    /// The fraction of light that passes straight through the surface
+    /// (its null lobe's weight) along a direction at cosine `cos_i` to the
+    /// shading normal: what a shadow ray keeps when it crosses it in
+    /// `volpath`. Zero for surfaces that block light.
+    pub fn null_transmission(&self, at: impl Into<SurfacePoint>, cos_i: f32) -> Rgb {
+        let at = at.into();
+        match self {
+            Bsdf::Null => Rgb::ONE,
+            Bsdf::ThinDielectric(b) => b.null_transmission(cos_i),
+            Bsdf::Polarizer(b) => b.transmittance * 0.5,
+            Bsdf::Mask(b) => {
+                let alpha = b.alpha(at);
+                Rgb::splat(1.0 - alpha) + b.nested.null_transmission(at, cos_i) * alpha
+            }
+            Bsdf::Blend(b) => {
+                let w = b.w(at);
+                b.first.null_transmission(at, cos_i) * (1.0 - w)
+                    + b.second.null_transmission(at, cos_i) * w
+            }
+            _ => Rgb::ZERO,
         }
     }
 
@@ -520,7 +553,8 @@ impl Bsdf {
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
             | Bsdf::ThinDielectric(_)
-            | Bsdf::Polarizer(_) => Rgb::ZERO,
+            | Bsdf::Polarizer(_)
+            | Bsdf::Null => Rgb::ZERO,
         }
     }
 
@@ -547,7 +581,8 @@ impl Bsdf {
             | Bsdf::Dielectric(_)
             | Bsdf::Conductor(_)
             | Bsdf::ThinDielectric(_)
-            | Bsdf::Polarizer(_) => 0.0,
+            | Bsdf::Polarizer(_)
+            | Bsdf::Null => 0.0,
         }
     }
 
@@ -573,6 +608,14 @@ impl Bsdf {
             Bsdf::RoughPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::PolarizedPlastic(b) => b.sample(wi, u, u_lobe),
             Bsdf::Polarizer(b) => b.sample(wi),
+            Bsdf::Null => Some(BsdfSample {
+                wo: -wi,
+                weight: Rgb::ONE,
+                pdf: 1.0,
+                specular: true,
+                eta: 1.0,
+                null: true,
+            }),
             Bsdf::SchlickConductor(b) => b.sample(wi, u),
             Bsdf::RoughSubstrate(b) => b.sample(wi, u, u_lobe),
             Bsdf::TwoSided(b) => b.sample(at, wi, u, u_lobe),

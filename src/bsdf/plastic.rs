@@ -109,6 +109,7 @@ impl Plastic {
                 pdf: p_spec,
                 specular: true,
                 eta: 1.0,
+                null: false,
             });
         }
         let wo = warp::square_to_cosine_hemisphere(u);
@@ -125,6 +126,7 @@ impl Plastic {
             pdf: p_diff * warp::square_to_cosine_hemisphere_pdf(wo),
             specular: false,
             eta: 1.0,
+            null: false,
         })
     }
 }

@@ -30,6 +30,7 @@ impl Polarizer {
             pdf: 1.0,
             specular: true,
             eta: 1.0,
+            null: true,
         })
     }
 }

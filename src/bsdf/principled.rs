@@ -453,6 +453,7 @@ impl Principled {
             pdf,
             specular: false,
             eta,
+            null: false,
         })
     }
 

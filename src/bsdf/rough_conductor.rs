@@ -93,6 +93,7 @@ impl RoughConductor {
             pdf: pdf_m / (4.0 * wo.dot(m)),
             specular: false,
             eta: 1.0,
+            null: false,
         })
     }
 }

@@ -182,6 +182,7 @@ impl RoughDielectric {
             pdf: (pdf_m * lobe_pdf * dwh_dwo).abs(),
             specular: false,
             eta,
+            null: false,
         })
     }
 }

@@ -276,6 +276,7 @@ pub(super) fn sample_glossy_or_diffuse(
         pdf,
         specular: false,
         eta: 1.0,
+        null: false,
     })
 }
 

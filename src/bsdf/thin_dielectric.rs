@@ -51,15 +51,27 @@ impl ThinDielectric {
                 pdf: r,
                 specular: true,
                 eta: 1.0,
+                null: false,
             }
         } else {
+            // Mitsuba flags this lobe Null: the direction is unchanged, so
+            // volpath does not count it as a bounce.
             BsdfSample {
                 wo: -wi,
                 weight: self.specular_transmittance,
                 pdf: 1.0 - r,
                 specular: true,
                 eta: 1.0,
+                null: true,
             }
         })
+    }
+
+    /// What passes straight through at incidence cosine `cos_i`: the
+    /// transmission lobe's weight times its probability.
+    pub fn null_transmission(&self, cos_i: f32) -> Rgb {
+        let (r, _, _) = fresnel_dielectric(cos_i.abs(), self.eta);
+        let r = 2.0 * r / (1.0 + r);
+        self.specular_transmittance * (1.0 - r)
     }
 }

@@ -2,6 +2,7 @@
 
 mod path;
 mod simple;
+mod volpath;
 mod whitted;
 
 use crate::color::Rgb;
@@ -95,6 +96,9 @@ pub enum Integrator {
     },
     /// Direct illumination only (paths of two segments) with one strategy.
     Direct { strategy: Strategy },
+    /// Path tracing through participating media (Mitsuba's `volpath`):
+    /// free flights, phase functions, shadow rays through null surfaces.
+    VolPath { params: PathParams },
 }
 
 impl Integrator {
@@ -113,6 +117,7 @@ impl Integrator {
             Integrator::Path { strategy, params } => {
                 path::li(scene, ray, sampler, *strategy, params)
             }
+            Integrator::VolPath { params } => volpath::li(scene, ray, sampler, params),
             Integrator::Direct { strategy } => {
                 let params = PathParams {
                     max_depth: Some(2),
@@ -132,6 +137,7 @@ impl Integrator {
             Integrator::AverageVisibility { .. } => "av",
             Integrator::Simple { .. } => "simple",
             Integrator::Whitted => "whitted",
+            Integrator::VolPath { .. } => "volpath",
             Integrator::Direct { strategy } => match strategy {
                 Strategy::Mats => "direct_mats",
                 Strategy::Ems => "direct_ems",

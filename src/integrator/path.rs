@@ -11,7 +11,7 @@ use crate::scene::Scene;
 
 /// Power heuristic (beta = 2) weight of strategy `a` against `b`.
 #[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
+pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 == 0.0 || !a2.is_finite() {
         if a2.is_infinite() {
@@ -27,7 +27,7 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
 /// Probability that emitter sampling at the shading point `at` picks
 /// emitter `i`.
 #[inline]
-fn choice_pdf(scene: &Scene, i: usize, at: &ChoicePoint) -> f32 {
+pub(super) fn choice_pdf(scene: &Scene, i: usize, at: &ChoicePoint) -> f32 {
     scene.light_choice.as_ref().map_or(0.0, |c| c.pdf(at, i))
 }
 
@@ -36,7 +36,7 @@ const MAX_EMITTER_SKIPS: usize = 64;
 
 /// Mitsuba's `hide_emitters`: camera rays pass through area emitters (up
 /// to [`MAX_EMITTER_SKIPS`] of them) to the surface behind.
-fn skip_area_emitters(
+pub(super) fn skip_area_emitters(
     scene: &Scene,
     ray: &Ray,
     mut hit: Option<Intersection>,

@@ -339,6 +339,8 @@ impl<'a> Ctx<'a> {
                 emitters,
                 groups: Vec::new(),
                 instances: Vec::new(),
+                media: Vec::new(),
+                camera_medium: None,
             },
             job: RenderJob {
                 integrator,
@@ -681,6 +683,7 @@ impl<'a> Ctx<'a> {
                 .map_err(|e| self.err(to_world_pos, format!("after its toWorld, {e}")))?;
         }
         Ok(ShapeDesc {
+            media: Default::default(),
             geometry,
             bsdf: bsdf.map_or_else(Bsdf::default, |b| b.0),
             area_radiance: area.as_ref().map(|a| a.0),

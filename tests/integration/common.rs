@@ -289,6 +289,8 @@ pub fn desc(camera: CameraParams, integrator: Integrator) -> TestDesc {
             emitters: Vec::new(),
             groups: Vec::new(),
             instances: Vec::new(),
+            media: Vec::new(),
+            camera_medium: None,
         },
         integrator,
     }
@@ -310,6 +312,7 @@ pub fn shape(geometry: Geometry, bsdf: Bsdf, radiance: Option<Rgb>) -> ShapeDesc
         bsdf,
         area_radiance: radiance,
         area_texture: None,
+        media: Default::default(),
     }
 }
 

@@ -495,7 +495,24 @@ fn integrators() {
     );
     assert_eq!(w.len(), 1);
     assert!(w[0].message.contains("one emitter and one BSDF sample"));
-    let (i, w) = integ("<integrator type=\"volpath\"/>");
+    // volpath and volpathmis: lente's volpath, with Mitsuba's defaults.
+    for ty in ["volpath", "volpathmis"] {
+        let (i, w) = integ(&format!(
+            "<integrator type=\"{ty}\"><integer name=\"max_depth\" value=\"7\"/></integrator>"
+        ));
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(
+            i,
+            Integrator::VolPath {
+                params: PathParams {
+                    max_depth: Some(7),
+                    rr_depth: 5,
+                    hide_emitters: false
+                }
+            }
+        );
+    }
+    let (i, w) = integ("<integrator type=\"prb\"/>");
     assert_eq!(w.len(), 1);
     assert!(matches!(i, Integrator::Path { .. }));
     // The light tracer: path tracing with its parameters, and one warning.

@@ -76,15 +76,9 @@ impl<'d> Ctx<'d> {
                 "normalmap",
                 "bumpmap",
                 "principled",
-            ],
-            &[
-                "principledthin",
-                "hair",
-                "measured",
-                "retarder",
-                "circular",
                 "null",
             ],
+            &["principledthin", "hair", "measured", "retarder", "circular"],
         )?;
         let owner = format!("<bsdf type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
@@ -196,6 +190,7 @@ impl<'d> Ctx<'d> {
                 let r = roughness(&mut p, &mut tex)?;
                 Bsdf::polarized_plastic(r, int_ior, ext_ior, diffuse, specular)
             }
+            "null" => Ok(Bsdf::Null),
             "polarizer" => {
                 let transmittance = tex.rgb(&mut p, BsdfParam::SpecularTransmittance, 1.0)?;
                 // The angle matters only to polarised light, which RGB

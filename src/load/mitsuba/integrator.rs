@@ -1,6 +1,6 @@
-//! Integrators: Mitsuba's `path` and `direct` (and the volumetric and
-//! differentiable path tracers and the light tracer `ptracer`, rendered
-//! with `path`).
+//! Integrators: Mitsuba's `path`, `direct` and `volpath` (`volpathmis`
+//! too; the differentiable path tracers and the light tracer `ptracer`
+//! are rendered with `path`).
 
 use super::{Child, Ctx};
 use crate::integrator::{Integrator, PathParams, Strategy};
@@ -89,7 +89,7 @@ impl<'d> Ctx<'d> {
                      tracer: the same expected image, with other noise (caustics noisier, \
                      most other light cleaner)",
                 );
-            } else if ty != "path" {
+            } else if ty != "path" && ty != "volpath" && ty != "volpathmis" {
                 self.warn(
                     node.pos,
                     format!(
@@ -116,13 +116,20 @@ impl<'d> Ctx<'d> {
                 }
             };
             let rr_depth = int_in(&mut p, "rr_depth", 5, 1, u32::MAX as i64)? as u32;
-            Integrator::Path {
-                strategy: Strategy::Mis,
-                params: PathParams {
-                    max_depth,
-                    rr_depth,
-                    hide_emitters,
-                },
+            let params = PathParams {
+                max_depth,
+                rr_depth,
+                hide_emitters,
+            };
+            if ty == "volpath" || ty == "volpathmis" {
+                // volpathmis is the same estimator with spectral MIS, which
+                // lente's volpath does for every chromatic medium.
+                Integrator::VolPath { params }
+            } else {
+                Integrator::Path {
+                    strategy: Strategy::Mis,
+                    params,
+                }
             }
         };
         p.finish(&mut self.warnings);

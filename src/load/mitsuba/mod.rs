@@ -24,6 +24,7 @@ mod bsdf;
 mod emitter;
 mod instancing;
 mod integrator;
+mod medium;
 mod preprocess;
 mod sensor;
 mod shape;
@@ -220,6 +221,8 @@ struct Ctx<'d> {
     groups: instancing::ShapeGroups,
     /// The AOVs an `aov` integrator asks for.
     aovs: crate::aov::AovList,
+    /// Participating media built so far.
+    media: medium::BuiltMedia,
 }
 
 impl<'d> Ctx<'d> {
@@ -238,6 +241,7 @@ impl<'d> Ctx<'d> {
             texture_images: Default::default(),
             groups: Default::default(),
             aovs: Default::default(),
+            media: Default::default(),
         };
         for item in items {
             ctx.cur = item.file;
@@ -493,7 +497,10 @@ impl<'d> Ctx<'d> {
             "film" | "sampler" => "; it belongs inside a <sensor>",
             "rfilter" => "; it belongs inside a <film>",
             "scene" => "; <scene> can only be the root element",
-            "medium" | "phase" | "volume" => "; participating media are not supported",
+            "medium" => {
+                "; a <medium> belongs inside a <shape> (as its interior or exterior) or a <sensor>"
+            }
+            "phase" | "volume" => "; it belongs inside a <medium>",
             "sensor" | "integrator" => "; it belongs directly inside <scene>",
             "emitter" => {
                 "; an area emitter belongs inside a <shape>, others directly inside <scene>"
@@ -613,7 +620,7 @@ impl<'d> Ctx<'d> {
                 "sampler" | "film" | "rfilter" if child.node.attr("id").is_some() => {
                     definitions.push(child)
                 }
-                "bsdf" | "texture" | "spectrum" => {
+                "bsdf" | "texture" | "spectrum" | "medium" => {
                     if child.node.attr("id").is_none() && tag != "ref" {
                         self.warn(
                             child.at,
@@ -624,15 +631,6 @@ impl<'d> Ctx<'d> {
                         );
                     }
                     definitions.push(child);
-                }
-                "medium" | "phase" | "volume" => {
-                    return Err(self.err(
-                        child.at,
-                        format!(
-                            "{}: participating media are not supported",
-                            describe(child.node)
-                        ),
-                    ))
                 }
                 _ => return Err(self.misplaced(&child, "<scene>")),
             }
@@ -661,6 +659,9 @@ impl<'d> Ctx<'d> {
                 }
                 "bsdf" => {
                     self.enter(&d, |c| c.bsdf(d.node))?;
+                }
+                "medium" => {
+                    self.medium_index(&d)?;
                 }
                 "sampler" => {
                     self.enter(&d, |c| c.sampler(d.node))?;
@@ -722,6 +723,16 @@ impl<'d> Ctx<'d> {
                 }
             }
         };
+        if !self.media.media.is_empty() && !matches!(integrator, Integrator::VolPath { .. }) {
+            self.warn(
+                root_pos,
+                format!(
+                    "the scene has participating media, which the {} integrator ignores (as \
+                     Mitsuba's does); use <integrator type=\"volpath\"> to render them",
+                    integrator.name()
+                ),
+            );
+        }
         Ok(SceneFile {
             scene: SceneDesc {
                 camera: sensor.camera,
@@ -729,6 +740,8 @@ impl<'d> Ctx<'d> {
                 emitters,
                 groups: std::mem::take(&mut self.groups.shapes),
                 instances,
+                media: std::mem::take(&mut self.media.media),
+                camera_medium: sensor.medium,
             },
             job: RenderJob {
                 integrator,

@@ -16,6 +16,8 @@ pub(super) struct SensorDesc {
     pub camera: CameraParams,
     pub filter: Filter,
     pub spp: u32,
+    /// The medium the camera sits in.
+    pub medium: Option<u32>,
 }
 
 impl<'d> Ctx<'d> {
@@ -41,10 +43,12 @@ impl<'d> Ctx<'d> {
         let (mut p, children) = self.read_object(node, &owner)?;
         let mut film: Option<Child> = None;
         let mut sampler: Option<Child> = None;
+        let mut medium: Option<Child> = None;
         for c in children {
             let slot = match c.node.tag.as_str() {
                 "film" => &mut film,
                 "sampler" => &mut sampler,
+                "medium" => &mut medium,
                 _ => return Err(self.misplaced(&c, &owner)),
             };
             if let Some(first) = slot {
@@ -65,6 +69,10 @@ impl<'d> Ctx<'d> {
         let spp = match &sampler {
             Some(c) => self.enter(c, |x| x.sampler(c.node))?,
             None => 4,
+        };
+        let medium = match &medium {
+            Some(c) => Some(self.medium_index(c)?),
+            None => None,
         };
         let aspect = width as f64 / height as f64;
         let orthographic = ty == "orthographic";
@@ -146,6 +154,7 @@ impl<'d> Ctx<'d> {
             camera,
             filter,
             spp,
+            medium,
         })
     }
 
@@ -445,6 +454,7 @@ pub(super) fn default_sensor(bounds: Aabb) -> SensorDesc {
         camera,
         filter: mitsuba_gaussian(0.5),
         spp: 4,
+        medium: None,
     }
 }
 

@@ -141,6 +141,7 @@ impl<'d> Ctx<'d> {
 
         let mut bsdf: Option<(Bsdf, Pos)> = None;
         let mut area: Option<(Texture, Pos)> = None;
+        let mut media = crate::medium::MediumInterface::default();
         for c in children {
             match c.node.tag.as_str() {
                 "bsdf" => {
@@ -167,10 +168,30 @@ impl<'d> Ctx<'d> {
                     }
                 }
                 "medium" => {
-                    return Err(self.err(
-                        c.at,
-                        "participating media (interior/exterior) are not supported",
-                    ))
+                    let slot = match c.name {
+                        Some("interior") => &mut media.interior,
+                        Some("exterior") => &mut media.exterior,
+                        other => {
+                            return Err(self.err(
+                                c.at,
+                                format!(
+                                    "a <medium> inside a shape is its 'interior' or 'exterior' \
+                                     (the name attribute), not {}",
+                                    other.map_or("unnamed".to_string(), |n| format!("'{n}'"))
+                                ),
+                            ))
+                        }
+                    };
+                    if slot.is_some() {
+                        return Err(self.err(
+                            c.at,
+                            format!(
+                                "a shape can have only one {} medium",
+                                c.name.unwrap_or_default()
+                            ),
+                        ));
+                    }
+                    *slot = Some(self.medium_index(&c)?);
                 }
                 _ => return Err(self.misplaced(&c, &owner)),
             }
@@ -281,6 +302,7 @@ impl<'d> Ctx<'d> {
             bsdf,
             area_radiance,
             area_texture,
+            media,
         })
     }
 }
