@@ -7,7 +7,9 @@
 //! conductor with material none and a named metal, roughconductor GGX and
 //! Beckmann, dielectric, thindielectric, roughdielectric, plastic,
 //! roughplastic, twosided with one and two BSDFs, mask, blendbsdf,
-//! normalmap, bumpmap, principled, pplastic, polarizer), texture (checkerboard, mesh_attribute,
+//! normalmap, bumpmap, principled, pplastic, polarizer, null), medium
+//! (homogeneous, with isotropic and hg phase functions and constvolume
+//! values, rendered by volpath), texture (checkerboard, mesh_attribute,
 //! bitmap) and emitter (envmap, constant, area (also textured), point, spot, projector,
 //! directional) that
 //! lente reads from Mitsuba files.
@@ -195,6 +197,12 @@ const CASES: &[Case] = &[
     Case {
         file: "instancing.xml",
         covers: "shapegroup and instance: a group of an OBJ (roughconductor), a sphere (checkerboard uvs) and a rectangle (bumpmap over roughplastic) placed as it is, rotated and scaled unevenly, and mirrored; area, point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
+        file: "media.xml",
+        covers: "volpath with homogeneous media: the camera in a fog (a sensor medium, every boundary's exterior); a null sphere of chromatic hg medium with scale; absorbing-only medium in a smooth dielectric; thindielectric cube with sample_emitters off; roughdielectric sphere with a constvolume albedo and backward hg; shadow rays through a checkerboard mask; area and point lights in the fog",
         spp: 192,
         renders: 16,
     },

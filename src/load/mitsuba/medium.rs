@@ -4,6 +4,7 @@
 
 use super::{Child, Ctx};
 use crate::color::{Rgb, SpectrumUse};
+use crate::load::props::Kind;
 use crate::load::xml::SceneNode;
 use crate::load::SceneError;
 use crate::medium::{Homogeneous, Medium, MediumKind, Phase};
@@ -77,8 +78,20 @@ impl<'d> Ctx<'d> {
                 format!("'scale' must not be negative, found {scale}"),
             ));
         }
+        let sigma_as_rgb = p.kind_of("sigma_t") == Some(Kind::Color);
         let before = p.set_spectrum_use(SpectrumUse::Unbounded);
         let sigma_t = p.get_rgb_or_float("sigma_t", Rgb::ONE)?;
+        if sigma_as_rgb && sigma_t.max_element() > 1.0 {
+            // Mitsuba reads an <rgb> sigma_t as a reflectance and refuses it.
+            return Err(p.error(
+                "sigma_t",
+                format!(
+                    "'sigma_t' given as an <rgb> must lie in [0, 1] (Mitsuba reads it as a \
+                     reflectance), found {} {} {}; give 'scale' for denser media, or a <float>",
+                    sigma_t.x, sigma_t.y, sigma_t.z
+                ),
+            ));
+        }
         p.set_spectrum_use(SpectrumUse::Reflectance);
         let albedo = p.get_rgb_or_float("albedo", Rgb::splat(0.75))?;
         p.set_spectrum_use(before);
