@@ -107,6 +107,13 @@ impl Homogeneous {
 
     fn sample_distance(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
         let s = self.sigma_t;
+        if self.albedo == Rgb::ZERO {
+            // Nothing scatters: the transmittance itself, without noise
+            // (coloured glass; Mitsuba samples collisions that end paths).
+            return FreeFlight::Pass {
+                weight: beer(s, t_max),
+            };
+        }
         let c = ((u_channel * 3.0) as usize).min(2);
         let t = if s[c] > 0.0 {
             -(1.0 - u).ln() / s[c]

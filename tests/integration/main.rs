@@ -25,6 +25,7 @@ mod geometry;
 mod hostile_inputs;
 mod instancing;
 mod lights;
+mod media;
 mod microfacet;
 mod mitsuba_conformance;
 mod mitsuba_mutations;

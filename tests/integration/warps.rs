@@ -1,5 +1,6 @@
-//! Chi-square tests of every warp, the aperture samplers and the diffuse
-//! BSDF against their pdfs; plus the tests that the tests can fail.
+//! Chi-square tests of every warp, the aperture samplers, the diffuse
+//! BSDF and the phase functions against their pdfs; plus the tests that
+//! the tests can fail.
 
 use crate::common::UV0;
 use lente::bsdf::Bsdf;
@@ -10,7 +11,7 @@ use lente::sampling::warp;
 use lente::stats::{plane_histogram, sidak, sphere_histogram};
 
 /// Number of chi-square tests in this file that are expected to pass.
-const TESTS: usize = 12;
+const TESTS: usize = 15;
 const N: usize = 1_000_000;
 
 fn alpha() -> f64 {
@@ -195,6 +196,50 @@ fn diffuse_bsdf_sampling_matches_pdf() {
         let expect = bsdf.eval(UV0, wi, b.wo) * b.wo.z / bsdf.pdf(UV0, wi, b.wo);
         assert!((b.weight - expect).abs().max_element() < 1e-4);
     }
+}
+
+/// The phase functions: isotropic, and Henyey-Greenstein forward and
+/// backward around a tilted arrival direction.
+#[test]
+fn phase_functions() {
+    use lente::medium::Phase;
+    let d = Vec3::new(0.36, -0.48, 0.8);
+    for (i, phase) in [
+        Phase::Isotropic,
+        Phase::HenyeyGreenstein { g: 0.7 },
+        Phase::HenyeyGreenstein { g: -0.4 },
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let h = sphere_histogram(
+            20,
+            40,
+            N,
+            40 + i as u64,
+            |s| Some(phase.sample(d, s.next_2d()).wo),
+            |wo| phase.eval(d, wo) as f64,
+        );
+        assert_passes(&format!("{phase:?}"), h);
+    }
+}
+
+/// A Henyey-Greenstein sampler tested against the density of a slightly
+/// different g must fail.
+#[test]
+fn chi2_rejects_hg_with_another_g() {
+    use lente::medium::Phase;
+    let d = Vec3::Z;
+    let h = sphere_histogram(
+        20,
+        40,
+        N,
+        43,
+        |s| Some(Phase::HenyeyGreenstein { g: 0.7 }.sample(d, s.next_2d()).wo),
+        |wo| Phase::HenyeyGreenstein { g: 0.67 }.eval(d, wo) as f64,
+    );
+    let r = h.test(5.0);
+    assert!(!r.passes(0.01), "wrong g accepted: p = {}", r.p_value);
 }
 
 /// The chi-square machinery must reject a sampler whose pdf is wrong.
