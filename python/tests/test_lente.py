@@ -77,7 +77,7 @@ def test_params_errors_and_warnings(cbox, tmp_path):
         lente.load(tmp_path / "missing.xml")
     warned = tmp_path / "warned.xml"
     warned.write_text(
-        '<scene version="3.0.0"><integrator type="volpath"/>'
+        '<scene version="3.0.0"><integrator type="prb"/>'
         '<shape type="sphere"><float name="radius" value="1"/></shape></scene>\n'
     )
     with pytest.warns(lente.SceneWarning, match="path tracer"):
