@@ -41,9 +41,15 @@ impl ThinDielectric {
         })
     }
 
+    /// Reflectance at incidence cosine `cos_i`, the internal reflections
+    /// summed (r' = r + t r t + ... = 2r / (1 + r)).
+    fn reflectance(&self, cos_i: f32) -> f32 {
+        let (r, _, _) = fresnel_dielectric(cos_i.abs(), self.eta);
+        2.0 * r / (1.0 + r)
+    }
+
     pub fn sample(&self, wi: Vec3, u: f32) -> Option<BsdfSample> {
-        let (r, _, _) = fresnel_dielectric(wi.z.abs(), self.eta);
-        let r = 2.0 * r / (1.0 + r);
+        let r = self.reflectance(wi.z);
         Some(if u <= r {
             BsdfSample {
                 wo: Vec3::new(-wi.x, -wi.y, wi.z),
@@ -70,8 +76,6 @@ impl ThinDielectric {
     /// What passes straight through at incidence cosine `cos_i`: the
     /// transmission lobe's weight times its probability.
     pub fn null_transmission(&self, cos_i: f32) -> Rgb {
-        let (r, _, _) = fresnel_dielectric(cos_i.abs(), self.eta);
-        let r = 2.0 * r / (1.0 + r);
-        self.specular_transmittance * (1.0 - r)
+        self.specular_transmittance * (1.0 - self.reflectance(cos_i))
     }
 }

@@ -3,9 +3,9 @@
 
 use super::{PathParams, Strategy};
 use crate::color::{max_component, Rgb};
-use crate::emitter::{ChoicePoint, Emitter, LightHit};
+use crate::emitter::{ChoicePoint, Emitter, LightHit, LightPdf};
 use crate::geometry::Intersection;
-use crate::math::Ray;
+use crate::math::{Ray, Vec3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -53,6 +53,106 @@ pub(super) fn skip_area_emitters(
     hit
 }
 
+/// The last real vertex of a path, against whose sampling density
+/// emission found by the path is weighed (MIS with next-event estimation).
+#[derive(Clone, Copy)]
+pub(super) struct PrevVertex<'a> {
+    /// Solid-angle density of the direction it sampled.
+    pub pdf: f32,
+    pub p: Vec3,
+    /// Its light choice.
+    pub at: &'a ChoicePoint,
+}
+
+/// Adds to `l` the emission at infinity seen along the escaping direction
+/// `d`, times `beta`: weighed against NEE at `mis` if given, in full
+/// otherwise. `camera_ray`: only emitters visible to the camera count.
+pub(super) fn add_infinite_emission(
+    scene: &Scene,
+    d: Vec3,
+    camera_ray: bool,
+    beta: Rgb,
+    mis: Option<PrevVertex>,
+    which: LightPdf,
+    l: &mut Rgb,
+) {
+    for &i in &scene.infinite {
+        let e = &scene.emitters[i as usize];
+        if camera_ray && !e.visible_to_camera() {
+            continue;
+        }
+        let (le, w) = match mis {
+            Some(prev) => {
+                let (le, pdf) = e.eval_infinite_pdf(d, which);
+                let pl = choice_pdf(scene, i as usize, prev.at) * pdf;
+                (le, power_heuristic(prev.pdf, pl))
+            }
+            None => (e.eval_infinite(d), 1.0),
+        };
+        *l += beta * le * w;
+    }
+}
+
+/// Adds to `l` the emission of the area light hit at `its` by a ray along
+/// `d` (if it is one, seen from its front), times `beta`: weighed against
+/// NEE at `mis` if given, in full otherwise.
+pub(super) fn add_area_emission(
+    scene: &Scene,
+    its: &Intersection,
+    d: Vec3,
+    beta: Rgb,
+    mis: Option<PrevVertex>,
+    which: LightPdf,
+    l: &mut Rgb,
+) {
+    let Some(ei) = scene.shape_emitter[its.shape as usize] else {
+        return;
+    };
+    let e = &scene.emitters[ei as usize];
+    let Emitter::Area(light) = e else {
+        return;
+    };
+    if its.ng.dot(-d) <= 0.0 {
+        return;
+    }
+    let w = match mis {
+        Some(prev) => {
+            let hit = LightHit {
+                p: its.p,
+                n: its.ng,
+                prim: its.prim,
+            };
+            let pl = choice_pdf(scene, ei as usize, prev.at)
+                * e.pdf(&scene.emitter_context(), prev.p, d, &hit, which);
+            power_heuristic(prev.pdf, pl)
+        }
+        None => 1.0,
+    };
+    *l += beta * light.radiance_at(its.surface_point()) * w;
+}
+
+/// Russian roulette from `rr_depth` on (survival probability the
+/// throughput's largest channel times `eta_scale`, at most 0.99); false
+/// if the path ends.
+#[inline]
+pub(super) fn roulette(
+    beta: &mut Rgb,
+    eta_scale: f32,
+    depth: u32,
+    params: &PathParams,
+    sampler: &mut Sampler,
+) -> bool {
+    if depth < params.rr_depth {
+        return true;
+    }
+    let q = (max_component(*beta) * eta_scale).min(0.99);
+    if sampler.next_1d() >= q {
+        return false;
+    }
+    *beta /= q;
+    true
+}
+
 pub fn li(
     scene: &Scene,
     camera_ray: &Ray,
@@ -60,7 +160,6 @@ pub fn li(
     strategy: Strategy,
     params: &PathParams,
 ) -> Rgb {
-    let ctx = scene.emitter_context();
     let which = strategy.light_pdf();
     let max_depth = params.max_depth.unwrap_or(u32::MAX);
     let mut l = Rgb::ZERO;
@@ -88,56 +187,24 @@ pub fn li(
                 Strategy::Ems => specular,
             }
         };
+        let mis = (strategy == Strategy::Mis && !specular).then_some(PrevVertex {
+            pdf: prev_pdf,
+            p: prev_p,
+            at: &prev_at,
+        });
         let Some(its) = hit else {
             if depth == 0 && params.hide_emitters {
                 break;
             }
             if count_emission(specular) {
-                for &i in &scene.infinite {
-                    let e = &scene.emitters[i as usize];
-                    if depth == 0 && !e.visible_to_camera() {
-                        continue;
-                    }
-                    let (le, w) = if strategy == Strategy::Mis && !specular {
-                        let (le, pdf) = e.eval_infinite_pdf(ray.d, which);
-                        let pl = choice_pdf(scene, i as usize, &prev_at) * pdf;
-                        (le, power_heuristic(prev_pdf, pl))
-                    } else {
-                        (e.eval_infinite(ray.d), 1.0)
-                    };
-                    l += beta * le * w;
-                }
+                add_infinite_emission(scene, ray.d, depth == 0, beta, mis, which, &mut l);
             }
             break;
         };
 
         let wi_world = -ray.d;
-        if let Some(ei) = scene.shape_emitter[its.shape as usize] {
-            if count_emission(specular) && !(depth == 0 && params.hide_emitters) {
-                let e = &scene.emitters[ei as usize];
-                if let Emitter::Area(light) = e {
-                    if its.ng.dot(wi_world) > 0.0 {
-                        let w = if strategy == Strategy::Mis && !specular {
-                            let pl = choice_pdf(scene, ei as usize, &prev_at)
-                                * e.pdf(
-                                    &ctx,
-                                    prev_p,
-                                    ray.d,
-                                    &LightHit {
-                                        p: its.p,
-                                        n: its.ng,
-                                        prim: its.prim,
-                                    },
-                                    which,
-                                );
-                            power_heuristic(prev_pdf, pl)
-                        } else {
-                            1.0
-                        };
-                        l += beta * light.radiance_at(its.surface_point()) * w;
-                    }
-                }
-            }
+        if count_emission(specular) && !(depth == 0 && params.hide_emitters) {
+            add_area_emission(scene, &its, ray.d, beta, mis, which, &mut l);
         }
 
         depth += 1;
@@ -189,12 +256,8 @@ pub fn li(
             break;
         }
 
-        if depth >= params.rr_depth {
-            let q = (max_component(beta) * eta_scale).min(0.99);
-            if sampler.next_1d() >= q {
-                break;
-            }
-            beta /= q;
+        if !roulette(&mut beta, eta_scale, depth, params, sampler) {
+            break;
         }
 
         let o = its.spawn(wo_world);

@@ -14,10 +14,13 @@
 //! the way. As in Mitsuba, null crossings are not bounces: `max_depth`
 //! counts scattering in media and at real surfaces.
 
-use super::path::{choice_pdf, power_heuristic, skip_area_emitters};
+use super::path::{
+    add_area_emission, add_infinite_emission, power_heuristic, roulette, skip_area_emitters,
+    PrevVertex,
+};
 use super::{sample_light, PathParams};
-use crate::color::{max_component, Rgb};
-use crate::emitter::{ChoicePoint, Emitter, LightHit, LightPdf, LightSample};
+use crate::color::Rgb;
+use crate::emitter::{ChoicePoint, LightPdf, LightSample};
 use crate::math::{offset_ray_origin, Ray, Vec3};
 use crate::medium::FreeFlight;
 use crate::sampling::Sampler;
@@ -28,7 +31,6 @@ use crate::scene::Scene;
 const MAX_NULL_CROSSINGS: u32 = 256;
 
 pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathParams) -> Rgb {
-    let ctx = scene.emitter_context();
     let which = LightPdf::MisCompensated;
     let max_depth = params.max_depth.unwrap_or(u32::MAX);
     let mut l = Rgb::ZERO;
@@ -110,47 +112,22 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
             }
         }
 
+        let mis = (!specular).then_some(PrevVertex {
+            pdf: prev_pdf,
+            p: prev_p,
+            at: &prev_at,
+        });
         let Some(its) = hit else {
             if !(depth == 0 && params.hide_emitters) {
-                for &i in &scene.infinite {
-                    let e = &scene.emitters[i as usize];
-                    if depth == 0 && !e.visible_to_camera() {
-                        continue;
-                    }
-                    let (le, w) = if specular {
-                        (e.eval_infinite(ray.d), 1.0)
-                    } else {
-                        let (le, pdf) = e.eval_infinite_pdf(ray.d, which);
-                        let pl = choice_pdf(scene, i as usize, &prev_at) * pdf;
-                        (le, power_heuristic(prev_pdf, pl))
-                    };
-                    l += beta * le * w;
-                }
+                add_infinite_emission(scene, ray.d, depth == 0, beta, mis, which, &mut l);
             }
             break;
         };
 
         let wi_world = -ray.d;
         let shape = its.shape as usize;
-        if let Some(ei) = scene.shape_emitter[shape] {
-            let e = &scene.emitters[ei as usize];
-            if let Emitter::Area(light) = e {
-                if !(depth == 0 && params.hide_emitters) && its.ng.dot(wi_world) > 0.0 {
-                    let w = if specular {
-                        1.0
-                    } else {
-                        let hit = LightHit {
-                            p: its.p,
-                            n: its.ng,
-                            prim: its.prim,
-                        };
-                        let pl = choice_pdf(scene, ei as usize, &prev_at)
-                            * e.pdf(&ctx, prev_p, ray.d, &hit, which);
-                        power_heuristic(prev_pdf, pl)
-                    };
-                    l += beta * light.radiance_at(its.surface_point()) * w;
-                }
-            }
+        if !(depth == 0 && params.hide_emitters) {
+            add_area_emission(scene, &its, ray.d, beta, mis, which, &mut l);
         }
 
         let bsdf = &scene.bsdfs[shape];
@@ -226,26 +203,6 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
         ray = Ray::new(its.spawn(wo_world), wo_world);
     }
     l
-}
-
-/// Russian roulette from `rr_depth` on; false if the path ends.
-#[inline]
-fn roulette(
-    beta: &mut Rgb,
-    eta_scale: f32,
-    depth: u32,
-    params: &PathParams,
-    sampler: &mut Sampler,
-) -> bool {
-    if depth < params.rr_depth {
-        return true;
-    }
-    let q = (max_component(*beta) * eta_scale).min(0.99);
-    if sampler.next_1d() >= q {
-        return false;
-    }
-    *beta /= q;
-    true
 }
 
 /// The fraction of the light sample `ls` that reaches `from` (a point off
