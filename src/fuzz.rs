@@ -26,6 +26,8 @@ pub enum Target {
     /// Mitsuba's `.serialized` meshes: shape 0, then shape 1 (the
     /// end-of-file dictionary).
     Serialized,
+    /// Mitsuba's `.vol` voxel grids.
+    Vol,
     Hdr,
     Pfm,
     /// OpenEXR, as an image and as a render file (`--resume`, `merge`).
@@ -36,13 +38,14 @@ pub enum Target {
 }
 
 impl Target {
-    pub const ALL: [Target; 12] = [
+    pub const ALL: [Target; 13] = [
         Target::NoriScene,
         Target::MitsubaScene,
         Target::NoriTest,
         Target::Obj,
         Target::Ply,
         Target::Serialized,
+        Target::Vol,
         Target::Hdr,
         Target::Pfm,
         Target::Exr,
@@ -60,6 +63,7 @@ impl Target {
             Target::Obj => "obj",
             Target::Ply => "ply",
             Target::Serialized => "serialized",
+            Target::Vol => "vol",
             Target::Hdr => "hdr",
             Target::Pfm => "pfm",
             Target::Exr => "exr",
@@ -130,6 +134,7 @@ pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
             let second = crate::geometry::parse_serialized(bytes, 1).map(drop);
             first.and(second).map_err(|e| e.to_string())
         }
+        Target::Vol => crate::medium::parse_vol(bytes).map(drop),
         Target::Hdr => decode_image(bytes, "hdr").map(drop).map_err(|e| e.0),
         Target::Pfm => decode_image(bytes, "pfm").map(drop).map_err(|e| e.0),
         Target::Exr => {
@@ -165,6 +170,8 @@ mod tests {
             (Target::Obj, "scenes/cbox/floor.obj"),
             (Target::Ply, "scenes/mitsuba/gem.ply"),
             (Target::Serialized, "tests/conformance/gems.serialized"),
+            (Target::Vol, "tests/conformance/smoke.vol"),
+            (Target::Vol, "tests/conformance/tint.vol"),
             (Target::Pfm, "scenes/mitsuba/sky.pfm"),
             (Target::Bmp, "fuzz/seeds/bmp/small.bmp"),
             (Target::Bmp, "fuzz/seeds/bmp/palette.bmp"),

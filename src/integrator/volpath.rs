@@ -62,7 +62,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
         if let Some(m) = medium {
             let m = &scene.media[m as usize];
             let t_max = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-            match m.sample_distance(t_max, sampler.next_1d(), sampler.next_1d()) {
+            match m.sample_distance(&ray, t_max, sampler) {
                 FreeFlight::Pass { weight } => {
                     beta *= weight;
                     if beta == Rgb::ZERO {
@@ -84,7 +84,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
                         {
                             let f = m.phase.eval(d, ls.wi);
                             if f > 0.0 && ls.weight != Rgb::ZERO {
-                                let tr = shadow_transmittance(scene, p, medium, &ls);
+                                let tr = shadow_transmittance(scene, p, medium, &ls, sampler);
                                 if tr != Rgb::ZERO {
                                     let w = if ls.delta {
                                         1.0
@@ -148,7 +148,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
                     } else {
                         medium
                     };
-                    let tr = shadow_transmittance(scene, its.spawn(ls.wi), start, &ls);
+                    let tr = shadow_transmittance(scene, its.spawn(ls.wi), start, &ls, sampler);
                     if tr != Rgb::ZERO {
                         let w = if ls.delta {
                             1.0
@@ -207,13 +207,14 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
 
 /// The fraction of the light sample `ls` that reaches `from` (a point off
 /// any surface, in `medium`): the transmittance of the media on the way
-/// times the null transmission of the surfaces crossed; zero if a surface
-/// blocks it.
+/// (estimated by ratio tracking in heterogeneous ones) times the null
+/// transmission of the surfaces crossed; zero if a surface blocks it.
 fn shadow_transmittance(
     scene: &Scene,
     from: Vec3,
     mut medium: Option<u32>,
     ls: &LightSample,
+    sampler: &mut Sampler,
 ) -> Rgb {
     let d = ls.wi;
     let target = if ls.dist.is_infinite() {
@@ -231,7 +232,7 @@ fn shadow_transmittance(
         let hit = scene.intersect(&ray);
         if let Some(m) = medium {
             let seg = hit.as_ref().map_or(remaining, |h| h.t);
-            tr *= scene.media[m as usize].transmittance(seg);
+            tr *= scene.media[m as usize].transmittance(&ray, seg, sampler);
         }
         let Some(its) = hit else {
             return tr;

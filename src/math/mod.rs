@@ -52,6 +52,29 @@ impl Aabb {
     pub fn diagonal(&self) -> Vec3 {
         self.max - self.min
     }
+
+    /// The part of the ray `o + t d`, `t` in `[0, t_max]`, inside the box
+    /// (slab test): `None` if it misses. Axes along which the ray does not
+    /// move are inside or not by its origin alone (no 0 * inf).
+    pub fn ray_range(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
+        let (mut t0, mut t1) = (0.0f32, t_max);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if o[a] < self.min[a] || o[a] > self.max[a] {
+                    return None;
+                }
+                continue;
+            }
+            let inv = 1.0 / d[a];
+            let (mut near, mut far) = ((self.min[a] - o[a]) * inv, (self.max[a] - o[a]) * inv);
+            if near > far {
+                std::mem::swap(&mut near, &mut far);
+            }
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+        }
+        (t0 <= t1).then_some((t0, t1))
+    }
 }
 
 pub const PI: f32 = std::f32::consts::PI;

@@ -14,21 +14,29 @@
 //! same; Mitsuba's `volpath` divides by the chosen channel's density
 //! alone).
 
+mod heterogeneous;
 mod phase;
+mod vol_file;
+mod volume;
 
+pub use heterogeneous::{Heterogeneous, MAX_OPTICAL_EXTENT};
 pub use phase::{Phase, PhaseSample};
+pub use vol_file::{encode_vol, load_vol, parse_vol, VolError, VolumeGrid};
+pub use volume::{GridLookup, Volume, VolumeData, VolumeFilter, WrapMode};
 
 use crate::color::Rgb;
-use crate::math::Vec3;
+use crate::math::{Ray, Vec3};
+use crate::sampling::Sampler;
 
-/// A homogeneous medium: the same coefficients everywhere.
+/// A homogeneous medium: the same extinction everywhere. Its albedo may
+/// still vary (Mitsuba evaluates a grid albedo at each scattering point).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Homogeneous {
     /// Extinction coefficient per unit length (Mitsuba's `sigma_t`
     /// times `scale`).
     pub sigma_t: Rgb,
     /// Single-scattering albedo sigma_s / sigma_t.
-    pub albedo: Rgb,
+    pub albedo: Volume,
 }
 
 /// The closed set of media.
@@ -44,6 +52,7 @@ pub struct Medium {
 #[derive(Clone, Debug, PartialEq)]
 pub enum MediumKind {
     Homogeneous(Homogeneous),
+    Heterogeneous(Heterogeneous),
 }
 
 /// The media on either side of a surface: `interior` behind its
@@ -84,30 +93,32 @@ pub enum FreeFlight {
 }
 
 impl Medium {
-    /// Samples where a path travelling a segment of length `t_max`
-    /// (infinite if it escapes) interacts, from two uniform numbers.
-    pub fn sample_distance(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
+    /// Samples where a path travelling `ray` (unit direction) up to
+    /// `t_max` (infinite if it escapes) interacts.
+    pub fn sample_distance(&self, ray: &Ray, t_max: f32, sampler: &mut Sampler) -> FreeFlight {
         match &self.kind {
-            MediumKind::Homogeneous(h) => h.sample_distance(t_max, u_channel, u),
+            MediumKind::Homogeneous(h) => {
+                let u_channel = sampler.next_1d();
+                h.sample_distance(ray, t_max, u_channel, sampler.next_1d())
+            }
+            MediumKind::Heterogeneous(h) => h.sample_distance(ray, t_max, sampler),
         }
     }
 
-    /// Transmittance along a segment of length `t` (may be infinite).
-    pub fn transmittance(&self, t: f32) -> Rgb {
+    /// Transmittance along `ray` up to `t` (may be infinite): exact in a
+    /// homogeneous medium, an unbiased estimate in a heterogeneous one.
+    pub fn transmittance(&self, ray: &Ray, t: f32, sampler: &mut Sampler) -> Rgb {
         match &self.kind {
-            MediumKind::Homogeneous(h) => h.transmittance(t),
+            MediumKind::Homogeneous(h) => beer(h.sigma_t, t),
+            MediumKind::Heterogeneous(h) => h.transmittance(ray, t, sampler),
         }
     }
 }
 
 impl Homogeneous {
-    fn transmittance(&self, t: f32) -> Rgb {
-        beer(self.sigma_t, t)
-    }
-
-    fn sample_distance(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
+    fn sample_distance(&self, ray: &Ray, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
         let s = self.sigma_t;
-        if self.albedo == Rgb::ZERO {
+        if self.albedo.as_constant() == Some(Rgb::ZERO) {
             // Nothing scatters: the transmittance itself, without noise
             // (coloured glass; Mitsuba samples collisions that end paths).
             return FreeFlight::Pass {
@@ -127,7 +138,7 @@ impl Homogeneous {
             if pdf > 0.0 {
                 return FreeFlight::Scatter {
                     t,
-                    weight: tr * s * self.albedo / pdf,
+                    weight: tr * s * self.albedo.eval(ray.at(t)) / pdf,
                 };
             }
         }
@@ -153,7 +164,10 @@ mod tests {
 
     fn medium(sigma_t: Rgb, albedo: Rgb) -> Medium {
         Medium {
-            kind: MediumKind::Homogeneous(Homogeneous { sigma_t, albedo }),
+            kind: MediumKind::Homogeneous(Homogeneous {
+                sigma_t,
+                albedo: Volume::constant(albedo),
+            }),
             phase: Phase::Isotropic,
             sample_emitters: true,
         }
@@ -173,15 +187,10 @@ mod tests {
         let t_max = 1.3f32;
         let n = 400_000;
         let (mut pass, mut scat) = (Rgb::ZERO, Rgb::ZERO);
-        let mut state = 0x1234_5678u64;
-        let mut rnd = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 40) as f32) / (1u64 << 24) as f32
-        };
+        let mut sampler = Sampler::new(0x1234, 5678);
+        let ray = Ray::new(Vec3::ZERO, Vec3::X);
         for _ in 0..n {
-            match m.sample_distance(t_max, rnd(), rnd()) {
+            match m.sample_distance(&ray, t_max, &mut sampler) {
                 FreeFlight::Pass { weight } => pass += weight,
                 FreeFlight::Scatter { t, weight } => {
                     assert!(t < t_max);
@@ -215,8 +224,13 @@ mod tests {
     #[test]
     fn transmittance_limits() {
         let m = medium(Rgb::new(0.0, 1.0, 2.0), Rgb::ONE);
-        assert_eq!(m.transmittance(f32::INFINITY), Rgb::new(1.0, 0.0, 0.0));
-        let t = m.transmittance(0.5);
+        let mut s = Sampler::new(1, 1);
+        let ray = Ray::new(Vec3::ZERO, Vec3::X);
+        assert_eq!(
+            m.transmittance(&ray, f32::INFINITY, &mut s),
+            Rgb::new(1.0, 0.0, 0.0)
+        );
+        let t = m.transmittance(&ray, 0.5, &mut s);
         assert!((t.y - (-0.5f32).exp()).abs() < 1e-6);
     }
 

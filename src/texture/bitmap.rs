@@ -98,7 +98,7 @@ pub enum WrapMode {
 impl WrapMode {
     /// The texel index in [0, res) that integer coordinate `i` reads.
     #[inline]
-    fn wrap(self, i: i64, res: usize) -> usize {
+    pub(crate) fn wrap(self, i: i64, res: usize) -> usize {
         let n = res as i64;
         let j = match self {
             WrapMode::Repeat => i.rem_euclid(n),

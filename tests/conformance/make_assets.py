@@ -28,6 +28,13 @@ folder; files go next to this script). Plain Python, no packages:
   and a ramp, the bump map of bumpmap.xml;
 - normals.png: a 32 x 32 8-bit RGB normal map (read raw: colour c is the
   normal 2c - 1) of a field of round bumps, tilted up to ~50 degrees.
+- smoke.vol: Mitsuba's voxel grid format (version 3, float32), 12 x 10 x 8
+  voxels of one channel: three soft blobs of density up to 1 and a thin
+  haze, zero at the border, with the box (-1, 0, -1) .. (1, 1.6, 1) in its
+  header (read with use_grid_bbox);
+- tint.vol: 6 x 5 x 4 voxels of three channels in [0.2, 0.98], a colour
+  ramp per axis with a checker of darker voxels: an albedo, and a
+  chromatic extinction.
 """
 
 import math
@@ -267,7 +274,48 @@ def height():
     png("height.png", 32, 32, 1, rows)
 
 
+def vol(name, res, channels, bbox, values):
+    nx, ny, nz = res
+    header = b"VOL" + bytes([3]) + struct.pack("<5i", 1, nx, ny, nz, channels)
+    header += struct.pack("<6f", *bbox)
+    with open(os.path.join(HERE, name), "wb") as out:
+        out.write(header + struct.pack(f"<{len(values)}f", *values))
+
+
+def smoke():
+    nx, ny, nz = 12, 10, 8
+    blobs = [((0.35, 0.3, 0.5), 0.18, 1.0), ((0.65, 0.55, 0.4), 0.15, 0.8),
+             ((0.45, 0.75, 0.6), 0.12, 0.6)]
+    values = []
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                p = ((x + 0.5) / nx, (y + 0.5) / ny, (z + 0.5) / nz)
+                border = x in (0, nx - 1) or y in (0, ny - 1) or z in (0, nz - 1)
+                d = 0.0 if border else 0.05
+                for c, r, h in blobs:
+                    q = sum((p[i] - c[i]) ** 2 for i in range(3))
+                    d += h * math.exp(-q / (r * r))
+                values.append(0.0 if border else min(d, 1.0))
+    vol("smoke.vol", (nx, ny, nz), 1, (-1, 0, -1, 1, 1.6, 1), values)
+
+
+def tint():
+    nx, ny, nz = 6, 5, 4
+    values = []
+    for z in range(nz):
+        for y in range(ny):
+            for x in range(nx):
+                dark = 0.4 if (x + y + z) % 2 else 1.0
+                rgb = (0.3 + 0.68 * x / (nx - 1), 0.3 + 0.68 * y / (ny - 1),
+                       0.98 - 0.68 * z / (nz - 1))
+                values += [max(0.2, c * dark) for c in rgb]
+    vol("tint.vol", (nx, ny, nz), 3, (0, 0, 0, 1, 1, 1), values)
+
+
 if __name__ == "__main__":
+    smoke()
+    tint()
     height()
     attributes()
     normals()

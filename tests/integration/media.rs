@@ -1,10 +1,14 @@
 //! Participating media under `volpath`: estimators checked with t-tests
 //! against closed forms, and the reader's media errors.
 
-use crate::common::{estimate, load, load_err, TestScene};
+use std::path::Path;
+
+use crate::common::{estimate, load, load_at, load_err, load_err_at, TestScene};
 use crate::mitsuba_parse::scene;
 use lente::color::{luminance, Rgb};
 use lente::integrator::Integrator;
+use lente::math::{Aabb, Vec3};
+use lente::medium::{encode_vol, VolumeGrid};
 use lente::scene::Scene;
 use lente::stats::{sidak, t_test};
 
@@ -161,10 +165,6 @@ fn medium_errors() {
         .contains("between -1 and 1"));
     assert!(e(r#"<shape type="sphere"><medium type="homogeneous" name="interior"><float name="albedo" value="1.5"/></medium></shape>"#)
         .contains("at most 1"));
-    assert!(
-        e(r#"<shape type="sphere"><medium type="heterogeneous" name="interior"/></shape>"#)
-            .contains("homogeneous")
-    );
     assert!(e(r#"<shape type="sphere"><medium type="homogeneous" name="interior"/><medium type="homogeneous" name="interior"/></shape>"#)
         .contains("only one interior"));
 }
@@ -180,6 +180,254 @@ fn path_ignores_media_with_a_warning() {
     assert_eq!(file.scene.media.len(), 1);
     assert!(
         warnings.iter().any(|w| w.message.contains("ignores")),
+        "{warnings:?}"
+    );
+}
+
+/// Writes a `.vol` grid of `channels` values per voxel into `dir`.
+fn write_grid(dir: &Path, name: &str, res: [usize; 3], channels: usize, data: Vec<f32>) {
+    let grid = VolumeGrid {
+        res,
+        channels,
+        bbox: Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        },
+        data,
+    };
+    std::fs::write(dir.join(name), encode_vol(&grid)).unwrap();
+}
+
+/// A 4 x 3 x 5 grid of three channels, varying along every axis and per
+/// channel (zero in some voxels), values in [0, 1].
+fn lumpy_grid() -> Vec<f32> {
+    let mut data = Vec::new();
+    for z in 0..5 {
+        for y in 0..3 {
+            for x in 0..4 {
+                let v = ((x * 7 + y * 5 + z * 3) % 6) as f32 / 5.0;
+                data.extend([v, 1.0 - v, ((x + z) % 3) as f32 / 2.0]);
+            }
+        }
+    }
+    data
+}
+
+/// Scene text for `volpath` with a camera at the origin looking down +z
+/// (`fov` degrees, `res` pixels square, in `sensor_medium`), a constant
+/// sky of radiance 1, and `body`.
+fn sky_scene(fov: f32, res: u32, sensor_medium: &str, body: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+<integrator type="volpath"/>
+<sensor type="perspective"><float name="fov" value="{fov}"/>
+<transform name="to_world"><lookat origin="0, 0, 0" target="0, 0, 1" up="0, 1, 0"/></transform>
+{sensor_medium}
+<film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/></film></sensor>
+<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+{body}
+</scene>"#
+    )
+}
+
+fn loaded(text: &str, dir: &Path) -> TestScene {
+    let (file, warnings) = load_at(text, &dir.join("scene.xml"), &[]);
+    assert!(warnings.is_empty(), "{warnings:?}");
+    TestScene {
+        scene: Scene::new(file.scene).unwrap(),
+        integrator: file.job.integrator,
+    }
+}
+
+/// The white furnace with heterogeneous media: a chromatic extinction
+/// grid that scatters without absorbing is invisible under a sky of 1,
+/// seen from outside its null box (delta tracking's null collisions and
+/// channel weights, ratio-tracked shadow rays) and from inside it (the
+/// camera's medium, its box around the camera). A 3% absorbing albedo
+/// grid must be rejected.
+#[test]
+fn heterogeneous_media_vanish_in_a_white_furnace() {
+    let dir = tempfile::tempdir().unwrap();
+    write_grid(dir.path(), "lumpy.vol", [4, 3, 5], 3, lumpy_grid());
+    write_grid(dir.path(), "white.vol", [1, 1, 1], 1, vec![1.0]);
+    write_grid(dir.path(), "grey.vol", [2, 1, 1], 1, vec![0.97, 0.97]);
+    let medium = |albedo: &str| {
+        format!(
+            r#"<medium type="heterogeneous" id="m">
+<volume type="gridvolume" name="sigma_t"><string name="filename" value="lumpy.vol"/>
+<transform name="to_world"><scale value="2"/><translate x="-1" y="-1" z="-1"/></transform></volume>
+<float name="scale" value="3"/>
+<volume type="gridvolume" name="albedo"><string name="filename" value="{albedo}"/></volume>
+<phase type="hg"><float name="g" value="0.4"/></phase></medium>"#
+        )
+    };
+    let null_box = r#"<shape type="cube"><transform name="to_world"><translate z="3"/></transform>
+<bsdf type="null"/><ref id="m" name="interior"/></shape>"#;
+    // The medium's box is [-1, 1]^3: around the camera, or moved to z = 3
+    // inside the null cube.
+    let outside = |albedo: &str| {
+        medium(albedo).replace(
+            r#"<translate x="-1" y="-1" z="-1"/>"#,
+            r#"<translate x="-1" y="-1" z="2"/>"#,
+        ) + null_box
+    };
+    let cases = [
+        sky_scene(60.0, 16, "", &outside("white.vol")),
+        sky_scene(60.0, 16, r#"<ref id="m"/>"#, &medium("white.vol")),
+    ];
+    let alpha = sidak(0.01, cases.len());
+    for (i, text) in cases.iter().enumerate() {
+        let s = loaded(text, dir.path());
+        let mv = estimate(&s, 20_000, 330 + i as u64);
+        let r = t_test(&mv, 1.0);
+        assert!(
+            r.passes(alpha),
+            "case {i}: mean {} vs 1, p = {}",
+            mv.mean(),
+            r.p_value
+        );
+    }
+    let absorbing = loaded(&sky_scene(60.0, 16, "", &outside("grey.vol")), dir.path());
+    let mv = estimate(&absorbing, 20_000, 339);
+    assert!(!t_test(&mv, 1.0).passes(0.01), "mean {}", mv.mean());
+}
+
+/// Transmittance through a slab of grid extinction: the camera (in the
+/// medium, looking down +z within a 0.2-degree field) sees the sky through
+/// a 1-thick slab whose extinction varies along z per channel. Trilinear
+/// interpolation with clamping keeps each channel's integral over the
+/// slab the mean of its voxels, so the sky is seen through exp(-scale *
+/// mean) per channel. Nothing scatters (albedo 0): delta tracking ends a
+/// path at its first real collision.
+#[test]
+fn heterogeneous_transmittance_follows_the_optical_depth() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = vec![0.2, 0.9, 0.0, 0.6, 0.3, 0.5, 1.0, 0.1, 0.25];
+    write_grid(dir.path(), "slab.vol", [1, 1, 3], 3, data.clone());
+    let body = r#"<medium type="heterogeneous" id="m">
+<volume type="gridvolume" name="sigma_t"><string name="filename" value="slab.vol"/>
+<transform name="to_world"><scale x="100" y="100" z="1"/><translate x="-50" y="-50" z="1"/></transform></volume>
+<float name="scale" value="1.5"/><float name="albedo" value="0"/></medium>"#;
+    let s = loaded(&sky_scene(0.2, 1, r#"<ref id="m"/>"#, body), dir.path());
+    let mean = |c: usize| (data[c] + data[3 + c] + data[6 + c]) as f64 / 3.0;
+    let depth = |c: usize| (-1.5 * mean(c)).exp() as f32;
+    let want = luminance(Rgb::new(depth(0), depth(1), depth(2))) as f64;
+    let mv = estimate(&s, 40_000, 340);
+    let r = t_test(&mv, want);
+    assert!(
+        r.passes(0.01),
+        "mean {} vs {want}, p = {}",
+        mv.mean(),
+        r.p_value
+    );
+    assert!(!t_test(&mv, want * 1.03).passes(0.01));
+}
+
+/// The reader's grid errors name the element and what was wrong, and a
+/// constant extinction in a heterogeneous medium warns that it fills the
+/// unit cube only.
+#[test]
+fn grid_volume_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    write_grid(dir.path(), "six.vol", [1, 1, 1], 6, vec![0.5; 6]);
+    write_grid(dir.path(), "bright.vol", [2, 1, 1], 1, vec![0.5, 1.5]);
+    write_grid(dir.path(), "negative.vol", [2, 1, 1], 1, vec![0.5, -0.5]);
+    write_grid(dir.path(), "dense.vol", [1, 1, 1], 1, vec![1e7]);
+    std::fs::write(dir.path().join("bad.vol"), b"VOL\x03 not a grid").unwrap();
+    let path = dir.path().join("scene.xml");
+    let medium = |ty: &str, inner: &str| {
+        scene(&format!(
+            r#"<shape type="sphere"><medium type="{ty}" name="interior">{inner}</medium></shape>"#
+        ))
+    };
+    let grid = |name: &str, file: &str, extra: &str| {
+        format!(
+            r#"<volume type="gridvolume" name="{name}"><string name="filename" value="{file}"/>{extra}</volume>"#
+        )
+    };
+    let e = |text: String| load_err_at(&text, &path).report();
+    let cases = [
+        (
+            medium("heterogeneous", &grid("sigma_t", "missing.vol", "")),
+            "cannot load the volume grid",
+        ),
+        (
+            medium("heterogeneous", &grid("sigma_t", "bad.vol", "")),
+            "shorter than the 48-byte header",
+        ),
+        (
+            medium("heterogeneous", &grid("sigma_t", "six.vol", "")),
+            "6 channels",
+        ),
+        (
+            medium("heterogeneous", &grid("albedo", "bright.vol", "")),
+            "must lie in [0, 1]",
+        ),
+        (
+            medium("heterogeneous", &grid("sigma_t", "negative.vol", "")),
+            "must not be negative",
+        ),
+        (
+            medium("heterogeneous", &grid("sigma_t", "dense.vol", "")),
+            "too dense",
+        ),
+        (
+            medium("homogeneous", &grid("sigma_t", "bright.vol", "")),
+            "must be constant",
+        ),
+        (
+            medium(
+                "heterogeneous",
+                &grid(
+                    "sigma_t",
+                    "bright.vol",
+                    r#"<string name="filter_type" value="cubic"/>"#,
+                ),
+            ),
+            "use trilinear or nearest",
+        ),
+        (
+            medium(
+                "heterogeneous",
+                &grid(
+                    "sigma_t",
+                    "bright.vol",
+                    r#"<string name="wrap_mode" value="border"/>"#,
+                ),
+            ),
+            "use clamp, repeat or mirror",
+        ),
+        (
+            medium(
+                "heterogeneous",
+                &format!(
+                    "{}{}",
+                    grid("sigma_t", "bright.vol", ""),
+                    r#"<float name="sigma_t" value="1"/>"#
+                ),
+            ),
+            "given twice",
+        ),
+        (
+            medium(
+                "heterogeneous",
+                r#"<volume type="gridvolume" name="density"><string name="filename" value="bright.vol"/></volume>"#,
+            ),
+            "sets 'sigma_t' or 'albedo'",
+        ),
+    ];
+    for (text, want) in cases {
+        let message = e(text);
+        assert!(message.contains(want), "{message:?} should say {want:?}");
+        assert!(message.contains("scene.xml:"), "{message}");
+    }
+    let (_, warnings) = load_at(
+        &medium("heterogeneous", r#"<float name="sigma_t" value="2"/>"#),
+        &path,
+        &[],
+    );
+    assert!(
+        warnings.iter().any(|w| w.message.contains("unit cube")),
         "{warnings:?}"
     );
 }

@@ -207,6 +207,12 @@ const CASES: &[Case] = &[
         renders: 16,
     },
     Case {
+        file: "hetero.xml",
+        covers: "volpath with heterogeneous media and grid volumes: a null box of smoke from a one-channel .vol placed by its own box (use_grid_bbox) under scale, trilinear, with a three-channel albedo grid (nearest, repeat) and forward hg; a dielectric sphere holding a chromatic extinction grid whose box is smaller than the sphere; a homogeneous medium with a mirrored albedo grid; area, point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
         file: "pplastic.xml",
         covers: "pplastic: defaults (Beckmann) with a checkerboard diffuse reflectance, anisotropic GGX with int_ior by name and a tinted specular reflectance, eta with sample_visible off; area, point and constant lights",
         spp: 192,
