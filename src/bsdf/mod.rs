@@ -21,6 +21,7 @@ mod polarized_plastic;
 mod polarizer;
 pub mod presets;
 mod principled;
+mod principled_thin;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
@@ -54,6 +55,7 @@ pub use polarized_plastic::PolarizedPlastic;
 pub use polarizer::Polarizer;
 pub use presets::{conductor_preset, ior_preset};
 pub use principled::{specular_to_eta, Principled};
+pub use principled_thin::PrincipledThin;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
@@ -103,6 +105,8 @@ pub enum Bsdf {
     Tilted(Box<Tilted>),
     /// Mitsuba's `principled` (the Disney BSDF; boxed: large).
     Principled(Box<Principled>),
+    /// Mitsuba's `principledthin` (the thin Disney BSDF; boxed: large).
+    PrincipledThin(Box<PrincipledThin>),
     /// A model with textured parameters (boxed: rare, and large).
     Textured(Box<Textured>),
 }
@@ -374,6 +378,7 @@ impl Bsdf {
         match self {
             Bsdf::Textured(b) => b.textures_mut().iter_mut().for_each(|(_, t)| f(t)),
             Bsdf::Principled(b) => b.textures_mut().for_each(f),
+            Bsdf::PrincipledThin(b) => b.textures_mut().for_each(f),
             Bsdf::Mask(b) => {
                 f(&mut b.opacity);
                 b.nested.for_each_texture_mut(f);
@@ -420,6 +425,7 @@ impl Bsdf {
             | Bsdf::Polarizer(_)
             | Bsdf::Null => true,
             Bsdf::Principled(b) => b.spec_trans.is_some(),
+            Bsdf::PrincipledThin(b) => b.spec_trans.is_some() || b.diff_trans.is_some(),
             Bsdf::TwoSided(b) => b.front.has_transmission() || b.back.has_transmission(),
             Bsdf::Blend(b) => b.first.has_transmission() || b.second.has_transmission(),
             Bsdf::Tilted(b) => b.nested.has_transmission(),
@@ -482,6 +488,7 @@ impl Bsdf {
             Bsdf::PolarizedPlastic(b) => Some(b.diffuse_reflectance),
             Bsdf::RoughSubstrate(b) => Some(b.kd),
             Bsdf::Principled(b) => Some(b.base_color.mean()),
+            Bsdf::PrincipledThin(b) => Some(b.base_color.mean()),
             Bsdf::TwoSided(b) => b.front.albedo(),
             Bsdf::Mask(b) => b.nested.albedo(),
             Bsdf::Blend(b) => {
@@ -524,6 +531,7 @@ impl Bsdf {
                     + b.second.diffuse_reflectance(at, wi) * w
             }
             Bsdf::Textured(b) => b.diffuse_reflectance(at, wi),
+            Bsdf::PrincipledThin(b) => b.base_color.eval(at),
             _ => self.eval(at, wi, Vec3::Z) * std::f32::consts::PI,
         }
     }
@@ -548,6 +556,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.eval(at, wi, wo),
             Bsdf::Tilted(b) => b.eval(at, wi, wo),
             Bsdf::Principled(b) => b.eval(at, wi, wo),
+            Bsdf::PrincipledThin(b) => b.eval(at, wi, wo),
             Bsdf::Textured(b) => b.eval(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -576,6 +585,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.pdf(at, wi, wo),
             Bsdf::Tilted(b) => b.pdf(at, wi, wo),
             Bsdf::Principled(b) => b.pdf(at, wi, wo),
+            Bsdf::PrincipledThin(b) => b.pdf(at, wi, wo),
             Bsdf::Textured(b) => b.pdf(at, wi, wo),
             Bsdf::Mirror(_)
             | Bsdf::Dielectric(_)
@@ -623,6 +633,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Tilted(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Principled(b) => b.sample(at, wi, u, u_lobe),
+            Bsdf::PrincipledThin(b) => b.sample(at, wi, u, u_lobe),
             Bsdf::Textured(b) => b.sample(at, wi, u, u_lobe),
         }
     }

@@ -72,7 +72,7 @@ pub fn specular_to_eta(specular: f32) -> f32 {
 /// Schlick's Fresnel with reflectance `r0` at normal incidence across an
 /// interface of relative IOR `eta`: from the denser side, measured by the
 /// transmitted cosine (Mitsuba's `calc_schlick`).
-fn schlick_across(r0: Rgb, cos_i: f32, eta: f32) -> Rgb {
+pub(super) fn schlick_across(r0: Rgb, cos_i: f32, eta: f32) -> Rgb {
     let (eta_it, eta_ti) = if cos_i >= 0.0 {
         (eta, 1.0 / eta)
     } else {
@@ -88,12 +88,12 @@ fn schlick_across(r0: Rgb, cos_i: f32, eta: f32) -> Rgb {
 
 /// Schlick's R0 of an interface of relative IOR `eta`.
 #[inline]
-fn r0_of(eta: f32) -> f32 {
+pub(super) fn r0_of(eta: f32) -> f32 {
     ((eta - 1.0) / (eta + 1.0)).powi(2)
 }
 
 /// `base / luminance(base)`, or white for black.
-fn tint(base: Rgb) -> Rgb {
+pub(super) fn tint(base: Rgb) -> Rgb {
     let lum = luminance(base);
     if lum > 0.0 {
         base / lum
@@ -160,7 +160,7 @@ impl Gtr1 {
 /// the macro surface as `wi` sees it (reflection), or on opposite sides
 /// (transmission).
 #[inline]
-fn compatible(m: Vec3, wi: Vec3, wo: Vec3, cos_i: f32, reflection: bool) -> bool {
+pub(super) fn compatible(m: Vec3, wi: Vec3, wo: Vec3, cos_i: f32, reflection: bool) -> bool {
     let m = mulsign(m, cos_i);
     wi.dot(m) > 0.0
         && if reflection {

@@ -29,6 +29,9 @@ CONFIGS = [
   ('pplastic', {'type': 'pplastic', 'diffuse_reflectance': rgb([0.2, 0.5, 0.8])}),
   ('pplastic_ggx_aniso', {'type': 'pplastic', 'distribution': 'ggx', 'alpha_u': 0.1, 'alpha_v': 0.35, 'int_ior': 1.6, 'diffuse_reflectance': rgb([0.6, 0.3, 0.1]), 'specular_reflectance': rgb([0.7, 0.7, 0.7])}),
   ('pplastic_novis', {'type': 'pplastic', 'alpha': 0.2, 'sample_visible': False, 'eta': 1.33}),
+  ('pthin_default', {'type': 'principledthin'}),
+  ('pthin_full', {'type': 'principledthin', 'base_color': rgb([0.7, 0.4, 0.2]), 'roughness': 0.35, 'spec_trans': 0.6, 'diff_trans': 0.8, 'sheen': 0.5, 'sheen_tint': 0.3, 'spec_tint': 0.4, 'flatness': 0.3, 'eta': 1.4}),
+  ('pthin_aniso', {'type': 'principledthin', 'base_color': rgb([0.3, 0.6, 0.9]), 'anisotropic': 0.6, 'spec_trans': 1.0, 'roughness': 0.3, 'eta': 1.6, 'specular_reflectance_sampling_rate': 2.0}),
 ]
 
 def d(th, ph, below=False):

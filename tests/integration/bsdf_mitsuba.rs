@@ -8,9 +8,10 @@
 //! documented deviation: see [`mitsuba_bias`].
 
 use crate::common::UV0;
-use lente::bsdf::{conductor_preset, Bsdf, MicrofacetType, Roughness};
+use lente::bsdf::{conductor_preset, Bsdf, MicrofacetType, PrincipledThin, Roughness};
 use lente::color::Rgb;
 use lente::math::{Vec2, Vec3};
+use lente::texture::Texture;
 
 /// One row of the reference table (see tests/data/bsdf_mitsuba.txt).
 #[derive(Debug)]
@@ -224,7 +225,57 @@ fn bsdf(name: &str) -> Bsdf {
             one,
         )
         .unwrap(),
+        "pthin_default" => thin(PrincipledThin { ..thin_defaults() }),
+        "pthin_full" => thin(PrincipledThin {
+            base_color: c(Rgb::new(0.7, 0.4, 0.2)),
+            roughness: c(Rgb::splat(0.35)),
+            spec_trans: Some(c(Rgb::splat(0.6))),
+            diff_trans: Some(c(Rgb::splat(0.8))),
+            sheen: Some(c(Rgb::splat(0.5))),
+            sheen_tint: Some(c(Rgb::splat(0.3))),
+            spec_tint: Some(c(Rgb::splat(0.4))),
+            flatness: Some(c(Rgb::splat(0.3))),
+            eta: c(Rgb::splat(1.4)),
+            ..thin_defaults()
+        }),
+        "pthin_aniso" => thin(PrincipledThin {
+            base_color: c(Rgb::new(0.3, 0.6, 0.9)),
+            anisotropic: Some(c(Rgb::splat(0.6))),
+            spec_trans: Some(c(Rgb::splat(1.0))),
+            roughness: c(Rgb::splat(0.3)),
+            eta: c(Rgb::splat(1.6)),
+            spec_refl_rate: 2.0,
+            ..thin_defaults()
+        }),
         _ => panic!("unknown config {name}"),
+    }
+}
+
+fn c(v: Rgb) -> Texture {
+    Texture::Constant(v)
+}
+
+fn thin(b: PrincipledThin) -> Bsdf {
+    Bsdf::PrincipledThin(Box::new(b))
+}
+
+/// `principledthin` with Mitsuba's defaults.
+fn thin_defaults() -> PrincipledThin {
+    PrincipledThin {
+        base_color: c(Rgb::splat(0.5)),
+        roughness: c(Rgb::splat(0.5)),
+        anisotropic: None,
+        spec_trans: None,
+        sheen: None,
+        sheen_tint: None,
+        flatness: None,
+        spec_tint: None,
+        diff_trans: None,
+        eta: c(Rgb::splat(1.5)),
+        spec_refl_rate: 1.0,
+        spec_trans_rate: 1.0,
+        diff_refl_rate: 1.0,
+        diff_trans_rate: 1.0,
     }
 }
 

@@ -4,7 +4,8 @@
 //! anisotropic, with and without visible-normal sampling, near-mirror
 //! roughness (on finer grids), grazing incidence, dielectrics from outside
 //! and inside; the smooth lobe of plastic; roughplastic; pplastic; twosided from
-//! below; principled (every lobe, transmission from both sides). Plus the
+//! below; principled (every lobe, transmission from both sides);
+//! principledthin (every lobe, from both sides). Plus the
 //! tests that this test rejects wrong pdfs.
 
 use crate::common::UV0;
@@ -100,7 +101,7 @@ fn grazing_inside() -> Vec3 {
 }
 
 /// Total number of chi-square tests that must pass, across this file.
-const FAMILY: usize = 48;
+const FAMILY: usize = 51;
 
 #[test]
 fn rough_conductor_sampling_matches_pdf() {
@@ -699,6 +700,93 @@ fn principled_sampling_matches_pdf() {
                 c.name,
                 x.pdf
             );
+            assert!(
+                (x.weight - expect).abs().max_element() <= 1e-4 * expect.max_element(),
+                "{}: weight {} vs {expect}",
+                c.name,
+                x.weight
+            );
+        }
+        assert!(n > 10_000, "{}: only {n} samples", c.name);
+    }
+}
+
+/// Mitsuba's principledthin with numbers for its parameters (None:
+/// absent).
+fn principled_thin(roughness: f32, extra: &[(&str, f32)], eta: f32) -> Bsdf {
+    use lente::texture::Texture;
+    let get = |name: &str| {
+        extra
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, v)| Texture::Constant(Rgb::splat(v)))
+    };
+    Bsdf::PrincipledThin(Box::new(lente::bsdf::PrincipledThin {
+        base_color: Texture::Constant(Rgb::new(0.7, 0.4, 0.2)),
+        roughness: Texture::Constant(Rgb::splat(roughness)),
+        anisotropic: get("anisotropic"),
+        spec_trans: get("spec_trans"),
+        sheen: get("sheen"),
+        sheen_tint: get("sheen_tint"),
+        flatness: get("flatness"),
+        spec_tint: get("spec_tint"),
+        diff_trans: get("diff_trans"),
+        eta: Texture::Constant(Rgb::splat(eta)),
+        spec_refl_rate: 1.0,
+        spec_trans_rate: 1.0,
+        diff_refl_rate: 1.0,
+        diff_trans_rate: 1.0,
+    }))
+}
+
+/// Principledthin: every lobe (specular reflection and transmission
+/// through the sheet, diffuse reflection and transmission) from the front
+/// and, mirrored, from the back; anisotropic and nearly specular; and
+/// every sample's weight is eval cos / pdf of the whole mixture.
+#[test]
+fn principled_thin_sampling_matches_pdf() {
+    let every = [
+        ("spec_trans", 0.5),
+        ("diff_trans", 0.9),
+        ("sheen", 0.5),
+        ("spec_tint", 0.3),
+        ("flatness", 0.4),
+    ];
+    let cases = [
+        case(
+            "principledthin, every lobe",
+            principled_thin(0.4, &every, 1.5),
+            dir(40.0, 30.0, false),
+            40,
+            80,
+        ),
+        case(
+            "principledthin from the back, grazing",
+            principled_thin(0.3, &every, 1.3),
+            dir(70.0, 200.0, true),
+            40,
+            80,
+        ),
+        case(
+            "principledthin anisotropic, specular only",
+            principled_thin(0.25, &[("spec_trans", 1.0), ("anisotropic", 0.7)], 1.6),
+            dir(25.0, 60.0, false),
+            60,
+            100,
+        ),
+    ];
+    run(&cases, FAMILY, 7100);
+    let mut s = lente::sampling::Sampler::new(3, 4);
+    for c in &cases {
+        let mut n = 0;
+        for _ in 0..20_000 {
+            let Some(x) = c.bsdf.sample(UV0, c.wi, s.next_2d(), s.next_1d()) else {
+                continue;
+            };
+            n += 1;
+            let pdf = c.bsdf.pdf(UV0, c.wi, x.wo);
+            let expect = c.bsdf.eval(UV0, c.wi, x.wo) * x.wo.z.abs() / pdf;
+            assert!((x.pdf - pdf).abs() <= 1e-4 * pdf, "{}: pdf", c.name);
             assert!(
                 (x.weight - expect).abs().max_element() <= 1e-4 * expect.max_element(),
                 "{}: weight {} vs {expect}",

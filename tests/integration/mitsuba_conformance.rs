@@ -213,6 +213,12 @@ const CASES: &[Case] = &[
         renders: 16,
     },
     Case {
+        file: "principled_thin.xml",
+        covers: "principledthin: sheets in front of an area light, so light passes through them: defaults (diffuse only); spec_trans with eta, spec_tint and a checkerboard base_color; diff_trans with sheen, sheen_tint and flatness; anisotropic spec_trans with a textured roughness and a doubled specular_reflectance_sampling_rate; a sphere of it (both sides); area, point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
         file: "pplastic.xml",
         covers: "pplastic: defaults (Beckmann) with a checkerboard diffuse reflectance, anisotropic GGX with int_ior by name and a tinted specular reflectance, eta with sample_visible off; area, point and constant lights",
         spp: 192,

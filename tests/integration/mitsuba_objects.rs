@@ -786,10 +786,12 @@ fn bsdfs() {
         .contains("not both"));
     assert!(e("<shape type=\"sphere\"><bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/></bsdf></shape>")
         .contains("beckmann or ggx"));
-    assert!(
-        e("<shape type=\"sphere\"><bsdf type=\"principledthin\"/></shape>")
-            .contains("not supported")
-    );
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"principledthin\"><float name=\"eta\" value=\"0\"/></bsdf></shape>")
+        .contains("must be positive"));
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"principledthin\"><float name=\"diff_trans\" value=\"3\"/></bsdf></shape>")
+        .contains("[0, 2]"));
+    assert!(e("<shape type=\"sphere\"><bsdf type=\"principledthin\"><float name=\"diffuse_transmittance_sampling_rate\" value=\"-1\"/></bsdf></shape>")
+        .contains("must not be negative"));
     assert!(e("<shape type=\"sphere\"><bsdf type=\"principled\"><float name=\"eta\" value=\"1.4\"/><float name=\"specular\" value=\"0.5\"/></bsdf></shape>")
         .contains("not both"));
     assert!(e("<shape type=\"sphere\"><bsdf type=\"principled\"><float name=\"specular\" value=\"13\"/></bsdf></shape>")
@@ -855,6 +857,45 @@ fn principled_parameters() {
     assert_eq!(p.sheen, Some(Texture::Constant(Rgb::splat(0.3))));
     assert!(matches!(p.clearcoat, Some(Texture::Checkerboard(_))));
     close_f(p.eta, 1.001, 1e-6);
+}
+
+/// `principledthin`: Mitsuba's defaults (base colour and roughness 0.5,
+/// eta 1.5, rates 1), parameters given as zero absent (its has_* flags),
+/// textures kept, eta as a texture.
+#[test]
+fn principled_thin_parameters() {
+    use lente::bsdf::PrincipledThin;
+    use lente::texture::Texture;
+    let get = |body: &str| -> PrincipledThin {
+        let (desc, w) = load(&scene(&format!("<shape type=\"sphere\">{body}</shape>")));
+        assert!(w.is_empty(), "{w:?}");
+        match &desc.scene.shapes[0].bsdf {
+            Bsdf::PrincipledThin(p) => (**p).clone(),
+            b => panic!("not principledthin: {b:?}"),
+        }
+    };
+    let p = get(r#"<bsdf type="principledthin"/>"#);
+    assert_eq!(p.base_color, Texture::Constant(Rgb::splat(0.5)));
+    assert_eq!(p.roughness, Texture::Constant(Rgb::splat(0.5)));
+    assert_eq!(p.eta, Texture::Constant(Rgb::splat(1.5)));
+    assert!(p.spec_trans.is_none() && p.diff_trans.is_none() && p.sheen.is_none());
+    assert_eq!(
+        (
+            p.spec_refl_rate,
+            p.spec_trans_rate,
+            p.diff_refl_rate,
+            p.diff_trans_rate
+        ),
+        (1.0, 1.0, 1.0, 1.0)
+    );
+    let p = get(
+        r#"<bsdf type="principledthin"><float name="spec_trans" value="0"/><float name="diff_trans" value="1.5"/>
+           <texture type="checkerboard" name="eta"/><float name="diffuse_reflectance_sampling_rate" value="3"/></bsdf>"#,
+    );
+    assert!(p.spec_trans.is_none());
+    assert_eq!(p.diff_trans, Some(Texture::Constant(Rgb::splat(1.5))));
+    assert!(matches!(p.eta, Texture::Checkerboard(_)));
+    assert_eq!(p.diff_refl_rate, 3.0);
 }
 
 /// `mask`: opacity (0.5) as a number, colour or texture over one nested

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use super::{Child, Ctx};
 use crate::bsdf::presets::{conductor_preset_names, ior_preset_names};
 use crate::bsdf::{conductor_preset, ior_preset, Bsdf, BsdfError, BsdfParam};
-use crate::bsdf::{MicrofacetType, Principled, Roughness};
+use crate::bsdf::{MicrofacetType, Principled, PrincipledThin, Roughness};
 use crate::color::{Rgb, SpectrumUse};
 use crate::load::props::{positive, Kind, Props};
 use crate::load::xml::{describe, SceneNode};
@@ -76,9 +76,10 @@ impl<'d> Ctx<'d> {
                 "normalmap",
                 "bumpmap",
                 "principled",
+                "principledthin",
                 "null",
             ],
-            &["principledthin", "hair", "measured", "retarder", "circular"],
+            &["hair", "measured", "retarder", "circular"],
         )?;
         let owner = format!("<bsdf type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
@@ -252,6 +253,7 @@ impl<'d> Ctx<'d> {
                 Bsdf::normal_map(normals, nested, flip, shadowing)
             }
             "principled" => Ok(principled(&mut p)?),
+            "principledthin" => Ok(principled_thin(&mut p)?),
             _ => self.two_sided(node, &owner, &children)?,
         };
         let bsdf = built
@@ -582,5 +584,59 @@ fn principled(p: &mut Props) -> Result<Bsdf> {
         spec_rate,
         clearcoat_rate,
         diffuse_rate,
+    })))
+}
+
+/// Mitsuba 3's `principledthin` (`bsdfs/principledthin.cpp`): its
+/// parameters, each a number or a texture, with its defaults; `eta` (1.5)
+/// may be a texture too, read unbounded.
+fn principled_thin(p: &mut Props) -> Result<Bsdf> {
+    // Mitsuba's has_* flags: given and not the number zero.
+    let opt = |p: &mut Props, name: &str| -> Result<Option<Texture>> {
+        Ok(p.opt_texture(name)?
+            .filter(|t| *t != Texture::Constant(Rgb::ZERO)))
+    };
+    let rate = |p: &mut Props, name: &str| -> Result<f32> {
+        let r = p.get_float(name, 1.0)?;
+        if r < 0.0 {
+            return Err(p.error(name, format!("'{name}' must not be negative, found {r}")));
+        }
+        Ok(r)
+    };
+    let before = p.set_spectrum_use(SpectrumUse::Unbounded);
+    let eta = p.get_texture("eta", Rgb::splat(1.5))?;
+    p.set_spectrum_use(before);
+    if let Texture::Constant(c) = &eta {
+        if c.min_element().is_nan() || c.min_element() <= 0.0 {
+            return Err(p.error(
+                "eta",
+                format!("'eta' (the sheet's IOR) must be positive, found {c}"),
+            ));
+        }
+    }
+    let diff_trans = opt(p, "diff_trans")?;
+    if let Some(Texture::Constant(c)) = &diff_trans {
+        if c.max_element() > 2.0 {
+            return Err(p.error(
+                "diff_trans",
+                format!("'diff_trans' lies in [0, 2] (Mitsuba halves it), found {c}"),
+            ));
+        }
+    }
+    Ok(Bsdf::PrincipledThin(Box::new(PrincipledThin {
+        base_color: p.get_texture("base_color", Rgb::splat(0.5))?,
+        roughness: p.get_texture("roughness", Rgb::splat(0.5))?,
+        anisotropic: opt(p, "anisotropic")?,
+        spec_trans: opt(p, "spec_trans")?,
+        sheen: opt(p, "sheen")?,
+        sheen_tint: opt(p, "sheen_tint")?,
+        flatness: opt(p, "flatness")?,
+        spec_tint: opt(p, "spec_tint")?,
+        diff_trans,
+        eta,
+        spec_refl_rate: rate(p, "specular_reflectance_sampling_rate")?,
+        spec_trans_rate: rate(p, "specular_transmittance_sampling_rate")?,
+        diff_refl_rate: rate(p, "diffuse_reflectance_sampling_rate")?,
+        diff_trans_rate: rate(p, "diffuse_transmittance_sampling_rate")?,
     })))
 }
