@@ -19,6 +19,11 @@ pub enum Filter {
         b: f32,
         c: f32,
     },
+    /// Lanczos' windowed sinc, sinc(x) sinc(x / radius), with `radius`
+    /// lobes (Mitsuba's `lanczos`; its negative lobes sharpen).
+    Lanczos {
+        radius: f32,
+    },
 }
 
 impl Default for Filter {
@@ -43,6 +48,7 @@ impl std::fmt::Display for Filter {
             Filter::Mitchell { radius, b, c } => {
                 write!(f, "mitchell (radius {radius}, B {b}, C {c})")
             }
+            Filter::Lanczos { radius } => write!(f, "lanczos ({radius} lobes)"),
         }
     }
 }
@@ -104,7 +110,7 @@ impl Filter {
                 finite(FilterParam::B, b)?;
                 finite(FilterParam::C, c)
             }
-            Filter::Box { .. } | Filter::Tent { .. } => Ok(()),
+            Filter::Box { .. } | Filter::Tent { .. } | Filter::Lanczos { .. } => Ok(()),
         }
     }
 
@@ -113,7 +119,8 @@ impl Filter {
             Filter::Gaussian { radius, .. }
             | Filter::Box { radius }
             | Filter::Tent { radius }
-            | Filter::Mitchell { radius, .. } => radius,
+            | Filter::Mitchell { radius, .. }
+            | Filter::Lanczos { radius } => radius,
         }
     }
 
@@ -148,6 +155,18 @@ impl Filter {
                 } else {
                     0.0
                 }) / 6.0
+            }
+            Filter::Lanczos { radius } => {
+                let x = x.abs();
+                if x < f32::EPSILON {
+                    1.0
+                } else if x > radius {
+                    0.0
+                } else {
+                    let x1 = std::f32::consts::PI * x;
+                    let x2 = x1 / radius;
+                    x1.sin() * x2.sin() / (x1 * x2)
+                }
             }
         }
     }
@@ -191,10 +210,20 @@ mod tests {
                 b: 1.0 / 3.0,
                 c: 1.0 / 3.0,
             },
+            Filter::Lanczos { radius: 3.0 },
         ] {
             assert!(f.eval_1d(f.radius()).abs() < 1e-6, "{f:?}");
             assert!(f.eval_1d(0.0) > 0.0);
         }
         assert_eq!(Filter::Box { radius: 0.5 }.eval_1d(0.6), 0.0);
+        // Lanczos: 1 at the centre, zero at every integer, negative in
+        // its second lobe.
+        let l = Filter::Lanczos { radius: 3.0 };
+        assert_eq!(l.eval_1d(0.0), 1.0);
+        assert!(l.eval_1d(1.0).abs() < 1e-6 && l.eval_1d(2.0).abs() < 1e-6);
+        assert!(l.eval_1d(1.5) < 0.0 && l.eval_1d(2.5) > 0.0);
+        let want = (std::f32::consts::FRAC_PI_2).sin() * (std::f32::consts::PI / 6.0).sin()
+            / (std::f32::consts::FRAC_PI_2 * std::f32::consts::PI / 6.0);
+        assert!((l.eval_1d(0.5) - want).abs() < 1e-6);
     }
 }

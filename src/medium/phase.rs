@@ -15,6 +15,9 @@ pub enum Phase {
     Isotropic,
     /// Henyey-Greenstein with mean cosine `g` in (-1, 1) (Mitsuba's `hg`).
     HenyeyGreenstein { g: f32 },
+    /// Rayleigh scattering by particles much smaller than the wavelength,
+    /// 3 / (16 pi) (1 + cos^2), unpolarised (Mitsuba's `rayleigh`).
+    Rayleigh,
 }
 
 /// A sampled direction: its density, which for these phase functions is
@@ -31,6 +34,7 @@ impl Phase {
         match *self {
             Phase::Isotropic => INV_FOUR_PI,
             Phase::HenyeyGreenstein { g } => hg(g, d.dot(wo)),
+            Phase::Rayleigh => rayleigh(d.dot(wo)),
         }
     }
 
@@ -57,6 +61,21 @@ impl Phase {
                     pdf: hg(g, cos_t),
                 }
             }
+            Phase::Rayleigh => {
+                // The cosine's CDF (cos^3 + 3 cos + 4) / 8 inverted in
+                // closed form (Cardano: one real root).
+                let z = 4.0 * u.x - 2.0;
+                let r = (z * z + 1.0).sqrt();
+                let cos_t = ((z + r).cbrt() + (z - r).cbrt()).clamp(-1.0, 1.0);
+                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                let (s, c) = (2.0 * PI * u.y).sin_cos();
+                let local = Vec3::new(sin_t * c, sin_t * s, cos_t);
+                let wo = Frame::from_normal(d).to_world(local).normalize();
+                PhaseSample {
+                    wo,
+                    pdf: rayleigh(cos_t),
+                }
+            }
         }
     }
 }
@@ -67,6 +86,12 @@ impl Phase {
 fn hg(g: f32, cos_t: f32) -> f32 {
     let denom = 1.0 + g * g - 2.0 * g * cos_t;
     INV_FOUR_PI * (1.0 - g * g) / (denom * denom.max(1e-12).sqrt())
+}
+
+/// The Rayleigh density at the cosine `cos_t` between the two directions.
+#[inline]
+fn rayleigh(cos_t: f32) -> f32 {
+    3.0 / (16.0 * PI) * (1.0 + cos_t * cos_t)
 }
 
 #[cfg(test)]
@@ -82,6 +107,7 @@ mod tests {
             Phase::Isotropic,
             Phase::HenyeyGreenstein { g: 0.7 },
             Phase::HenyeyGreenstein { g: -0.4 },
+            Phase::Rayleigh,
         ] {
             let n = 200_000;
             let (mut total, mut mean) = (0.0f64, 0.0f64);
@@ -94,7 +120,7 @@ mod tests {
                 mean += p * c;
             }
             let g = match phase {
-                Phase::Isotropic => 0.0,
+                Phase::Isotropic | Phase::Rayleigh => 0.0,
                 Phase::HenyeyGreenstein { g } => g as f64,
             };
             assert!((total - 1.0).abs() < 1e-3, "{phase:?}: {total}");
@@ -106,16 +132,17 @@ mod tests {
     #[test]
     fn sample_pdf_matches_eval() {
         let d = Vec3::new(0.48, -0.6, 0.64);
-        let phase = Phase::HenyeyGreenstein { g: 0.8 };
-        for i in 0..1000 {
-            let u = Vec2::new(
-                (i as f32 * 0.618_034).fract(),
-                (i as f32 * 0.414_213).fract(),
-            );
-            let s = phase.sample(d, u);
-            assert!((s.wo.length() - 1.0).abs() < 1e-4);
-            let e = phase.eval(d, s.wo);
-            assert!((s.pdf - e).abs() <= 2e-3 * e, "{} vs {}", s.pdf, e);
+        for phase in [Phase::HenyeyGreenstein { g: 0.8 }, Phase::Rayleigh] {
+            for i in 0..1000 {
+                let u = Vec2::new(
+                    (i as f32 * 0.618_034).fract(),
+                    (i as f32 * 0.414_213).fract(),
+                );
+                let s = phase.sample(d, u);
+                assert!((s.wo.length() - 1.0).abs() < 1e-4);
+                let e = phase.eval(d, s.wo);
+                assert!((s.pdf - e).abs() <= 2e-3 * e, "{} vs {}", s.pdf, e);
+            }
         }
     }
 }

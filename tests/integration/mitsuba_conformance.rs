@@ -219,6 +219,12 @@ const CASES: &[Case] = &[
         renders: 16,
     },
     Case {
+        file: "rayleigh_lanczos.xml",
+        covers: "the rayleigh phase function (a null sphere, a chromatic homogeneous box) under volpath, and a lanczos reconstruction filter of 2 lobes over a sharp checkerboard floor; point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
         file: "pplastic.xml",
         covers: "pplastic: defaults (Beckmann) with a checkerboard diffuse reflectance, anisotropic GGX with int_ior by name and a tinted specular reflectance, eta with sample_visible off; area, point and constant lights",
         spp: 192,

@@ -393,6 +393,14 @@ fn films_filters_and_samplers() {
         }
     );
     assert_eq!(
+        filter("<rfilter type=\"lanczos\"/>"),
+        Filter::Lanczos { radius: 3.0 }
+    );
+    assert_eq!(
+        filter("<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"2\"/></rfilter>"),
+        Filter::Lanczos { radius: 2.0 }
+    );
+    assert_eq!(
         filter("<rfilter type=\"catmullrom\"/>"),
         Filter::Mitchell {
             radius: 2.0,
@@ -420,10 +428,10 @@ fn films_filters_and_samplers() {
         &["crop"],
     );
     assert_err(
-        &with_sensor("<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"lanczos\"/></film></sensor>"),
+        &with_sensor("<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"0\"/></rfilter></film></sensor>"),
         3,
-        64,
-        &["lanczos", "not supported"],
+        102,
+        &["lobes", "between 1 and 32"],
     );
 }
 

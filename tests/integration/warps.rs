@@ -198,8 +198,8 @@ fn diffuse_bsdf_sampling_matches_pdf() {
     }
 }
 
-/// The phase functions: isotropic, and Henyey-Greenstein forward and
-/// backward around a tilted arrival direction.
+/// The phase functions: isotropic, Henyey-Greenstein forward and
+/// backward, and Rayleigh, around a tilted arrival direction.
 #[test]
 fn phase_functions() {
     use lente::medium::Phase;
@@ -208,6 +208,7 @@ fn phase_functions() {
         Phase::Isotropic,
         Phase::HenyeyGreenstein { g: 0.7 },
         Phase::HenyeyGreenstein { g: -0.4 },
+        Phase::Rayleigh,
     ]
     .into_iter()
     .enumerate()
@@ -240,6 +241,31 @@ fn chi2_rejects_hg_with_another_g() {
     );
     let r = h.test(5.0);
     assert!(!r.passes(0.01), "wrong g accepted: p = {}", r.p_value);
+}
+
+/// The Rayleigh sampler tested against a density with 10% less of its
+/// cos^2 term (renormalised) must fail.
+#[test]
+fn chi2_rejects_rayleigh_against_a_flatter_density() {
+    use lente::medium::Phase;
+    let d = Vec3::Z;
+    let h = sphere_histogram(
+        20,
+        40,
+        N,
+        44,
+        |s| Some(Phase::Rayleigh.sample(d, s.next_2d()).wo),
+        |wo| {
+            let c = d.dot(wo) as f64;
+            (1.0 + 0.9 * c * c) / (4.0 * std::f64::consts::PI * (1.0 + 0.9 / 3.0))
+        },
+    );
+    let r = h.test(5.0);
+    assert!(
+        !r.passes(0.01),
+        "flatter density accepted: p = {}",
+        r.p_value
+    );
 }
 
 /// The chi-square machinery must reject a sampler whose pdf is wrong.

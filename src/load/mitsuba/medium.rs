@@ -232,12 +232,12 @@ impl<'d> Ctx<'d> {
         })
     }
 
-    /// `isotropic`, and `hg` with its mean cosine `g` (0.8).
+    /// `isotropic`, `hg` with its mean cosine `g` (0.8), and `rayleigh`.
     fn phase(&mut self, node: &'d SceneNode) -> Result<Phase> {
         let ty = self.object_type(
             node,
-            &["isotropic", "hg"],
-            &["rayleigh", "sggx", "tabphase", "blendphase"],
+            &["isotropic", "hg", "rayleigh"],
+            &["sggx", "tabphase", "blendphase"],
         )?;
         let owner = format!("<phase type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
@@ -251,6 +251,8 @@ impl<'d> Ctx<'d> {
                 ));
             }
             Phase::HenyeyGreenstein { g }
+        } else if ty == "rayleigh" {
+            Phase::Rayleigh
         } else {
             Phase::Isotropic
         };

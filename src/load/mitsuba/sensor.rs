@@ -3,7 +3,7 @@
 
 use super::{Child, Ctx};
 use crate::camera::{Aperture, CameraParam, CameraParams, FovAxis, MAX_RESOLUTION};
-use crate::image::{Filter, FilterParam};
+use crate::image::{Filter, FilterParam, MAX_FILTER_RADIUS};
 use crate::load::props::{int_in, Kind, Props};
 use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
@@ -238,12 +238,19 @@ impl<'d> Ctx<'d> {
 
     /// Mitsuba's `rfilters/`: box (radius 0.5), tent (radius 1), gaussian
     /// (stddev 0.5, cut off at 4 stddev), mitchell (B = C = 1/3, radius 2),
-    /// catmullrom (Mitchell with B = 0, C = 1/2).
+    /// catmullrom (Mitchell with B = 0, C = 1/2), lanczos (`lobes` 3).
     pub(super) fn rfilter(&mut self, node: &'d SceneNode) -> Result<Filter> {
         let ty = self.object_type(
             node,
-            &["box", "tent", "gaussian", "mitchell", "catmullrom"],
-            &["lanczos"],
+            &[
+                "box",
+                "tent",
+                "gaussian",
+                "mitchell",
+                "catmullrom",
+                "lanczos",
+            ],
+            &[],
         )?;
         let owner = format!("<rfilter type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
@@ -258,6 +265,9 @@ impl<'d> Ctx<'d> {
                 radius: 2.0,
                 b: p.get_float("B", 1.0 / 3.0)?,
                 c: p.get_float("C", 1.0 / 3.0)?,
+            },
+            "lanczos" => Filter::Lanczos {
+                radius: int_in(&mut p, "lobes", 3, 1, MAX_FILTER_RADIUS as i64)? as f32,
             },
             _ => Filter::Mitchell {
                 radius: 2.0,
