@@ -15,6 +15,7 @@
 //! alone).
 
 mod heterogeneous;
+mod majorant;
 mod phase;
 mod vol_file;
 mod volume;
@@ -52,7 +53,8 @@ pub struct Medium {
 #[derive(Clone, Debug, PartialEq)]
 pub enum MediumKind {
     Homogeneous(Homogeneous),
-    Heterogeneous(Heterogeneous),
+    /// Boxed: its volumes and majorant grid are large, and media are few.
+    Heterogeneous(Box<Heterogeneous>),
 }
 
 /// The media on either side of a surface: `interior` behind its

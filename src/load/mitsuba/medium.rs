@@ -218,7 +218,7 @@ impl<'d> Ctx<'d> {
                 ),
                 ));
             }
-            MediumKind::Heterogeneous(h)
+            MediumKind::Heterogeneous(Box::new(h))
         };
         // Mitsuba's shortcut for grey media: lente's estimators are
         // unbiased either way, so the flag changes nothing.
