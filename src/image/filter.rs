@@ -171,6 +171,13 @@ impl Filter {
         }
     }
 
+    /// True if some weights are negative (Mitchell-Netravali's and
+    /// Lanczos' outer lobes): a pixel beside a bright edge may then come
+    /// out negative, as in Mitsuba.
+    pub fn has_negative_lobes(&self) -> bool {
+        matches!(self, Filter::Mitchell { .. } | Filter::Lanczos { .. })
+    }
+
     /// Separable 2D weight.
     pub fn eval(&self, dx: f32, dy: f32) -> f32 {
         self.eval_1d(dx) * self.eval_1d(dy)
