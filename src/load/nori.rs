@@ -103,6 +103,7 @@ const INTEGRATOR_TYPES: &[&str] = &[
     "path_ems",
     "path_mis",
     "path",
+    "photonmapper",
 ];
 const MESH_TYPES: &[&str] = &["obj", "sphere"];
 const BSDF_TYPES: &[&str] = &[
@@ -555,6 +556,33 @@ impl<'a> Ctx<'a> {
             ("direct_mis", _) | ("direct", _) => Integrator::Direct {
                 strategy: Strategy::Mis,
             },
+            // The ETH course's photon mapper (its fourth assignment):
+            // rendered with the path tracer, the image it converges to as
+            // its radius shrinks, without the photon map's blur.
+            ("photonmapper", _) => {
+                int_in(&mut p, "photonCount", 1_000_000, 1, u32::MAX as i64)?;
+                let radius = p.get_float("photonRadius", 0.0)?;
+                if !(radius >= 0.0 && radius.is_finite()) {
+                    return Err(p.error(
+                        "photonRadius",
+                        format!("'photonRadius' must not be negative, found {radius}"),
+                    ));
+                }
+                let w = p.object_warning(
+                    "the photonmapper integrator is rendered with lente's path_mis, the image \
+                     photon mapping converges to (without the photon map's blur); photonCount \
+                     and photonRadius are ignored",
+                );
+                self.warnings.push(w);
+                Integrator::Path {
+                    strategy: Strategy::Mis,
+                    params: PathParams {
+                        max_depth: None,
+                        rr_depth: 3,
+                        hide_emitters: false,
+                    },
+                }
+            }
             (_, Some(strategy)) => {
                 let max_depth = match p.opt_int("maxDepth")? {
                     None => None,

@@ -1016,3 +1016,33 @@ fn eth_directional_light_power_is_irradiance() {
     ));
     assert!(err.to_string().contains("direction"), "{err}");
 }
+
+/// The ETH course's `photonmapper` is rendered with `path_mis` (the image
+/// photon mapping converges to), with one warning at the integrator; its
+/// parameters are read and checked.
+#[test]
+fn photonmapper_is_rendered_by_the_path_tracer() {
+    let with = |params: &str| {
+        floor_scene("path_mis", "").replace(
+            r#"<integrator type="path_mis"/>"#,
+            &format!(r#"<integrator type="photonmapper">{params}</integrator>"#),
+        )
+    };
+    let text = with(
+        r#"<integer name="photonCount" value="100000"/><float name="photonRadius" value="0.05"/>"#,
+    );
+    let desc = one_warning(&text, 2, 5, &["photonmapper", "path_mis", "ignored"]);
+    assert!(
+        matches!(
+            desc.job.integrator,
+            Integrator::Path {
+                strategy: Strategy::Mis,
+                ..
+            }
+        ),
+        "{:?}",
+        desc.job.integrator
+    );
+    let bad = with(r#"<float name="photonRadius" value="-1"/>"#);
+    assert!(load_err(&bad).message.contains("must not be negative"));
+}
