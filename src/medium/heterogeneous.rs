@@ -1,17 +1,19 @@
 //! Mitsuba 3's `heterogeneous` medium: extinction and albedo read from
 //! volumes, nonzero only inside the extinction volume's box.
 //!
-//! Free flights use delta tracking against one majorant for all three
-//! channels (`scale` times the extinction's largest value, Mitsuba's
-//! choice): tentative collisions at that constant rate are real with
-//! probability sigma_t / majorant, else null. Where sigma_t differs per
-//! channel, the real-or-null choices follow one channel picked per flight
-//! and the path is weighted by the mean of the three channels'
-//! probabilities of the same choices (one-sample MIS, balance heuristic,
-//! as pbrt-v4's chromatic media), so its weights stay below 3 / albedo
-//! where a single channel's ratios would grow without bound. Shadow rays
-//! use ratio tracking: the product of sigma_n / majorant over the
-//! tentative collisions, with Russian roulette once it is small.
+//! Free flights use delta tracking against a majorant the three channels
+//! share: each cell's of a coarse grid ([`super::majorant`]), or `scale`
+//! times the extinction's largest value for the whole box (Mitsuba's
+//! choice) where the grid is rotated. Tentative collisions at that rate
+//! are real with probability sigma_t / majorant, else null. Where sigma_t
+//! differs per channel, the real-or-null choices follow one channel
+//! picked per flight and the path is weighted by the mean of the three
+//! channels' probabilities of the same choices (one-sample MIS, balance
+//! heuristic, as pbrt-v4's chromatic media), so its weights stay below
+//! three times the albedo, where a single channel's ratios would grow
+//! without bound. Shadow rays use ratio tracking: the product of
+//! sigma_n / majorant over the tentative collisions, with Russian
+//! roulette once it is small.
 
 use super::majorant::{MajorantGrid, Segment};
 use super::volume::Volume;
