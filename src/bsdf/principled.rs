@@ -102,6 +102,55 @@ pub(super) fn tint(base: Rgb) -> Rgb {
     }
 }
 
+/// GGX with Mitsuba's `calc_dist_params`: roughness squared, stretched by
+/// `anisotropic` when the BSDF has that parameter, at least 0.001.
+pub(super) fn disney_ggx(roughness: f32, anisotropic: Option<f32>) -> MicrofacetDistribution {
+    let r2 = roughness * roughness;
+    let (ax, ay) = match anisotropic {
+        Some(anisotropic) => {
+            let aspect = (1.0 - 0.9 * anisotropic).sqrt();
+            (r2 / aspect, r2 * aspect)
+        }
+        None => (r2, r2),
+    };
+    MicrofacetDistribution::new(MicrofacetType::Ggx, ax.max(0.001), ay.max(0.001), true)
+}
+
+/// The diffuse lobe's shape (times base colour cos_o / pi it is the
+/// lobe): Burley's diffuse with retro-reflection, blended towards the
+/// fake subsurface by `flatness` when given. `cos_i` and `cos_o` are
+/// magnitudes; `cos_d` is the half vector's cosine with `wo`.
+pub(super) fn diffuse_shape(
+    roughness: f32,
+    cos_i: f32,
+    cos_o: f32,
+    cos_d: f32,
+    flatness: Option<f32>,
+) -> f32 {
+    let (fo, fi) = (schlick_weight(cos_o), schlick_weight(cos_i));
+    let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
+    let rr = 2.0 * roughness * cos_d * cos_d;
+    let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+    match flatness {
+        Some(flatness) => {
+            let fss90 = 0.5 * rr;
+            let fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi);
+            let f_ss = 1.25 * (fss * (1.0 / (cos_o + cos_i) - 0.5) + 0.5);
+            (f_diff + f_retro) * (1.0 - flatness) + f_ss * flatness
+        }
+        None => f_diff + f_retro,
+    }
+}
+
+/// The sheen's colour: white, tinted towards the base colour by
+/// `sheen_tint` when given.
+pub(super) fn sheen_colour(base: Rgb, sheen_tint: Option<f32>) -> Rgb {
+    match sheen_tint {
+        Some(st) => Rgb::ONE + (tint(base) - Rgb::ONE) * st,
+        None => Rgb::ONE,
+    }
+}
+
 /// Smith's G1 of GGX with roughness `alpha` (the clearcoat's masking).
 fn smith_ggx1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
     if v.dot(m) * v.z <= 0.0 {
@@ -190,17 +239,12 @@ impl Principled {
         }
     }
 
-    /// The GGX distribution of the specular lobes (Mitsuba's
-    /// `calc_dist_params`: roughness squared, stretched by anisotropy).
+    /// The GGX distribution of the specular lobes.
     fn distribution(&self, p: &At) -> MicrofacetDistribution {
-        let r2 = p.roughness * p.roughness;
-        let (ax, ay) = if self.anisotropic.is_some() {
-            let aspect = (1.0 - 0.9 * p.anisotropic).sqrt();
-            (r2 / aspect, r2 * aspect)
-        } else {
-            (r2, r2)
-        };
-        MicrofacetDistribution::new(MicrofacetType::Ggx, ax.max(0.001), ay.max(0.001), true)
+        disney_ggx(
+            p.roughness,
+            self.anisotropic.as_ref().map(|_| p.anisotropic),
+        )
     }
 
     /// Front side: diffuse, clearcoat and the interface by their rates.
@@ -297,21 +341,9 @@ impl Principled {
         }
 
         if brdf > 0.0 && reflect && front {
-            let (fo, fi) = (schlick_weight(cos_o.abs()), schlick_weight(cos_i.abs()));
-            let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
             let cos_d = wh.dot(wo);
-            let rr = 2.0 * p.roughness * cos_d * cos_d;
-            let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-            let shape = match &self.flatness {
-                Some(t) => {
-                    let flatness = t.eval_1(at);
-                    let fss90 = 0.5 * rr;
-                    let fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi);
-                    let f_ss = 1.25 * (fss * (1.0 / (cos_o.abs() + cos_i.abs()) - 0.5) + 0.5);
-                    (f_diff + f_retro) * (1.0 - flatness) + f_ss * flatness
-                }
-                None => f_diff + f_retro,
-            };
+            let flatness = self.flatness.as_ref().map(|t| t.eval_1(at));
+            let shape = diffuse_shape(p.roughness, cos_i.abs(), cos_o.abs(), cos_d, flatness);
             value += p.base_color * (brdf * cos_o.abs() * INV_PI * shape);
 
             // Sheen (Mitsuba adds it only where the diffuse lobe is active).
@@ -319,13 +351,8 @@ impl Principled {
                 let sheen = sheen.eval_1(at);
                 if sheen > 0.0 && 1.0 - p.metallic > 0.0 {
                     let fd = schlick_weight(cos_d.abs());
-                    let colour = match &self.sheen_tint {
-                        Some(t) => {
-                            let st = t.eval_1(at);
-                            Rgb::ONE + (tint(p.base_color) - Rgb::ONE) * st
-                        }
-                        None => Rgb::ONE,
-                    };
+                    let tint_by = self.sheen_tint.as_ref().map(|t| t.eval_1(at));
+                    let colour = sheen_colour(p.base_color, tint_by);
                     value += colour * (sheen * (1.0 - p.metallic) * fd * cos_o.abs());
                 }
             }

@@ -13,9 +13,11 @@
 //! times the lobe weights), then a visible GGX normal or a cosine
 //! direction; `pdf` is the mixture's density.
 
-use super::distribution::{MicrofacetDistribution, MicrofacetType};
+use super::distribution::MicrofacetDistribution;
 use super::fresnel::schlick_weight;
-use super::principled::{compatible, r0_of, schlick_across, tint};
+use super::principled::{
+    compatible, diffuse_shape, disney_ggx, r0_of, schlick_across, sheen_colour, tint,
+};
 use super::rough_dielectric::mulsign;
 use super::{fresnel_dielectric, BsdfSample};
 use crate::color::Rgb;
@@ -82,14 +84,7 @@ impl PrincipledThin {
 
     /// GGX with Mitsuba's `calc_dist_params` for `roughness`.
     fn distribution(&self, p: &At, roughness: f32) -> MicrofacetDistribution {
-        let r2 = roughness * roughness;
-        let (ax, ay) = if self.anisotropic.is_some() {
-            let aspect = (1.0 - 0.9 * p.anisotropic).sqrt();
-            (r2 / aspect, r2 * aspect)
-        } else {
-            (r2, r2)
-        };
-        MicrofacetDistribution::new(MicrofacetType::Ggx, ax.max(0.001), ay.max(0.001), true)
+        disney_ggx(roughness, self.anisotropic.as_ref().map(|_| p.anisotropic))
     }
 
     /// The transmission lobe's distribution: roughness scaled by the IOR
@@ -177,34 +172,17 @@ impl PrincipledThin {
         }
 
         if reflect && p.spec_trans < 1.0 && p.diff_trans < 1.0 {
-            let (fo, fi) = (schlick_weight(cos_o), schlick_weight(cos_i));
-            let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
             let cos_d = wh.dot(wo);
-            let rr = 2.0 * p.roughness * cos_d * cos_d;
-            let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-            let shape = match &self.flatness {
-                Some(t) => {
-                    let flatness = t.eval_1(at);
-                    let fss90 = 0.5 * rr;
-                    let fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi);
-                    let f_ss = 1.25 * (fss * (1.0 / (cos_o + cos_i) - 0.5) + 0.5);
-                    (f_diff + f_retro) * (1.0 - flatness) + f_ss * flatness
-                }
-                None => f_diff + f_retro,
-            };
+            let flatness = self.flatness.as_ref().map(|t| t.eval_1(at));
+            let shape = diffuse_shape(p.roughness, cos_i, cos_o, cos_d, flatness);
             let weight = (1.0 - p.spec_trans) * (1.0 - p.diff_trans);
             value += p.base_color * (weight * cos_o * INV_PI * shape);
             if let Some(sheen) = &self.sheen {
                 let sheen = sheen.eval_1(at);
                 if sheen > 0.0 {
                     let fd = schlick_weight(cos_d.abs());
-                    let colour = match &self.sheen_tint {
-                        Some(t) => {
-                            let st = t.eval_1(at);
-                            Rgb::ONE + (tint(p.base_color) - Rgb::ONE) * st
-                        }
-                        None => Rgb::ONE,
-                    };
+                    let tint_by = self.sheen_tint.as_ref().map(|t| t.eval_1(at));
+                    let colour = sheen_colour(p.base_color, tint_by);
                     value += colour * (sheen * weight * fd * cos_o);
                 }
             }

@@ -103,6 +103,42 @@ impl Heterogeneous {
         grid.into_iter().flatten().chain(whole)
     }
 
+    /// Takes the tentative collisions along `ray` from `t0` to `t1`, cell
+    /// by cell (exponential steps are memoryless: each cell starts
+    /// afresh), and calls `at` with each one's distance and majorant until
+    /// it returns a result.
+    fn walk_collisions<R>(
+        &self,
+        ray: &Ray,
+        t0: f32,
+        t1: f32,
+        sampler: &mut Sampler,
+        mut at: impl FnMut(f32, f32, &mut Sampler) -> Option<R>,
+    ) -> Walked<R> {
+        let mut collisions = 0u32;
+        for seg in self.segments(ray, t0, t1) {
+            let maj = seg.majorant;
+            if maj <= 0.0 {
+                continue;
+            }
+            let mut t = seg.t0;
+            loop {
+                t -= (1.0 - sampler.next_1d()).ln() / maj;
+                if t >= seg.t1 {
+                    break;
+                }
+                collisions += 1;
+                if collisions > MAX_COLLISIONS {
+                    return Walked::GaveUp;
+                }
+                if let Some(r) = at(t, maj, sampler) {
+                    return Walked::Stopped(r);
+                }
+            }
+        }
+        Walked::Passed
+    }
+
     pub(super) fn sample_distance(
         &self,
         ray: &Ray,
@@ -118,46 +154,34 @@ impl Heterogeneous {
         // keeps them from underflowing on long flights).
         let mut weight = Rgb::ONE;
         let mut probs = Rgb::ONE;
-        let mut collisions = 0u32;
-        for seg in self.segments(ray, t0, t1) {
-            let maj = seg.majorant;
-            if maj <= 0.0 {
-                continue;
+        let walked = self.walk_collisions(ray, t0, t1, sampler, |t, maj, sampler| {
+            let p = ray.at(t);
+            let sigma_t = self.sigma_t_at(p, maj);
+            let p_real = sigma_t / maj;
+            if sampler.next_1d() < p_real[c] {
+                let sigma_s = sigma_t * self.albedo.eval(p);
+                let mean = (probs * p_real).dot(Rgb::splat(1.0 / 3.0));
+                return Some(FreeFlight::Scatter {
+                    t,
+                    weight: weight * sigma_s / (maj * mean),
+                });
             }
-            // Exponential steps are memoryless: each cell starts afresh.
-            let mut t = seg.t0;
-            loop {
-                t -= (1.0 - sampler.next_1d()).ln() / maj;
-                if t >= seg.t1 {
-                    break;
-                }
-                collisions += 1;
-                if collisions > MAX_COLLISIONS {
-                    return FreeFlight::Pass { weight: Rgb::ZERO };
-                }
-                let p = ray.at(t);
-                let sigma_t = self.sigma_t_at(p, maj);
-                let p_real = sigma_t / maj;
-                if sampler.next_1d() < p_real[c] {
-                    let sigma_s = sigma_t * self.albedo.eval(p);
-                    let mean = (probs * p_real).dot(Rgb::splat(1.0 / 3.0));
-                    return FreeFlight::Scatter {
-                        t,
-                        weight: weight * sigma_s / (maj * mean),
-                    };
-                }
-                let p_null = Rgb::ONE - p_real;
-                let mean = (probs * p_null).dot(Rgb::splat(1.0 / 3.0));
-                if mean <= 0.0 {
-                    return FreeFlight::Pass { weight: Rgb::ZERO };
-                }
-                // sigma_n / maj is p_null: the weight's factor and the
-                // probabilities' factor are the same vector.
-                weight *= p_null / mean;
-                probs *= p_null / mean;
+            let p_null = Rgb::ONE - p_real;
+            let mean = (probs * p_null).dot(Rgb::splat(1.0 / 3.0));
+            if mean <= 0.0 {
+                return Some(FreeFlight::Pass { weight: Rgb::ZERO });
             }
+            // sigma_n / maj is p_null: the weight's factor and the
+            // probabilities' factor are the same vector.
+            weight *= p_null / mean;
+            probs *= p_null / mean;
+            None
+        });
+        match walked {
+            Walked::Stopped(flight) => flight,
+            Walked::Passed => FreeFlight::Pass { weight },
+            Walked::GaveUp => FreeFlight::Pass { weight: Rgb::ZERO },
         }
-        FreeFlight::Pass { weight }
     }
 
     pub(super) fn transmittance(&self, ray: &Ray, t_end: f32, sampler: &mut Sampler) -> Rgb {
@@ -165,36 +189,34 @@ impl Heterogeneous {
             return Rgb::ONE;
         };
         let mut tr = Rgb::ONE;
-        let mut collisions = 0u32;
-        for seg in self.segments(ray, t0, t1) {
-            let maj = seg.majorant;
-            if maj <= 0.0 {
-                continue;
+        let walked = self.walk_collisions(ray, t0, t1, sampler, |t, maj, sampler| {
+            tr *= Rgb::ONE - self.sigma_t_at(ray.at(t), maj) / maj;
+            let m = tr.max_element();
+            if m < ROULETTE_BELOW {
+                // Survive with probability 1/4, weighted by 4.
+                if m <= 0.0 || sampler.next_1d() >= 0.25 {
+                    return Some(());
+                }
+                tr *= 4.0;
             }
-            let mut t = seg.t0;
-            loop {
-                t -= (1.0 - sampler.next_1d()).ln() / maj;
-                if t >= seg.t1 {
-                    break;
-                }
-                collisions += 1;
-                if collisions > MAX_COLLISIONS {
-                    return Rgb::ZERO;
-                }
-                let sigma_t = self.sigma_t_at(ray.at(t), maj);
-                tr *= Rgb::ONE - sigma_t / maj;
-                let m = tr.max_element();
-                if m < ROULETTE_BELOW {
-                    // Survive with probability 1/4, weighted by 4.
-                    if m <= 0.0 || sampler.next_1d() >= 0.25 {
-                        return Rgb::ZERO;
-                    }
-                    tr *= 4.0;
-                }
-            }
+            None
+        });
+        match walked {
+            Walked::Passed => tr,
+            // Killed by roulette, or given up.
+            Walked::Stopped(()) | Walked::GaveUp => Rgb::ZERO,
         }
-        tr
     }
+}
+
+/// How [`Heterogeneous::walk_collisions`] ended.
+enum Walked<R> {
+    /// Past the last collision: the segment's end was reached.
+    Passed,
+    /// The callback returned this.
+    Stopped(R),
+    /// More than [`MAX_COLLISIONS`] collisions.
+    GaveUp,
 }
 
 #[cfg(test)]

@@ -52,12 +52,8 @@ impl Phase {
                     let s = (1.0 - g * g) / (1.0 + g - 2.0 * g * u.x);
                     ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
                 };
-                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                let (s, c) = (2.0 * PI * u.y).sin_cos();
-                let local = Vec3::new(sin_t * c, sin_t * s, cos_t);
-                let wo = Frame::from_normal(d).to_world(local).normalize();
                 PhaseSample {
-                    wo,
+                    wo: around(d, cos_t, u.y),
                     pdf: hg(g, cos_t),
                 }
             }
@@ -67,17 +63,23 @@ impl Phase {
                 let z = 4.0 * u.x - 2.0;
                 let r = (z * z + 1.0).sqrt();
                 let cos_t = ((z + r).cbrt() + (z - r).cbrt()).clamp(-1.0, 1.0);
-                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                let (s, c) = (2.0 * PI * u.y).sin_cos();
-                let local = Vec3::new(sin_t * c, sin_t * s, cos_t);
-                let wo = Frame::from_normal(d).to_world(local).normalize();
                 PhaseSample {
-                    wo,
+                    wo: around(d, cos_t, u.y),
                     pdf: rayleigh(cos_t),
                 }
             }
         }
     }
+}
+
+/// The unit direction at cosine `cos_t` to `d`, turned about it by the
+/// angle 2 pi `u`.
+#[inline]
+fn around(d: Vec3, cos_t: f32, u: f32) -> Vec3 {
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * u).sin_cos();
+    let local = Vec3::new(sin_t * c, sin_t * s, cos_t);
+    Frame::from_normal(d).to_world(local).normalize()
 }
 
 /// The Henyey-Greenstein density at the cosine `cos_t` between the

@@ -604,6 +604,37 @@ fn nori_fork_bsdf_sampling_matches_pdf() {
     run(&cases, FAMILY, 6000);
 }
 
+/// Every sample of each case carries the density `pdf` gives its
+/// direction and the weight eval cos / pdf (of the whole mixture), and
+/// most draws give one.
+fn weights_are_eval_over_pdf(cases: &[Case], seed: u64) {
+    let mut s = lente::sampling::Sampler::new(3, seed);
+    for c in cases {
+        let mut n = 0;
+        for _ in 0..20_000 {
+            let Some(x) = c.bsdf.sample(UV0, c.wi, s.next_2d(), s.next_1d()) else {
+                continue;
+            };
+            n += 1;
+            let pdf = c.bsdf.pdf(UV0, c.wi, x.wo);
+            let expect = c.bsdf.eval(UV0, c.wi, x.wo) * x.wo.z.abs() / pdf;
+            assert!(
+                (x.pdf - pdf).abs() <= 1e-4 * pdf,
+                "{}: pdf {} vs {pdf}",
+                c.name,
+                x.pdf
+            );
+            assert!(
+                (x.weight - expect).abs().max_element() <= 1e-4 * expect.max_element(),
+                "{}: weight {} vs {expect}",
+                c.name,
+                x.weight
+            );
+        }
+        assert!(n > 10_000, "{}: only {n} samples", c.name);
+    }
+}
+
 /// Mitsuba's principled with numbers for its parameters (None: absent).
 fn principled(roughness: f32, extra: &[(&str, f32)], eta: f32) -> lente::bsdf::Principled {
     use lente::texture::Texture;
@@ -684,31 +715,7 @@ fn principled_sampling_matches_pdf() {
     ];
     run(&cases, FAMILY, 7000);
 
-    let mut s = lente::sampling::Sampler::new(3, 3);
-    for c in &cases {
-        let mut n = 0;
-        for _ in 0..20_000 {
-            let Some(x) = c.bsdf.sample(UV0, c.wi, s.next_2d(), s.next_1d()) else {
-                continue;
-            };
-            n += 1;
-            let pdf = c.bsdf.pdf(UV0, c.wi, x.wo);
-            let expect = c.bsdf.eval(UV0, c.wi, x.wo) * x.wo.z.abs() / pdf;
-            assert!(
-                (x.pdf - pdf).abs() <= 1e-4 * pdf,
-                "{}: pdf {} vs {pdf}",
-                c.name,
-                x.pdf
-            );
-            assert!(
-                (x.weight - expect).abs().max_element() <= 1e-4 * expect.max_element(),
-                "{}: weight {} vs {expect}",
-                c.name,
-                x.weight
-            );
-        }
-        assert!(n > 10_000, "{}: only {n} samples", c.name);
-    }
+    weights_are_eval_over_pdf(&cases, 3);
 }
 
 /// Mitsuba's principledthin with numbers for its parameters (None:
@@ -776,26 +783,7 @@ fn principled_thin_sampling_matches_pdf() {
         ),
     ];
     run(&cases, FAMILY, 7100);
-    let mut s = lente::sampling::Sampler::new(3, 4);
-    for c in &cases {
-        let mut n = 0;
-        for _ in 0..20_000 {
-            let Some(x) = c.bsdf.sample(UV0, c.wi, s.next_2d(), s.next_1d()) else {
-                continue;
-            };
-            n += 1;
-            let pdf = c.bsdf.pdf(UV0, c.wi, x.wo);
-            let expect = c.bsdf.eval(UV0, c.wi, x.wo) * x.wo.z.abs() / pdf;
-            assert!((x.pdf - pdf).abs() <= 1e-4 * pdf, "{}: pdf", c.name);
-            assert!(
-                (x.weight - expect).abs().max_element() <= 1e-4 * expect.max_element(),
-                "{}: weight {} vs {expect}",
-                c.name,
-                x.weight
-            );
-        }
-        assert!(n > 10_000, "{}: only {n} samples", c.name);
-    }
+    weights_are_eval_over_pdf(&cases, 4);
 }
 
 #[test]

@@ -510,16 +510,27 @@ fn roughness(p: &mut Props, tex: &mut Textures<'_>) -> Result<Roughness> {
     })
 }
 
+/// A Disney parameter as Mitsuba's `has_*` flags read it: `None` when
+/// absent or given as the number zero (its terms are then skipped).
+fn flagged(p: &mut Props, name: &str) -> Result<Option<Texture>> {
+    Ok(p.opt_texture(name)?
+        .filter(|t| *t != Texture::Constant(Rgb::ZERO)))
+}
+
+/// A Disney lobe's relative sampling rate (1), not negative.
+fn sampling_rate(p: &mut Props, name: &str) -> Result<f32> {
+    let r = p.get_float(name, 1.0)?;
+    if r < 0.0 {
+        return Err(p.error(name, format!("'{name}' must not be negative, found {r}")));
+    }
+    Ok(r)
+}
+
 /// Mitsuba 3's `principled` (`bsdfs/principled.cpp`): its parameters,
 /// each a number or a texture, with its defaults; `eta` or `specular`
 /// (not both) sets the IOR.
 fn principled(p: &mut Props) -> Result<Bsdf> {
-    // Mitsuba's has_* flags: given and not the number zero.
-    let opt = |p: &mut Props, name: &str| -> Result<Option<Texture>> {
-        Ok(p.opt_texture(name)?
-            .filter(|t| *t != Texture::Constant(Rgb::ZERO)))
-    };
-    let spec_trans = opt(p, "spec_trans")?;
+    let spec_trans = flagged(p, "spec_trans")?;
     let eta = match (p.has("eta"), p.has("specular")) {
         (true, true) => {
             return Err(p.error(
@@ -552,16 +563,9 @@ fn principled(p: &mut Props) -> Result<Bsdf> {
             crate::bsdf::specular_to_eta(specular)
         }
     };
-    let rate = |p: &mut Props, name: &str| -> Result<f32> {
-        let r = p.get_float(name, 1.0)?;
-        if r < 0.0 {
-            return Err(p.error(name, format!("'{name}' must not be negative, found {r}")));
-        }
-        Ok(r)
-    };
-    let spec_rate = rate(p, "main_specular_sampling_rate")?;
-    let clearcoat_rate = rate(p, "clearcoat_sampling_rate")?;
-    let diffuse_rate = rate(p, "diffuse_reflectance_sampling_rate")?;
+    let spec_rate = sampling_rate(p, "main_specular_sampling_rate")?;
+    let clearcoat_rate = sampling_rate(p, "clearcoat_sampling_rate")?;
+    let diffuse_rate = sampling_rate(p, "diffuse_reflectance_sampling_rate")?;
     if spec_rate <= 0.0 {
         return Err(p.error(
             "main_specular_sampling_rate",
@@ -571,14 +575,14 @@ fn principled(p: &mut Props) -> Result<Bsdf> {
     Ok(Bsdf::Principled(Box::new(Principled {
         base_color: p.get_texture("base_color", Rgb::splat(0.5))?,
         roughness: p.get_texture("roughness", Rgb::splat(0.5))?,
-        anisotropic: opt(p, "anisotropic")?,
+        anisotropic: flagged(p, "anisotropic")?,
         spec_trans,
-        sheen: opt(p, "sheen")?,
-        sheen_tint: opt(p, "sheen_tint")?,
-        flatness: opt(p, "flatness")?,
-        spec_tint: opt(p, "spec_tint")?,
-        metallic: opt(p, "metallic")?,
-        clearcoat: opt(p, "clearcoat")?,
+        sheen: flagged(p, "sheen")?,
+        sheen_tint: flagged(p, "sheen_tint")?,
+        flatness: flagged(p, "flatness")?,
+        spec_tint: flagged(p, "spec_tint")?,
+        metallic: flagged(p, "metallic")?,
+        clearcoat: flagged(p, "clearcoat")?,
         clearcoat_gloss: p.get_texture("clearcoat_gloss", Rgb::ZERO)?,
         eta,
         spec_rate,
@@ -591,18 +595,6 @@ fn principled(p: &mut Props) -> Result<Bsdf> {
 /// parameters, each a number or a texture, with its defaults; `eta` (1.5)
 /// may be a texture too, read unbounded.
 fn principled_thin(p: &mut Props) -> Result<Bsdf> {
-    // Mitsuba's has_* flags: given and not the number zero.
-    let opt = |p: &mut Props, name: &str| -> Result<Option<Texture>> {
-        Ok(p.opt_texture(name)?
-            .filter(|t| *t != Texture::Constant(Rgb::ZERO)))
-    };
-    let rate = |p: &mut Props, name: &str| -> Result<f32> {
-        let r = p.get_float(name, 1.0)?;
-        if r < 0.0 {
-            return Err(p.error(name, format!("'{name}' must not be negative, found {r}")));
-        }
-        Ok(r)
-    };
     let before = p.set_spectrum_use(SpectrumUse::Unbounded);
     let eta = p.get_texture("eta", Rgb::splat(1.5))?;
     p.set_spectrum_use(before);
@@ -614,7 +606,7 @@ fn principled_thin(p: &mut Props) -> Result<Bsdf> {
             ));
         }
     }
-    let diff_trans = opt(p, "diff_trans")?;
+    let diff_trans = flagged(p, "diff_trans")?;
     if let Some(Texture::Constant(c)) = &diff_trans {
         if c.max_element() > 2.0 {
             return Err(p.error(
@@ -626,17 +618,17 @@ fn principled_thin(p: &mut Props) -> Result<Bsdf> {
     Ok(Bsdf::PrincipledThin(Box::new(PrincipledThin {
         base_color: p.get_texture("base_color", Rgb::splat(0.5))?,
         roughness: p.get_texture("roughness", Rgb::splat(0.5))?,
-        anisotropic: opt(p, "anisotropic")?,
-        spec_trans: opt(p, "spec_trans")?,
-        sheen: opt(p, "sheen")?,
-        sheen_tint: opt(p, "sheen_tint")?,
-        flatness: opt(p, "flatness")?,
-        spec_tint: opt(p, "spec_tint")?,
+        anisotropic: flagged(p, "anisotropic")?,
+        spec_trans: flagged(p, "spec_trans")?,
+        sheen: flagged(p, "sheen")?,
+        sheen_tint: flagged(p, "sheen_tint")?,
+        flatness: flagged(p, "flatness")?,
+        spec_tint: flagged(p, "spec_tint")?,
         diff_trans,
         eta,
-        spec_refl_rate: rate(p, "specular_reflectance_sampling_rate")?,
-        spec_trans_rate: rate(p, "specular_transmittance_sampling_rate")?,
-        diff_refl_rate: rate(p, "diffuse_reflectance_sampling_rate")?,
-        diff_trans_rate: rate(p, "diffuse_transmittance_sampling_rate")?,
+        spec_refl_rate: sampling_rate(p, "specular_reflectance_sampling_rate")?,
+        spec_trans_rate: sampling_rate(p, "specular_transmittance_sampling_rate")?,
+        diff_refl_rate: sampling_rate(p, "diffuse_reflectance_sampling_rate")?,
+        diff_trans_rate: sampling_rate(p, "diffuse_transmittance_sampling_rate")?,
     })))
 }

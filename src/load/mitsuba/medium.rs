@@ -287,17 +287,7 @@ impl<'d> Ctx<'d> {
                     ))
                 }
             };
-            let wrap = match p.get_string("wrap_mode", "clamp".into())?.as_str() {
-                "repeat" => WrapMode::Repeat,
-                "mirror" => WrapMode::Mirror,
-                "clamp" => WrapMode::Clamp,
-                other => {
-                    return Err(p.error(
-                        "wrap_mode",
-                        format!("unknown wrap_mode '{other}'; use clamp, repeat or mirror"),
-                    ))
-                }
-            };
+            let wrap = super::texture::wrap_mode(&mut p, WrapMode::Clamp)?;
             // RGB rendering reads grids as they are: `raw` (no spectral
             // upsampling) and `accel` (GPU textures) change nothing.
             p.get_bool("raw", false)?;

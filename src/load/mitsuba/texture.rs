@@ -107,17 +107,7 @@ impl<'d> Ctx<'d> {
                 ))
             }
         };
-        let wrap = match p.get_string("wrap_mode", "repeat".into())?.as_str() {
-            "repeat" => WrapMode::Repeat,
-            "mirror" => WrapMode::Mirror,
-            "clamp" => WrapMode::Clamp,
-            other => {
-                return Err(p.error(
-                    "wrap_mode",
-                    format!("unknown wrap_mode '{other}'; use repeat, mirror or clamp"),
-                ))
-            }
-        };
+        let wrap = wrap_mode(p, WrapMode::Repeat)?;
         let transfer = if p.get_bool("raw", false)? {
             Transfer::Raw
         } else {
@@ -133,6 +123,35 @@ impl<'d> Ctx<'d> {
             .load(p, "filename", path, transfer, &mut self.warnings)?;
         Ok(BitmapTexture::new(image, filter, wrap, to_uv))
     }
+}
+
+/// `wrap_mode` of bitmaps and grid volumes (`default` when absent); an
+/// unknown one is an error listing the modes, the default first.
+pub(super) fn wrap_mode(p: &mut Props, default: WrapMode) -> Result<WrapMode> {
+    const MODES: [(&str, WrapMode); 3] = [
+        ("repeat", WrapMode::Repeat),
+        ("mirror", WrapMode::Mirror),
+        ("clamp", WrapMode::Clamp),
+    ];
+    let name = |mode: WrapMode| MODES.iter().find(|m| m.1 == mode).map_or("", |m| m.0);
+    let given = p.get_string("wrap_mode", name(default).into())?;
+    if let Some(&(_, mode)) = MODES.iter().find(|m| m.0 == given) {
+        return Ok(mode);
+    }
+    let others: Vec<&str> = MODES
+        .iter()
+        .filter(|m| m.1 != default)
+        .map(|m| m.0)
+        .collect();
+    Err(p.error(
+        "wrap_mode",
+        format!(
+            "unknown wrap_mode '{given}'; use {}, {} or {}",
+            name(default),
+            others[0],
+            others[1]
+        ),
+    ))
 }
 
 /// `rawconstant` (`spectra/rawconstant.cpp`): a float or a 3-vector
