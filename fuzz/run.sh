@@ -21,7 +21,7 @@ SECONDS_EACH="${1:-60}"
 shift || true
 TARGETS=("$@")
 if [ ${#TARGETS[@]} -eq 0 ]; then
-    TARGETS=(nori_scene mitsuba_scene nori_test obj ply serialized vol hdr pfm exr png jpeg bmp)
+    TARGETS=(nori_scene mitsuba_scene nori_test obj ply serialized vol curve hdr pfm exr png jpeg bmp)
 fi
 SANITIZER="${FUZZ_SANITIZER:-none}"
 
@@ -55,6 +55,7 @@ seed_target() {
     ply) seed "$1" $(git ls-files '*.ply') ;;
     serialized) seed "$1" $(git ls-files '*.serialized') ;;
     vol) seed "$1" $(git ls-files '*.vol') ;;
+    curve) seed "$1" tests/conformance/polyline.txt tests/conformance/wave.txt tests/conformance/arc.txt ;;
     pfm) seed "$1" $(git ls-files '*.pfm') ;;
     hdr | exr | png | jpeg | bmp) seed "$1" fuzz/seeds/"$1"/* ;;
     *)

@@ -28,6 +28,9 @@ pub enum Target {
     Serialized,
     /// Mitsuba's `.vol` voxel grids.
     Vol,
+    /// Mitsuba's curve text files (`linearcurve`, `bsplinecurve`), read
+    /// both ways and intersected.
+    Curve,
     Hdr,
     Pfm,
     /// OpenEXR, as an image and as a render file (`--resume`, `merge`).
@@ -38,7 +41,7 @@ pub enum Target {
 }
 
 impl Target {
-    pub const ALL: [Target; 13] = [
+    pub const ALL: [Target; 14] = [
         Target::NoriScene,
         Target::MitsubaScene,
         Target::NoriTest,
@@ -46,6 +49,7 @@ impl Target {
         Target::Ply,
         Target::Serialized,
         Target::Vol,
+        Target::Curve,
         Target::Hdr,
         Target::Pfm,
         Target::Exr,
@@ -64,6 +68,7 @@ impl Target {
             Target::Ply => "ply",
             Target::Serialized => "serialized",
             Target::Vol => "vol",
+            Target::Curve => "curve",
             Target::Hdr => "hdr",
             Target::Pfm => "pfm",
             Target::Exr => "exr",
@@ -135,6 +140,7 @@ pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
             first.and(second).map_err(|e| e.to_string())
         }
         Target::Vol => crate::medium::parse_vol(bytes).map(drop),
+        Target::Curve => fuzz_curve(bytes),
         Target::Hdr => decode_image(bytes, "hdr").map(drop).map_err(|e| e.0),
         Target::Pfm => decode_image(bytes, "pfm").map(drop).map_err(|e| e.0),
         Target::Exr => {
@@ -146,6 +152,36 @@ pub fn run(target: Target, bytes: &[u8]) -> Result<(), String> {
         Target::Jpeg => decode_image(bytes, "jpg").map(drop).map_err(|e| e.0),
         Target::Bmp => decode_image(bytes, "bmp").map(drop).map_err(|e| e.0),
     }
+}
+
+/// Reads `bytes` as a curve file of both bases and sends rays at the
+/// first segments of each (the intersectors must stay finite and bounded
+/// on whatever radii and shapes a file holds).
+fn fuzz_curve(bytes: &[u8]) -> Result<(), String> {
+    use crate::geometry::{Curve, CurveBasis};
+    use crate::math::{Transform, Vec3};
+    let text = String::from_utf8_lossy(bytes);
+    let mut result = Ok(());
+    for basis in [CurveBasis::Linear, CurveBasis::BSpline] {
+        let curve = match Curve::parse(&text, basis, &Transform::IDENTITY) {
+            Ok(c) => c,
+            Err(e) => {
+                result = Err(e.to_string());
+                continue;
+            }
+        };
+        let b = curve.bounds();
+        let (centre, reach) = (b.center(), b.diagonal().length() + 1.0);
+        for s in 0..curve.segment_count().min(64) {
+            let seg = curve.segment(s);
+            for d in [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE.normalize(), -Vec3::X] {
+                if let Some((t, v)) = seg.intersect(centre - reach * d, d, 0.0, f32::INFINITY) {
+                    assert!(t.is_finite() && (0.0..=1.0).contains(&v), "{t} {v}");
+                }
+            }
+        }
+    }
+    result
 }
 
 #[cfg(test)]
@@ -172,6 +208,8 @@ mod tests {
             (Target::Serialized, "tests/conformance/gems.serialized"),
             (Target::Vol, "tests/conformance/smoke.vol"),
             (Target::Vol, "tests/conformance/tint.vol"),
+            (Target::Curve, "tests/conformance/wave.txt"),
+            (Target::Curve, "tests/conformance/polyline.txt"),
             (Target::Pfm, "scenes/mitsuba/sky.pfm"),
             (Target::Bmp, "fuzz/seeds/bmp/small.bmp"),
             (Target::Bmp, "fuzz/seeds/bmp/palette.bmp"),

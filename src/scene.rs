@@ -107,6 +107,9 @@ impl Scene {
         check_medium(desc.camera_medium)?;
         let mut shape_media = Vec::new();
         for (i, s) in all.enumerate() {
+            if s.area_radiance.is_some() && matches!(s.geometry, Geometry::Curve(_)) {
+                return Err(BuildError::CurveEmitter(i));
+            }
             geometry.push(s.geometry);
             check_medium(s.media.interior)?;
             check_medium(s.media.exterior)?;
@@ -263,7 +266,7 @@ impl Scene {
             .iter()
             .map(|g| match g {
                 Geometry::Mesh(m) => m.triangle_count(),
-                Geometry::Sphere(_) => 0,
+                Geometry::Sphere(_) | Geometry::Curve(_) => 0,
             })
             .sum()
     }
@@ -278,6 +281,8 @@ pub enum BuildError {
     NothingToFocusOn,
     #[error("the area light on shape {0}: its radiance {1}")]
     AreaLight(usize, crate::emitter::EmitterError),
+    #[error("shape {0} is a curve, which cannot be an area light (nor can it in Mitsuba)")]
+    CurveEmitter(usize),
     #[error("shape {shape} of shape group {group} is an emitter; groups cannot hold emitters")]
     EmitterInGroup { group: usize, shape: usize },
     #[error("instance {0} places a shape group that does not exist")]

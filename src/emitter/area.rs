@@ -86,6 +86,8 @@ impl AreaLight {
         let uv = match &ctx.shapes[self.shape as usize] {
             Geometry::Mesh(m) => m.shading(s.prim as usize, s.bary.x, s.bary.y).1,
             Geometry::Sphere(sp) => sp.normal_uv(s.p).1,
+            // Curves emit nothing (the scene refuses an area light on one).
+            Geometry::Curve(_) => Vec2::ZERO,
         };
         t.eval(SurfacePoint {
             uv,
@@ -124,6 +126,7 @@ impl AreaLight {
                 }
                 None => sp.sample_area(u),
             },
+            Geometry::Curve(_) => return None,
         };
         let to = s.p - p_ref;
         let d2 = to.length_squared();
@@ -210,6 +213,7 @@ impl AreaLight {
                     }
                 }
             }
+            Geometry::Curve(_) => return 0.0,
         }
         let area = g.area();
         let d2 = (at.p - p_ref).length_squared();

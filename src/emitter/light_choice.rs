@@ -87,6 +87,7 @@ impl LightBounds {
                         cos_theta_o,
                     })
                 }
+                Geometry::Curve(_) => None,
             },
             Emitter::Directional(_) | Emitter::Constant(_) | Emitter::Environment(_) => None,
         }

@@ -11,13 +11,14 @@ use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 use super::wide_bvh::WideBvh;
-use super::{Geometry, Instance, Sphere};
+use super::{CurveSegment, Geometry, Instance, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
 
 /// A primitive with its data copied in BVH order, so traversal touches one
 /// contiguous array of 48-byte records: a triangle's vertices by
 /// coordinate in lanes 0-2 ([`PackedTriangle`]); lane 3 of `xs` holds, as
-/// bits, 0 for a triangle, 1 + the index of a sphere in `Bvh::spheres`, or
+/// bits, 0 for a triangle, 1 + the index of a sphere in `Bvh::spheres`,
+/// [`CURVE_BIT`] | the index of a curve segment in `Bvh::curves`, or
 /// [`INSTANCE_BIT`] | the index of an instance in `Bvh::instances`.
 #[derive(Clone, Copy, Debug)]
 struct Prim {
@@ -48,6 +49,7 @@ impl Prim {
         match self.xs.w.to_bits() {
             0 => PrimKind::Triangle,
             i if i & INSTANCE_BIT != 0 => PrimKind::Instance((i & !INSTANCE_BIT) as usize),
+            i if i & CURVE_BIT != 0 => PrimKind::Curve((i & !CURVE_BIT) as usize),
             i => PrimKind::Sphere(i as usize - 1),
         }
     }
@@ -65,9 +67,13 @@ impl Prim {
 /// Marks an instance primitive in lane 3 of [`Prim::xs`].
 const INSTANCE_BIT: u32 = 1 << 31;
 
+/// Marks a curve segment in lane 3 of [`Prim::xs`].
+const CURVE_BIT: u32 = 1 << 30;
+
 enum PrimKind {
     Triangle,
     Sphere(usize),
+    Curve(usize),
     Instance(usize),
 }
 
@@ -90,9 +96,11 @@ impl Boundable for BoundsOnly {
 pub struct BvhHit {
     pub t: f32,
     pub shape: u32,
-    /// Triangle index within its mesh (0 for spheres).
+    /// Triangle index within its mesh, segment index within its curve
+    /// file (0 for spheres).
     pub index: u32,
-    /// Barycentrics of vertices 1 and 2 (triangles only).
+    /// Barycentrics of vertices 1 and 2 (triangles); the parameter along
+    /// the segment in `b1` (curves).
     pub b1: f32,
     pub b2: f32,
     /// The instance hit, or [`BvhHit::NO_INSTANCE`] for a top-level shape.
@@ -120,6 +128,8 @@ pub struct Bvh {
     prims: Vec<Prim>,
     /// The spheres, in the order of their primitives' indices.
     spheres: Vec<Sphere>,
+    /// The curve segments, in the order of their primitives' indices.
+    curves: Vec<CurveSegment>,
     refs: Vec<PrimRef>,
     /// Placed shape groups (top level only).
     instances: Vec<Instance>,
@@ -164,6 +174,7 @@ impl Bvh {
         let start = Instant::now();
         let mut prims = Vec::new();
         let mut spheres = Vec::new();
+        let mut curves = Vec::new();
         let mut refs = Vec::new();
         let mut boxes = Vec::new();
         let mut bounds = Aabb::EMPTY;
@@ -188,6 +199,17 @@ impl Bvh {
                     });
                     boxes.push(s.bounds());
                 }
+                Geometry::Curve(c) => {
+                    for seg in 0..c.segment_count() {
+                        prims.push(Prim::tagged(CURVE_BIT | curves.len() as u32));
+                        curves.push(c.segment(seg));
+                        refs.push(PrimRef {
+                            shape: si as u32,
+                            index: seg as u32,
+                        });
+                        boxes.push(c.segment_bounds(seg));
+                    }
+                }
             }
         }
         for (i, inst) in instances.iter().enumerate() {
@@ -207,6 +229,7 @@ impl Bvh {
                 bvh: None,
                 prims,
                 spheres,
+                curves,
                 refs,
                 instances,
                 groups,
@@ -254,6 +277,7 @@ impl Bvh {
             bvh: Some(WideBvh::from_cwbvh(&bvh, &leaf_boxes)),
             prims,
             spheres,
+            curves,
             refs,
             instances,
             groups,
@@ -310,6 +334,17 @@ impl Bvh {
                             ..BvhHit::none(t)
                         })
                 }
+                PrimKind::Curve(ci) => {
+                    self.curves[ci]
+                        .intersect(o, d, tmin, tmax)
+                        .map(|(t, v)| BvhHit {
+                            t,
+                            shape: self.refs[id].shape,
+                            index: self.refs[id].index,
+                            b1: v,
+                            ..BvhHit::none(t)
+                        })
+                }
                 PrimKind::Instance(ii) => {
                     let inst = &self.instances[ii];
                     let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
@@ -347,6 +382,7 @@ impl Bvh {
                     intersect_triangle(&shear, &prim.packed_triangle(), tmin, tmax).is_some()
                 }
                 PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
+                PrimKind::Curve(ci) => self.curves[ci].intersect(o, d, tmin, tmax).is_some(),
                 PrimKind::Instance(ii) => {
                     let inst = &self.instances[ii];
                     let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));

@@ -2,6 +2,7 @@
 
 mod attribute;
 mod bvh;
+mod curve;
 mod instance;
 mod mesh;
 mod obj;
@@ -14,6 +15,7 @@ mod wide_bvh;
 
 pub use attribute::MeshAttribute;
 pub use bvh::{Bvh, BvhHit};
+pub use curve::{Curve, CurveBasis, CurveError, CurveSegment};
 pub use instance::Instance;
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
@@ -34,6 +36,8 @@ use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};
 pub enum Geometry {
     Mesh(TriangleMesh),
     Sphere(Sphere),
+    /// Round curves (already in world space: they are placed when read).
+    Curve(Curve),
 }
 
 impl Geometry {
@@ -42,6 +46,7 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => m.triangle_count(),
             Geometry::Sphere(_) => 1,
+            Geometry::Curve(c) => c.segment_count(),
         }
     }
 
@@ -49,14 +54,17 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => m.bounds(),
             Geometry::Sphere(s) => s.bounds(),
+            Geometry::Curve(c) => c.bounds(),
         }
     }
 
-    /// Total surface area.
+    /// Total surface area (only emitters ask, and curves emit nothing:
+    /// their loader refuses an area emitter, as Mitsuba does).
     pub fn area(&self) -> f32 {
         match self {
             Geometry::Mesh(m) => m.area(),
             Geometry::Sphere(s) => s.area(),
+            Geometry::Curve(_) => 0.0,
         }
     }
 
@@ -66,6 +74,7 @@ impl Geometry {
         let mut its = match self {
             Geometry::Mesh(m) => m.intersection(hit),
             Geometry::Sphere(s) => s.intersection(ray, hit.t),
+            Geometry::Curve(c) => c.intersection(ray, hit),
         };
         its.shape = hit.shape;
         // The geometric normal defines the front side; orient it to agree
@@ -81,6 +90,7 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => m.dpdu_dpdv(its.prim as usize),
             Geometry::Sphere(s) => s.dpdu_dpdv((its.p - s.center).normalize_or_zero()),
+            Geometry::Curve(c) => c.dpdu_dpdv(its),
         }
     }
 
@@ -89,6 +99,10 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => Ok(m.transform(t)?),
             Geometry::Sphere(s) => Ok(s.transform(t)?),
+            Geometry::Curve(c) => {
+                c.transform(t);
+                Ok(())
+            }
         }
     }
 }

@@ -17,6 +17,7 @@ mod bsdf_path;
 mod bsdf_sampling;
 mod cli_tools;
 mod corpus;
+mod curves;
 mod denoise;
 mod determinism;
 mod envmap_integrators;

@@ -201,6 +201,12 @@ const CASES: &[Case] = &[
         renders: 16,
     },
     Case {
+        file: "curves.xml",
+        covers: "linearcurve (two polylines with changing radii, to_world rotated and scaled, checkerboard on the curves' uv) and bsplinecurve (a wave in an anisotropic roughconductor, which reads dp/du; an arc in a shapegroup placed twice, once scaled unevenly); area, point and constant lights",
+        spp: 192,
+        renders: 16,
+    },
+    Case {
         file: "media.xml",
         covers: "volpath with homogeneous media: the camera in a fog (a sensor medium, every boundary's exterior); a null sphere of chromatic hg medium with scale; absorbing-only medium in a smooth dielectric; thindielectric cube with sample_emitters off; roughdielectric sphere with a constvolume albedo and backward hg; shadow rays through a checkerboard mask; area and point lights in the fog",
         spp: 192,

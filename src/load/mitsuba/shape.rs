@@ -1,12 +1,12 @@
-//! Shapes: obj, ply, serialized, sphere, rectangle, cube, disk and cylinder, with
-//! their BSDF and area emitter.
+//! Shapes: obj, ply, serialized, sphere, rectangle, cube, disk, cylinder,
+//! linearcurve and bsplinecurve, with their BSDF and area emitter.
 
 use super::emitter::EmitterDesc;
 use super::Ctx;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::color::Rgb;
 use crate::geometry::{
-    self, Geometry, MeshAttribute, ShapeError, Sphere, SphereError, TriangleMesh,
+    self, Curve, CurveBasis, Geometry, MeshAttribute, ShapeError, Sphere, SphereError, TriangleMesh,
 };
 use crate::load::objects;
 use crate::load::props::positive;
@@ -20,8 +20,8 @@ type Result<T> = std::result::Result<T, SceneError>;
 
 impl<'d> Ctx<'d> {
     /// Shapes (Mitsuba's `shapes/`): obj, ply, serialized (`shape_index`),
-    /// sphere, rectangle, cube, disk, cylinder; `to_world`, `flip_normals`,
-    /// `face_normals` (meshes).
+    /// sphere, rectangle, cube, disk, cylinder, linearcurve, bsplinecurve;
+    /// `to_world`, `flip_normals`, `face_normals` (meshes).
     pub(super) fn shape(&mut self, node: &'d SceneNode) -> Result<ShapeDesc> {
         let ty = self.object_type(
             node,
@@ -34,15 +34,10 @@ impl<'d> Ctx<'d> {
                 "cube",
                 "disk",
                 "cylinder",
-            ],
-            &[
-                "bsplinecurve",
                 "linearcurve",
-                "sdfgrid",
-                "ellipsoids",
-                "ellipsoidsmesh",
-                "merge",
+                "bsplinecurve",
             ],
+            &["sdfgrid", "ellipsoids", "ellipsoidsmesh", "merge"],
         )?;
         let owner = format!("<shape type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
@@ -60,6 +55,8 @@ impl<'d> Ctx<'d> {
                 smooth: bool,
             },
             Sphere(Sphere),
+            /// Placed when read (its radii do not follow `to_world`).
+            Curve(geometry::Curve),
         }
         let source = match ty {
             "obj" | "ply" | "serialized" => {
@@ -134,6 +131,38 @@ impl<'d> Ctx<'d> {
                     attributes: Vec::new(),
                     smooth: false,
                 }
+            }
+            "linearcurve" | "bsplinecurve" => {
+                let basis = if ty == "linearcurve" {
+                    CurveBasis::Linear
+                } else {
+                    CurveBasis::BSpline
+                };
+                let name = p.require_string("filename")?;
+                let path = self.resolve(&name);
+                let bytes = crate::limits::read_file(
+                    &path,
+                    crate::limits::MAX_DATA_FILE_BYTES,
+                    "curve files",
+                )
+                .map_err(|e| {
+                    p.error("filename", format!("cannot read '{}'", path.display()))
+                        .caused_by(e)
+                })?;
+                let text = String::from_utf8_lossy(&bytes);
+                let curve = Curve::parse(&text, basis, &to_world).map_err(|e| {
+                    p.error(
+                        "filename",
+                        format!("the curve file '{}' is malformed: {e}", path.display()),
+                    )
+                })?;
+                if flip_normals {
+                    return Err(p.error(
+                        "flip_normals",
+                        "curves are seen from outside only; flip_normals does not apply to them",
+                    ));
+                }
+                Source::Curve(curve)
             }
             _ => Source::Sphere(objects::sphere(&mut p)?),
         };
@@ -244,6 +273,24 @@ impl<'d> Ctx<'d> {
                     Geometry::Sphere(s)
                 }
             }
+            Source::Curve(c) => {
+                if let Some((_, at)) = &area {
+                    return Err(self.err(
+                        *at,
+                        format!(
+                            "{owner} cannot be an area emitter (Mitsuba's curves have no \
+                             surface sampling either); use a mesh or a sphere"
+                        ),
+                    ));
+                }
+                if media.interior.is_some() || media.exterior.is_some() {
+                    return Err(self.err(
+                        node.pos,
+                        format!("{owner} cannot bound a medium: it is seen from outside only"),
+                    ));
+                }
+                Geometry::Curve(c)
+            }
         };
         let bsdf_at = bsdf.as_ref().map_or(node.pos, |b| b.1);
         let mut bsdf = match bsdf {
@@ -257,7 +304,7 @@ impl<'d> Ctx<'d> {
         // radiance) read this shape's data.
         let indices = match &geometry {
             Geometry::Mesh(m) => m.indices(),
-            Geometry::Sphere(_) => &[],
+            Geometry::Sphere(_) | Geometry::Curve(_) => &[],
         };
         let bind = |t: &mut Texture| match t.mesh_attribute_mut() {
             Some(a) => a.bind(&attributes, indices),
