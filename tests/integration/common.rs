@@ -49,6 +49,16 @@ pub fn load_clean_at(text: &str, path: &Path) -> SceneFile {
     file
 }
 
+/// [`load_clean_at`], built into a scene with the file's integrator.
+#[track_caller]
+pub fn built_at(text: &str, path: &Path) -> TestScene {
+    let file = load_clean_at(text, path);
+    TestScene {
+        scene: Scene::new(file.scene).unwrap(),
+        integrator: file.job.integrator,
+    }
+}
+
 /// [`load_clean_at`] `test.xml`.
 #[track_caller]
 pub fn load_clean(text: &str) -> SceneFile {

@@ -3,9 +3,8 @@
 
 use std::path::Path;
 
-use crate::common::{estimate, load_at, load_err_at, TestScene};
+use crate::common::{built_at, estimate, load_at, load_err_at, TestScene};
 use lente::geometry::Geometry;
-use lente::scene::Scene;
 use lente::stats::t_test;
 
 /// A scene in `dir` with a camera at (0, 0, 3) looking at the origin, a
@@ -21,12 +20,7 @@ fn sky(dir: &Path, body: &str) -> TestScene {
 {body}
 </scene>"#
     );
-    let (file, warnings) = load_at(&text, &dir.join("scene.xml"), &[]);
-    assert!(warnings.is_empty(), "{warnings:?}");
-    TestScene {
-        scene: Scene::new(file.scene).unwrap(),
-        integrator: file.job.integrator,
-    }
+    built_at(&text, &dir.join("scene.xml"))
 }
 
 /// A straight tube of radius 0.6 along x fills the whole view. It is

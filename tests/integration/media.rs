@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use crate::common::{estimate, load, load_at, load_err, load_err_at, TestScene};
+use crate::common::{built_at, estimate, load, load_at, load_err, load_err_at, TestScene};
 use crate::mitsuba_parse::scene;
 use lente::color::{luminance, Rgb};
 use lente::integrator::Integrator;
@@ -231,12 +231,7 @@ fn sky_scene(fov: f32, res: u32, sensor_medium: &str, body: &str) -> String {
 }
 
 fn loaded(text: &str, dir: &Path) -> TestScene {
-    let (file, warnings) = load_at(text, &dir.join("scene.xml"), &[]);
-    assert!(warnings.is_empty(), "{warnings:?}");
-    TestScene {
-        scene: Scene::new(file.scene).unwrap(),
-        integrator: file.job.integrator,
-    }
+    built_at(text, &dir.join("scene.xml"))
 }
 
 /// The white furnace with heterogeneous media: a chromatic extinction
