@@ -75,6 +75,21 @@ pub enum CurveError {
 /// Segments one file may hold (the BVH tags them in 30 bits).
 const MAX_SEGMENTS: usize = 1 << 28;
 
+/// Reads a curve file (within the mesh files' size bound) and parses it.
+pub fn load_curve(
+    path: &std::path::Path,
+    basis: CurveBasis,
+    to_world: &Transform,
+) -> Result<Curve, super::MeshFileError> {
+    let bytes = super::read_mesh_file(path)?;
+    Curve::parse(&String::from_utf8_lossy(&bytes), basis, to_world).map_err(|error| {
+        super::MeshFileError::Curve {
+            path: path.to_path_buf(),
+            error,
+        }
+    })
+}
+
 impl Curve {
     /// Parses Mitsuba's curve text format, placing the points with `to_world`.
     pub fn parse(text: &str, basis: CurveBasis, to_world: &Transform) -> Result<Curve, CurveError> {
@@ -154,8 +169,7 @@ impl Curve {
             segments,
             bounds: Aabb::EMPTY,
         };
-        curve.bounds =
-            (0..curve.segment_count()).fold(Aabb::EMPTY, |b, s| b.union(curve.segment_bounds(s)));
+        curve.bounds = curve.segments_bounds();
         Ok(curve)
     }
 
@@ -165,8 +179,12 @@ impl Curve {
             let q = t.point(p.xyz());
             *p = Vec4::new(q.x, q.y, q.z, p.w);
         }
-        self.bounds =
-            (0..self.segment_count()).fold(Aabb::EMPTY, |b, s| b.union(self.segment_bounds(s)));
+        self.bounds = self.segments_bounds();
+    }
+
+    /// The union of all segments' boxes.
+    fn segments_bounds(&self) -> Aabb {
+        (0..self.segment_count()).fold(Aabb::EMPTY, |b, s| b.union(self.segment_bounds(s)))
     }
 
     pub fn basis(&self) -> CurveBasis {
@@ -190,14 +208,19 @@ impl Curve {
     /// A box around segment `s`: its control points' box widened by their
     /// largest radius (the segment lies in their convex hull).
     pub fn segment_bounds(&self, s: usize) -> Aabb {
-        let cp = self.control(s);
-        let r = cp.iter().fold(0.0f32, |m, c| m.max(c.w));
-        cp.iter().fold(Aabb::EMPTY, |b, c| {
+        let r = self.max_radius(s);
+        self.control(s).iter().fold(Aabb::EMPTY, |b, c| {
             b.union(Aabb {
                 min: c.xyz() - Vec3::splat(r),
                 max: c.xyz() + Vec3::splat(r),
             })
         })
+    }
+
+    /// The largest radius of segment `s`'s control points, which bounds
+    /// its interpolated radius.
+    fn max_radius(&self, s: usize) -> f32 {
+        self.control(s).iter().fold(0.0f32, |m, c| m.max(c.w))
     }
 
     /// What the BVH stores for segment `s`.
@@ -252,16 +275,15 @@ impl Curve {
             }
         }
         .normalize_or(radial.normalize_or(Vec3::Z));
-        let tangent = centre.dc.normalize_or(Vec3::X);
-        let (rot, rad) = local_frame(tangent);
+        let (rot, rad) = local_frame(centre.tangent());
         let w = radial.normalize_or(n);
         let mut u = w.dot(rot).atan2(w.dot(rad)) / (2.0 * PI);
         if u < 0.0 {
             u += 1.0;
         }
         let count = self.segments.len() as f32;
-        let dpdu = 2.0 * PI * tangent.cross(radial);
-        let r_max = self.control(s).iter().fold(0.0f32, |m, c| m.max(c.w));
+        let dpdu = centre.dpdu(radial);
+        let r_max = self.max_radius(s);
         Intersection {
             t: hit.t,
             p,
@@ -286,8 +308,8 @@ impl Curve {
         let v = (its.uv.y * count - s as f32).clamp(0.0, 1.0);
         let centre = self.centre_line(s, v);
         let radial = its.p - centre.c;
-        let tangent = centre.dc.normalize_or(Vec3::X);
-        let dpdu = 2.0 * PI * tangent.cross(radial);
+        let tangent = centre.tangent();
+        let dpdu = centre.dpdu(radial);
         let w = radial.normalize_or(its.ng);
         let dpdv = match self.basis {
             CurveBasis::Linear => centre.dc + centre.dr * w,
@@ -372,6 +394,19 @@ struct CentreLine {
     dddc: Vec3,
     r: f32,
     dr: f32,
+}
+
+impl CentreLine {
+    /// The unit direction of the curve.
+    fn tangent(&self) -> Vec3 {
+        self.dc.normalize_or(Vec3::X)
+    }
+
+    /// dp/du of the surface point `c + radial`: u turns once around the
+    /// tube (Mitsuba's `2 pi (t x radial)`).
+    fn dpdu(&self, radial: Vec3) -> Vec3 {
+        2.0 * PI * self.tangent().cross(radial)
+    }
 }
 
 /// Mitsuba's frame around a curve's tangent, from which `u` is measured:

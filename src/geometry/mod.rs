@@ -15,7 +15,7 @@ mod wide_bvh;
 
 pub use attribute::MeshAttribute;
 pub use bvh::{Bvh, BvhHit};
-pub use curve::{Curve, CurveBasis, CurveError, CurveSegment};
+pub use curve::{load_curve, Curve, CurveBasis, CurveError, CurveSegment};
 pub use instance::Instance;
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
@@ -170,6 +170,11 @@ pub enum MeshFileError {
     Serialized {
         path: std::path::PathBuf,
         message: String,
+    },
+    #[error("the curve file '{}' is malformed: {error}", path.display())]
+    Curve {
+        path: std::path::PathBuf,
+        error: CurveError,
     },
     #[error("the mesh in '{}' {error}", path.display())]
     Invalid {

@@ -100,7 +100,8 @@ fn curve_errors_name_the_file_and_line() {
         let text = format!("<scene version=\"3.0.0\">\n{shape}\n</scene>");
         let e = load_err_at(&text, &scene);
         assert_eq!(e.file, scene);
-        e.to_string()
+        // The line the user sees: the message and its causes.
+        e.report()
     };
     let cases = [
         (

@@ -6,7 +6,7 @@ use super::Ctx;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::color::Rgb;
 use crate::geometry::{
-    self, Curve, CurveBasis, Geometry, MeshAttribute, ShapeError, Sphere, SphereError, TriangleMesh,
+    self, CurveBasis, Geometry, MeshAttribute, ShapeError, Sphere, SphereError, TriangleMesh,
 };
 use crate::load::objects;
 use crate::load::props::positive;
@@ -138,24 +138,9 @@ impl<'d> Ctx<'d> {
                 } else {
                     CurveBasis::BSpline
                 };
-                let name = p.require_string("filename")?;
-                let path = self.resolve(&name);
-                let bytes = crate::limits::read_file(
-                    &path,
-                    crate::limits::MAX_DATA_FILE_BYTES,
-                    "curve files",
-                )
-                .map_err(|e| {
-                    p.error("filename", format!("cannot read '{}'", path.display()))
-                        .caused_by(e)
-                })?;
-                let text = String::from_utf8_lossy(&bytes);
-                let curve = Curve::parse(&text, basis, &to_world).map_err(|e| {
-                    p.error(
-                        "filename",
-                        format!("the curve file '{}' is malformed: {e}", path.display()),
-                    )
-                })?;
+                let path = self.resolve(&p.require_string("filename")?);
+                let curve = geometry::load_curve(&path, basis, &to_world)
+                    .map_err(|e| p.error("filename", "cannot load the curves").caused_by(e))?;
                 if flip_normals {
                     return Err(p.error(
                         "flip_normals",
