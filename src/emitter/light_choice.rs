@@ -293,9 +293,7 @@ impl LightChoice {
     /// the probability of the choice and `u` rescaled to [0, 1) for reuse.
     pub fn sample(&self, at: &ChoicePoint, u: f32) -> Option<(usize, f32, f32)> {
         if u < self.p_unbounded {
-            let d = self.unbounded_by_power.as_ref()?;
-            let (k, pk, u) = d.sample_discrete((u / self.p_unbounded).min(ONE_MINUS_EPSILON));
-            return Some((self.unbounded[k] as usize, self.p_unbounded * pk, u));
+            return self.sample_unbounded(u);
         }
         let p_bounded = 1.0 - self.p_unbounded;
         let u = ((u - self.p_unbounded) / p_bounded).min(ONE_MINUS_EPSILON);
@@ -330,6 +328,26 @@ impl LightChoice {
         // Rounding left the target past the sum: the last light with weight.
         let (i, w) = last?;
         Some((i, p_bounded * w / total, ONE_MINUS_EPSILON))
+    }
+
+    /// The emitter at infinity that [`LightChoice::sample`] picks with `u`
+    /// wherever the shading point is (that choice does not depend on it),
+    /// or `None` if `u` chooses among the bounded lights.
+    #[inline]
+    pub fn choice_at_infinity(&self, u: f32) -> Option<usize> {
+        if u < self.p_unbounded {
+            self.sample_unbounded(u).map(|(i, _, _)| i)
+        } else {
+            None
+        }
+    }
+
+    /// [`LightChoice::sample`] for `u < p_unbounded`.
+    #[inline]
+    fn sample_unbounded(&self, u: f32) -> Option<(usize, f32, f32)> {
+        let d = self.unbounded_by_power.as_ref()?;
+        let (k, pk, u) = d.sample_discrete((u / self.p_unbounded).min(ONE_MINUS_EPSILON));
+        Some((self.unbounded[k] as usize, self.p_unbounded * pk, u))
     }
 
     /// Probability that [`LightChoice::sample`] at `at` picks emitter `i`.
@@ -427,6 +445,41 @@ mod tests {
         let p1 = c.pdf(&at, 1);
         assert!((p0 + p1 - 1.0).abs() < 1e-5);
         assert!(p0 > 0.5, "{p0}");
+    }
+
+    /// `choice_at_infinity` names the emitter at infinity that `sample`
+    /// picks with the same number at any shading point, and nothing where
+    /// `sample` picks a bounded light (the path tracer prefetches with it
+    /// before it knows the point). Control: both kinds are picked.
+    #[test]
+    fn choice_at_infinity_agrees_with_sample() {
+        use crate::emitter::ConstantLight;
+        let shapes = [Geometry::Sphere(
+            Sphere::new(Vec3::new(0.0, 0.0, 2.0), 0.5).unwrap(),
+        )];
+        let ctx = EmitterContext {
+            shapes: &shapes,
+            scene_radius: 10.0,
+        };
+        let emitters = [
+            Emitter::Constant(ConstantLight::new(Rgb::splat(0.5)).unwrap()),
+            Emitter::Area(AreaLight::new(0, Rgb::splat(5.0)).unwrap()),
+            Emitter::Point(PointLight::new(Vec3::new(-2.0, 1.0, 0.0), Rgb::splat(40.0)).unwrap()),
+            Emitter::Constant(ConstantLight::new(Rgb::splat(2.0)).unwrap()),
+        ];
+        let c = LightChoice::new(&emitters, &ctx).unwrap();
+        let mut picked = [0usize; 4];
+        for (p, n) in [(Vec3::ZERO, Vec3::Z), (Vec3::new(1.0, 2.0, -1.0), Vec3::X)] {
+            let at = c.at(p, n);
+            for k in 0..4096 {
+                let u = (k as f32 + 0.5) / 4096.0;
+                let (i, _, _) = c.sample(&at, u).unwrap();
+                picked[i] += 1;
+                let infinite = matches!(emitters[i], Emitter::Constant(_));
+                assert_eq!(c.choice_at_infinity(u), infinite.then_some(i), "u {u}");
+            }
+        }
+        assert!(picked.iter().all(|&k| k > 0), "{picked:?}");
     }
 
     /// At several shading points: the probabilities sum to one, `sample`

@@ -239,6 +239,15 @@ impl Emitter {
         }
     }
 
+    /// Prefetches what `sample(.., u, .., which)` reads (environment maps
+    /// only), for a caller that draws `u` before it samples.
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2, which: LightPdf) {
+        if let Emitter::Environment(e) = self {
+            e.prefetch_sample(u, which);
+        }
+    }
+
     /// Samples incident illumination at `p_ref` with the density `which`
     /// (only environment maps have more than one).
     pub fn sample(

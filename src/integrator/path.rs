@@ -1,7 +1,7 @@
 //! The unidirectional path tracer with three ways of finding light:
 //! BSDF sampling (mats), emitter sampling (ems), and both with MIS.
 
-use super::{PathParams, Strategy};
+use super::{sample_light_with, LightNumbers, PathParams, Strategy};
 use crate::color::{max_component, Rgb};
 use crate::emitter::{ChoicePoint, Emitter, LightHit, LightPdf};
 use crate::geometry::Intersection;
@@ -174,6 +174,9 @@ pub fn li(
     let mut prev_at = ChoicePoint::default();
     let mut eta_scale = 1.0f32;
     let mut depth = 0u32;
+    // The next vertex's light-sample numbers, drawn ahead (LightNumbers).
+    let nee = strategy != Strategy::Mats;
+    let mut light_numbers = nee.then(|| LightNumbers::draw_ahead(scene, sampler, which));
 
     loop {
         let mut hit = scene.intersect(&ray);
@@ -218,10 +221,9 @@ pub fn li(
         let wi = frame.to_local(wi_world);
 
         // Next-event estimation.
-        if strategy != Strategy::Mats && !bsdf.is_specular() {
+        if let (Some(numbers), false) = (light_numbers, bsdf.is_specular()) {
             prev_at = scene.choice_point(its.p, frame.n);
-            if let Some((ls, pchoice)) = super::sample_light(scene, its.p, &prev_at, sampler, which)
-            {
+            if let Some((ls, pchoice)) = sample_light_with(scene, its.p, &prev_at, numbers, which) {
                 let wo = frame.to_local(ls.wi);
                 let f = bsdf.eval(sp, wi, wo);
                 if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {
@@ -262,6 +264,9 @@ pub fn li(
 
         let o = its.spawn(wo_world);
         ray = Ray::new(o, wo_world);
+        if nee {
+            light_numbers = Some(LightNumbers::draw_ahead(scene, sampler, which));
+        }
     }
     l
 }

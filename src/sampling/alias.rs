@@ -3,6 +3,7 @@
 //! inverted CDF needs a binary search of O(log n) cache misses.
 
 use super::ONE_MINUS_EPSILON;
+use crate::math::prefetch;
 
 /// One cell of the table: keep the cell with probability `keep`, else take
 /// `alias`.
@@ -166,6 +167,16 @@ impl AliasRows {
     #[inline]
     pub fn first_guess(&self, u: f32) -> usize {
         drawn_cell(self.len, u).0
+    }
+
+    /// Prefetches the entry that [`AliasRows::sample`] in row `r` reads
+    /// first for `u`, so a caller that knows `u` early can overlap the
+    /// cache miss with other work.
+    #[inline]
+    pub fn prefetch(&self, r: usize, u: f32) {
+        if let Some(e) = self.entries.get(r * self.len + drawn_cell(self.len, u).0) {
+            prefetch(e);
+        }
     }
 
     /// [`AliasTable::sample`] in row `r`.

@@ -317,6 +317,17 @@ impl EnvMap {
         None
     }
 
+    /// Prefetches the tables and texels that `sample(u, which)` reads, for
+    /// a caller that knows `u` before it needs the sample (the path tracer
+    /// draws it before tracing the ray to the point that samples).
+    #[inline]
+    pub fn prefetch_sample(&self, u: Vec2, which: LightPdf) {
+        if let Some(warp) = self.warp(which) {
+            let pixels = &self.image.pixels;
+            warp.prefetch_pick(u, |col, band| self.grid.prefetch(pixels, col, band));
+        }
+    }
+
     /// `(eval(d), pdf(d, which))` with one trip from direction to texels:
     /// what a path needs when a BSDF-sampled ray escapes to the map.
     #[inline]

@@ -142,14 +142,34 @@ impl EnvWarp {
     pub fn pick(&self, u: Vec2, prefetch_cell: impl Fn(usize, usize)) -> CellPick {
         let (band, uy) = self.bands.sample(u.y);
         let guess = self.cells.first_guess(u.x);
-        let w = self.width;
-        prefetch(&self.values[band * w + guess]);
-        if self.bilinear {
-            prefetch(&self.values[(band + 1) * w + guess]);
-        }
+        self.prefetch_cell(guess, band);
         prefetch_cell(guess, band);
         let (col, ux) = self.cells.sample(band, u.x);
         CellPick { col, band, ux, uy }
+    }
+
+    /// Prefetches what [`EnvWarp::pick`] with `u` reads (the cell's alias
+    /// entry, and the corner values of the cell it most likely names, also
+    /// passed to `prefetch_cell(col, band)`), without waiting for any of
+    /// it: for a caller that knows `u` well before it samples.
+    #[inline]
+    pub fn prefetch_pick(&self, u: Vec2, prefetch_cell: impl Fn(usize, usize)) {
+        let (band, _) = self.bands.sample(u.y);
+        self.cells.prefetch(band, u.x);
+        let guess = self.cells.first_guess(u.x);
+        self.prefetch_cell(guess, band);
+        prefetch_cell(guess, band);
+    }
+
+    /// Prefetches the values [`EnvWarp::pdf`] reads for a point of cell
+    /// (`col`, `band`).
+    #[inline]
+    pub fn prefetch_cell(&self, col: usize, band: usize) {
+        let w = self.width;
+        prefetch(&self.values[band * w + col]);
+        if self.bilinear {
+            prefetch(&self.values[(band + 1) * w + col]);
+        }
     }
 
     /// Sampling, second half: the point inside the picked cell.
