@@ -100,7 +100,8 @@ def lente_runs(binary, scene, params, spp, seeds, threads):
     """(list of MSE-ready images, total render seconds)."""
     images, seconds = [], 0.0
     for seed in seeds:
-        out = os.path.join(OUT, "lente-run")
+        # One file per seed: the MSE is taken over all of them afterwards.
+        out = os.path.join(OUT, "lente-run-%d" % seed)
         cmd = [binary, "render", scene, "--spp", str(spp), "--seed", str(seed),
                "--threads", str(threads), "-q", "-o", out]
         for k, v in params.items():
