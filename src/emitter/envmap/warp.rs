@@ -135,30 +135,30 @@ impl EnvWarp {
     /// the alias tables, with the unused randomness. Before the cell's
     /// alias entry arrives from memory, the cell it most likely names (the
     /// one drawn; an alias is a bright cell, which stays cached) has its
-    /// corner values prefetched and is passed to `prefetch_cell(col, band)`
+    /// corner values prefetched and is passed to `prefetch_texels(col, band)`
     /// for the caller's own reads, so these misses overlap instead of
     /// following one another.
     #[inline]
-    pub fn pick(&self, u: Vec2, prefetch_cell: impl Fn(usize, usize)) -> CellPick {
+    pub fn pick(&self, u: Vec2, prefetch_texels: impl Fn(usize, usize)) -> CellPick {
         let (band, uy) = self.bands.sample(u.y);
         let guess = self.cells.first_guess(u.x);
         self.prefetch_cell(guess, band);
-        prefetch_cell(guess, band);
+        prefetch_texels(guess, band);
         let (col, ux) = self.cells.sample(band, u.x);
         CellPick { col, band, ux, uy }
     }
 
     /// Prefetches what [`EnvWarp::pick`] with `u` reads (the cell's alias
     /// entry, and the corner values of the cell it most likely names, also
-    /// passed to `prefetch_cell(col, band)`), without waiting for any of
+    /// passed to `prefetch_texels(col, band)`), without waiting for any of
     /// it: for a caller that knows `u` well before it samples.
     #[inline]
-    pub fn prefetch_pick(&self, u: Vec2, prefetch_cell: impl Fn(usize, usize)) {
+    pub fn prefetch_pick(&self, u: Vec2, prefetch_texels: impl Fn(usize, usize)) {
         let (band, _) = self.bands.sample(u.y);
         self.cells.prefetch(band, u.x);
         let guess = self.cells.first_guess(u.x);
         self.prefetch_cell(guess, band);
-        prefetch_cell(guess, band);
+        prefetch_texels(guess, band);
     }
 
     /// Prefetches the values [`EnvWarp::pdf`] reads for a point of cell
