@@ -172,12 +172,16 @@ impl NativeScene {
         let mut reported = s0;
         std::thread::scope(|scope| -> PyResult<()> {
             scope.spawn(|| {
-                let out = pool.install(|| {
-                    render_with_passes(&self.scene, &job, &opts, &cancel, |info| {
-                        done.store(info.spp_done, Ordering::Relaxed);
+                // A panic in the render must still end the wait below (it
+                // then reports "stopped without a result"), not hang it.
+                let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    pool.install(|| {
+                        render_with_passes(&self.scene, &job, &opts, &cancel, |info| {
+                            done.store(info.spp_done, Ordering::Relaxed);
+                        })
                     })
-                });
-                *output.lock().unwrap_or_else(|e| e.into_inner()) = Some(out);
+                }));
+                *output.lock().unwrap_or_else(|e| e.into_inner()) = out.ok();
                 finished.store(true, Ordering::Release);
             });
             loop {
