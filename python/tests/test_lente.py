@@ -129,7 +129,11 @@ def test_the_gil_is_released_while_rendering(cbox):
 def test_ctrl_c_stops_a_render_with_keyboard_interrupt(cbox):
     script = textwrap.dedent(
         f"""
-        import sys, time, lente
+        import signal, sys, time, lente
+        # A process started in the background by a non-interactive shell
+        # inherits SIGINT ignored, and Python then keeps it ignored: make
+        # Ctrl-C raise KeyboardInterrupt whatever this process inherited.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         scene = lente.load({cbox!r}, res=64)
         print("rendering", flush=True)
         start = time.time()
