@@ -148,7 +148,12 @@ def test_ctrl_c_stops_a_render_with_keyboard_interrupt(cbox):
     assert child.stdout.readline().strip() == "rendering"
     time.sleep(1.0)
     child.send_signal(signal.SIGINT)
-    out, _ = child.communicate(timeout=60)
+    try:
+        out, _ = child.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        # Do not leave a million-spp render running after the failure.
+        child.kill()
+        raise
     assert child.returncode == 3, out
     assert out.startswith("interrupted after")
 

@@ -22,11 +22,7 @@ fn sample_light(
     sampler: &mut Sampler,
     which: LightPdf,
 ) -> Option<(LightSample, f32)> {
-    let numbers = LightNumbers {
-        choice: sampler.next_1d(),
-        u: sampler.next_2d(),
-    };
-    sample_light_with(scene, p, at, numbers, which)
+    sample_light_with(scene, p, at, LightNumbers::draw(sampler), which)
 }
 
 /// [`sample_light`] with numbers drawn beforehand.
@@ -56,15 +52,22 @@ struct LightNumbers {
 }
 
 impl LightNumbers {
+    /// Draws the numbers, the choice first.
+    #[inline]
+    fn draw(sampler: &mut Sampler) -> LightNumbers {
+        let choice = sampler.next_1d();
+        LightNumbers {
+            choice,
+            u: sampler.next_2d(),
+        }
+    }
+
     /// Draws the numbers and prefetches what sampling an emitter at
     /// infinity with them reads (that choice does not depend on the
     /// shading point).
     #[inline]
     fn draw_ahead(scene: &Scene, sampler: &mut Sampler, which: LightPdf) -> LightNumbers {
-        let numbers = LightNumbers {
-            choice: sampler.next_1d(),
-            u: sampler.next_2d(),
-        };
+        let numbers = LightNumbers::draw(sampler);
         if let Some(c) = &scene.light_choice {
             if let Some(i) = c.choice_at_infinity(numbers.choice) {
                 scene.emitters[i].prefetch_sample(numbers.u, which);

@@ -169,12 +169,13 @@ impl AliasRows {
         drawn_cell(self.len, u).0
     }
 
-    /// Prefetches the entry that [`AliasRows::sample`] in row `r` reads
-    /// first for `u`, so a caller that knows `u` early can overlap the
-    /// cache miss with other work.
+    /// Prefetches the entry of `cell` in row `r` (for a `u` whose
+    /// [`AliasRows::first_guess`] it is, the entry [`AliasRows::sample`]
+    /// reads), so a caller that knows `u` early can overlap the cache miss
+    /// with other work.
     #[inline]
-    pub fn prefetch(&self, r: usize, u: f32) {
-        if let Some(e) = self.entries.get(r * self.len + drawn_cell(self.len, u).0) {
+    pub fn prefetch(&self, r: usize, cell: usize) {
+        if let Some(e) = self.entries.get(r * self.len + cell) {
             prefetch(e);
         }
     }

@@ -140,10 +140,7 @@ impl EnvWarp {
     /// following one another.
     #[inline]
     pub fn pick(&self, u: Vec2, prefetch_texels: impl Fn(usize, usize)) -> CellPick {
-        let (band, uy) = self.bands.sample(u.y);
-        let guess = self.cells.first_guess(u.x);
-        self.prefetch_cell(guess, band);
-        prefetch_texels(guess, band);
+        let (band, uy, _) = self.prefetch_guess(u, prefetch_texels);
         let (col, ux) = self.cells.sample(band, u.x);
         CellPick { col, band, ux, uy }
     }
@@ -154,17 +151,30 @@ impl EnvWarp {
     /// it: for a caller that knows `u` well before it samples.
     #[inline]
     pub fn prefetch_pick(&self, u: Vec2, prefetch_texels: impl Fn(usize, usize)) {
-        let (band, _) = self.bands.sample(u.y);
-        self.cells.prefetch(band, u.x);
+        let (band, _, guess) = self.prefetch_guess(u, prefetch_texels);
+        self.cells.prefetch(band, guess);
+    }
+
+    /// The band `u` picks (with the number left in it) and the cell of it
+    /// that `u` draws before its alias entry is read, whose corner values
+    /// are prefetched and which is passed to `prefetch_texels(col, band)`.
+    #[inline]
+    fn prefetch_guess(
+        &self,
+        u: Vec2,
+        prefetch_texels: impl Fn(usize, usize),
+    ) -> (usize, f32, usize) {
+        let (band, uy) = self.bands.sample(u.y);
         let guess = self.cells.first_guess(u.x);
         self.prefetch_cell(guess, band);
         prefetch_texels(guess, band);
+        (band, uy, guess)
     }
 
     /// Prefetches the values [`EnvWarp::pdf`] reads for a point of cell
     /// (`col`, `band`).
     #[inline]
-    pub fn prefetch_cell(&self, col: usize, band: usize) {
+    fn prefetch_cell(&self, col: usize, band: usize) {
         let w = self.width;
         prefetch(&self.values[band * w + col]);
         if self.bilinear {
