@@ -76,6 +76,16 @@ impl LightBounds {
             }),
             Emitter::Area(a) => match &ctx.shapes[a.shape as usize] {
                 Geometry::Sphere(s) => Some(LightBounds::omni(s.center, s.radius, power)),
+                Geometry::Disk(d) => {
+                    let b = d.bounds();
+                    Some(LightBounds {
+                        centre: d.center,
+                        radius: 0.5 * b.diagonal().length(),
+                        power,
+                        axis: d.n,
+                        cos_theta_o: 1.0,
+                    })
+                }
                 Geometry::Mesh(m) => {
                     let b = m.bounds();
                     let (axis, cos_theta_o) = normal_cone(m);

@@ -11,13 +11,14 @@ use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 use super::wide_bvh::WideBvh;
-use super::{CurveSegment, Geometry, Instance, Sphere};
+use super::{CurveSegment, Disk, Geometry, Instance, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
 
 /// A primitive with its data copied in BVH order, so traversal touches one
 /// contiguous array of 48-byte records: a triangle's vertices by
 /// coordinate in lanes 0-2 ([`PackedTriangle`]); lane 3 of `xs` holds, as
 /// bits, 0 for a triangle, 1 + the index of a sphere in `Bvh::spheres`,
+/// [`DISK_BIT`] | the index of a disk in `Bvh::disks`,
 /// [`CURVE_BIT`] | the index of a curve segment in `Bvh::curves`, or
 /// [`INSTANCE_BIT`] | the index of an instance in `Bvh::instances`.
 #[derive(Clone, Copy, Debug)]
@@ -50,6 +51,7 @@ impl Prim {
             0 => PrimKind::Triangle,
             i if i & INSTANCE_BIT != 0 => PrimKind::Instance((i & !INSTANCE_BIT) as usize),
             i if i & CURVE_BIT != 0 => PrimKind::Curve((i & !CURVE_BIT) as usize),
+            i if i & DISK_BIT != 0 => PrimKind::Disk((i & !DISK_BIT) as usize),
             i => PrimKind::Sphere(i as usize - 1),
         }
     }
@@ -70,9 +72,13 @@ const INSTANCE_BIT: u32 = 1 << 31;
 /// Marks a curve segment in lane 3 of [`Prim::xs`].
 const CURVE_BIT: u32 = 1 << 30;
 
+/// Marks a disk in lane 3 of [`Prim::xs`].
+const DISK_BIT: u32 = 1 << 29;
+
 enum PrimKind {
     Triangle,
     Sphere(usize),
+    Disk(usize),
     Curve(usize),
     Instance(usize),
 }
@@ -97,10 +103,10 @@ pub struct BvhHit {
     pub t: f32,
     pub shape: u32,
     /// Triangle index within its mesh, segment index within its curve
-    /// file (0 for spheres).
+    /// file (0 for spheres and disks).
     pub index: u32,
     /// Barycentrics of vertices 1 and 2 (triangles); the parameter along
-    /// the segment in `b1` (curves).
+    /// the segment in `b1` (curves); object x and y (disks).
     pub b1: f32,
     pub b2: f32,
     /// The instance hit, or [`BvhHit::NO_INSTANCE`] for a top-level shape.
@@ -128,6 +134,8 @@ pub struct Bvh {
     prims: Vec<Prim>,
     /// The spheres, in the order of their primitives' indices.
     spheres: Vec<Sphere>,
+    /// The disks, in the order of their primitives' indices.
+    disks: Vec<Disk>,
     /// The curve segments, in the order of their primitives' indices.
     curves: Vec<CurveSegment>,
     refs: Vec<PrimRef>,
@@ -174,6 +182,7 @@ impl Bvh {
         let start = Instant::now();
         let mut prims = Vec::new();
         let mut spheres = Vec::new();
+        let mut disks = Vec::new();
         let mut curves = Vec::new();
         let mut refs = Vec::new();
         let mut boxes = Vec::new();
@@ -198,6 +207,15 @@ impl Bvh {
                         index: 0,
                     });
                     boxes.push(s.bounds());
+                }
+                Geometry::Disk(k) => {
+                    prims.push(Prim::tagged(DISK_BIT | disks.len() as u32));
+                    disks.push(*k);
+                    refs.push(PrimRef {
+                        shape: si as u32,
+                        index: 0,
+                    });
+                    boxes.push(k.bounds());
                 }
                 Geometry::Curve(c) => {
                     for seg in 0..c.segment_count() {
@@ -229,6 +247,7 @@ impl Bvh {
                 bvh: None,
                 prims,
                 spheres,
+                disks,
                 curves,
                 refs,
                 instances,
@@ -277,6 +296,7 @@ impl Bvh {
             bvh: Some(WideBvh::from_cwbvh(&bvh, &leaf_boxes)),
             prims,
             spheres,
+            disks,
             curves,
             refs,
             instances,
@@ -334,6 +354,17 @@ impl Bvh {
                             ..BvhHit::none(t)
                         })
                 }
+                PrimKind::Disk(di) => {
+                    self.disks[di]
+                        .intersect(o, d, tmin, tmax)
+                        .map(|(t, x, y)| BvhHit {
+                            t,
+                            shape: self.refs[id].shape,
+                            b1: x,
+                            b2: y,
+                            ..BvhHit::none(t)
+                        })
+                }
                 PrimKind::Curve(ci) => {
                     self.curves[ci]
                         .intersect(o, d, tmin, tmax)
@@ -382,6 +413,7 @@ impl Bvh {
                     intersect_triangle(&shear, &prim.packed_triangle(), tmin, tmax).is_some()
                 }
                 PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
+                PrimKind::Disk(di) => self.disks[di].intersect(o, d, tmin, tmax).is_some(),
                 PrimKind::Curve(ci) => self.curves[ci].intersect(o, d, tmin, tmax).is_some(),
                 PrimKind::Instance(ii) => {
                     let inst = &self.instances[ii];

@@ -3,6 +3,7 @@
 mod attribute;
 mod bvh;
 mod curve;
+mod disk;
 mod instance;
 mod mesh;
 mod obj;
@@ -16,6 +17,7 @@ mod wide_bvh;
 pub use attribute::MeshAttribute;
 pub use bvh::{Bvh, BvhHit};
 pub use curve::{load_curve, Curve, CurveBasis, CurveError, CurveSegment};
+pub use disk::{Disk, DiskError};
 pub use instance::Instance;
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
@@ -36,6 +38,7 @@ use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};
 pub enum Geometry {
     Mesh(TriangleMesh),
     Sphere(Sphere),
+    Disk(Disk),
     /// Round curves (already in world space: they are placed when read).
     Curve(Curve),
 }
@@ -45,7 +48,7 @@ impl Geometry {
     pub fn primitive_count(&self) -> usize {
         match self {
             Geometry::Mesh(m) => m.triangle_count(),
-            Geometry::Sphere(_) => 1,
+            Geometry::Sphere(_) | Geometry::Disk(_) => 1,
             Geometry::Curve(c) => c.segment_count(),
         }
     }
@@ -54,6 +57,7 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => m.bounds(),
             Geometry::Sphere(s) => s.bounds(),
+            Geometry::Disk(d) => d.bounds(),
             Geometry::Curve(c) => c.bounds(),
         }
     }
@@ -64,6 +68,7 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => m.area(),
             Geometry::Sphere(s) => s.area(),
+            Geometry::Disk(d) => d.area(),
             Geometry::Curve(_) => 0.0,
         }
     }
@@ -74,6 +79,7 @@ impl Geometry {
         let mut its = match self {
             Geometry::Mesh(m) => m.intersection(hit),
             Geometry::Sphere(s) => s.intersection(ray, hit.t),
+            Geometry::Disk(d) => d.intersection(hit),
             Geometry::Curve(c) => c.intersection(ray, hit),
         };
         its.shape = hit.shape;
@@ -90,6 +96,7 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => m.dpdu_dpdv(its.prim as usize),
             Geometry::Sphere(s) => s.dpdu_dpdv((its.p - s.center).normalize_or_zero()),
+            Geometry::Disk(d) => d.dpdu_dpdv(its.p),
             Geometry::Curve(c) => c.dpdu_dpdv(its),
         }
     }
@@ -99,6 +106,7 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => Ok(m.transform(t)?),
             Geometry::Sphere(s) => Ok(s.transform(t)?),
+            Geometry::Disk(d) => Ok(d.transform(t)?),
             Geometry::Curve(c) => {
                 c.transform(t);
                 Ok(())
@@ -115,6 +123,14 @@ pub enum ShapeError {
     Mesh(MeshError),
     #[error("the sphere's {} {}", .0.describe_param(), .0)]
     Sphere(SphereError),
+    #[error("the disk {0}")]
+    Disk(DiskError),
+}
+
+impl From<DiskError> for ShapeError {
+    fn from(e: DiskError) -> Self {
+        ShapeError::Disk(e)
+    }
 }
 
 impl From<MeshError> for ShapeError {

@@ -101,8 +101,8 @@ fn shading_frames_match_mitsuba() {
             .unwrap_or_else(|| panic!("{name}: the ray from {o:?} misses"));
         let f = its.shading;
         let (n, s) = (Vec3::from(n).normalize(), Vec3::from(s).normalize());
-        // The disk is a 512-gon whose dp/du follows each triangle's middle
-        // radius: off by at most half a segment (0.35 degrees).
+        // The cylinder is a 512-gon whose normals are smooth but whose
+        // dp/du follows each facet: off by at most half a segment.
         let n_ok = f.n.dot(n) > 1.0 - 1e-4;
         let s_ok = f.s.dot(s).abs() > 1.0 - 1e-4;
         if !(n_ok && s_ok) {

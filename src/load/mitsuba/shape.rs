@@ -55,6 +55,8 @@ impl<'d> Ctx<'d> {
                 smooth: bool,
             },
             Sphere(Sphere),
+            /// Analytic, or a fan of triangles when it emits (see below).
+            Disk,
             /// Placed when read (its radii do not follow `to_world`).
             Curve(geometry::Curve),
         }
@@ -112,11 +114,7 @@ impl<'d> Ctx<'d> {
                 attributes: Vec::new(),
                 smooth: false,
             },
-            "disk" => Source::Mesh {
-                mesh: geometry::disk_mesh(geometry::ROUND_SEGMENTS),
-                attributes: Vec::new(),
-                smooth: false,
-            },
+            "disk" => Source::Disk,
             "cylinder" => {
                 let p0 = p.get_point("p0", Vec3::ZERO)?;
                 let p1 = p.get_point("p1", Vec3::Z)?;
@@ -221,6 +219,18 @@ impl<'d> Ctx<'d> {
             )
         };
         let mut attributes = Vec::new();
+        // A disk that emits stays a fan of triangles: its light samples
+        // then cover the solid angle of each triangle (spherical-triangle
+        // sampling), which near the light beats the uniform area sampling
+        // an analytic disk (like Mitsuba's) would get.
+        let source = match source {
+            Source::Disk if area.is_some() => Source::Mesh {
+                mesh: geometry::disk_mesh(geometry::ROUND_SEGMENTS),
+                attributes: Vec::new(),
+                smooth: false,
+            },
+            other => other,
+        };
         let geometry = match source {
             Source::Mesh {
                 mut mesh,
@@ -258,6 +268,14 @@ impl<'d> Ctx<'d> {
                     Geometry::Sphere(s)
                 }
             }
+            Source::Disk => {
+                let mut d =
+                    geometry::Disk::new(&to_world).map_err(|e| overflow(&ShapeError::Disk(e)))?;
+                if flip_normals {
+                    d.flip_normals();
+                }
+                Geometry::Disk(d)
+            }
             Source::Curve(c) => {
                 if let Some((_, at)) = &area {
                     return Err(self.err(
@@ -289,7 +307,7 @@ impl<'d> Ctx<'d> {
         // radiance) read this shape's data.
         let indices = match &geometry {
             Geometry::Mesh(m) => m.indices(),
-            Geometry::Sphere(_) | Geometry::Curve(_) => &[],
+            Geometry::Sphere(_) | Geometry::Disk(_) | Geometry::Curve(_) => &[],
         };
         let bind = |t: &mut Texture| match t.mesh_attribute_mut() {
             Some(a) => a.bind(&attributes, indices),
