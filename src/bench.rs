@@ -233,7 +233,7 @@ pub fn ray_queries(root: &Path, threads: usize) -> Result<(f64, f64, usize), Ben
     };
     let closest = time(&|r| scene.bvh.intersect(r).is_some());
     let any = time(&|r| scene.bvh.occluded(r));
-    Ok((closest, any, scene.bvh.primitive_count()))
+    Ok((closest, any, scene.triangle_count()))
 }
 
 /// Mitsuba's timings keyed by (scene name, variant, threads).

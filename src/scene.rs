@@ -266,7 +266,10 @@ impl Scene {
             .iter()
             .map(|g| match g {
                 Geometry::Mesh(m) => m.triangle_count(),
-                Geometry::Sphere(_) | Geometry::Disk(_) | Geometry::Curve(_) => 0,
+                Geometry::Sphere(_)
+                | Geometry::Disk(_)
+                | Geometry::Rectangle(_)
+                | Geometry::Curve(_) => 0,
             })
             .sum()
     }

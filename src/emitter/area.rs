@@ -87,6 +87,7 @@ impl AreaLight {
             Geometry::Mesh(m) => m.shading(s.prim as usize, s.bary.x, s.bary.y).1,
             Geometry::Sphere(sp) => sp.normal_uv(s.p).1,
             Geometry::Disk(d) => d.uv_at(s.p),
+            Geometry::Rectangle(r) => r.uv_at(s.p),
             // Curves emit nothing (the scene refuses an area light on one).
             Geometry::Curve(_) => Vec2::ZERO,
         };
@@ -128,6 +129,7 @@ impl AreaLight {
                 None => sp.sample_area(u),
             },
             Geometry::Disk(d) => d.sample_area(u),
+            Geometry::Rectangle(r) => r.sample_area(u),
             Geometry::Curve(_) => return None,
         };
         let to = s.p - p_ref;
@@ -215,7 +217,7 @@ impl AreaLight {
                     }
                 }
             }
-            Geometry::Disk(_) => {}
+            Geometry::Disk(_) | Geometry::Rectangle(_) => {}
             Geometry::Curve(_) => return 0.0,
         }
         let area = g.area();

@@ -53,6 +53,17 @@ impl LightBounds {
         }
     }
 
+    /// A flat shape in `frame` with box `b`, emitting from its front.
+    fn flat(frame: &crate::geometry::PlaneFrame, b: crate::math::Aabb, power: f32) -> LightBounds {
+        LightBounds {
+            centre: frame.center,
+            radius: 0.5 * b.diagonal().length(),
+            power,
+            axis: frame.n,
+            cos_theta_o: 1.0,
+        }
+    }
+
     /// Bounds of an emitter of power `power`, `None` for lights at
     /// infinity.
     pub fn of(emitter: &Emitter, ctx: &EmitterContext, power: f32) -> Option<LightBounds> {
@@ -76,16 +87,8 @@ impl LightBounds {
             }),
             Emitter::Area(a) => match &ctx.shapes[a.shape as usize] {
                 Geometry::Sphere(s) => Some(LightBounds::omni(s.center, s.radius, power)),
-                Geometry::Disk(d) => {
-                    let b = d.bounds();
-                    Some(LightBounds {
-                        centre: d.center,
-                        radius: 0.5 * b.diagonal().length(),
-                        power,
-                        axis: d.n,
-                        cos_theta_o: 1.0,
-                    })
-                }
+                Geometry::Disk(d) => Some(LightBounds::flat(&d.frame, d.bounds(), power)),
+                Geometry::Rectangle(r) => Some(LightBounds::flat(&r.frame, r.bounds(), power)),
                 Geometry::Mesh(m) => {
                     let b = m.bounds();
                     let (axis, cos_theta_o) = normal_cone(m);

@@ -11,14 +11,15 @@ use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 use super::wide_bvh::WideBvh;
-use super::{CurveSegment, Disk, Geometry, Instance, Sphere};
+use super::{CurveSegment, Disk, Geometry, Instance, Rectangle, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
 
 /// A primitive with its data copied in BVH order, so traversal touches one
 /// contiguous array of 48-byte records: a triangle's vertices by
 /// coordinate in lanes 0-2 ([`PackedTriangle`]); lane 3 of `xs` holds, as
 /// bits, 0 for a triangle, 1 + the index of a sphere in `Bvh::spheres`,
-/// [`DISK_BIT`] | the index of a disk in `Bvh::disks`,
+/// [`DISK_BIT`] | the index of a disk in `Bvh::disks`, [`RECTANGLE_BIT`] |
+/// the index of a rectangle in `Bvh::rectangles`,
 /// [`CURVE_BIT`] | the index of a curve segment in `Bvh::curves`, or
 /// [`INSTANCE_BIT`] | the index of an instance in `Bvh::instances`.
 #[derive(Clone, Copy, Debug)]
@@ -52,6 +53,7 @@ impl Prim {
             i if i & INSTANCE_BIT != 0 => PrimKind::Instance((i & !INSTANCE_BIT) as usize),
             i if i & CURVE_BIT != 0 => PrimKind::Curve((i & !CURVE_BIT) as usize),
             i if i & DISK_BIT != 0 => PrimKind::Disk((i & !DISK_BIT) as usize),
+            i if i & RECTANGLE_BIT != 0 => PrimKind::Rectangle((i & !RECTANGLE_BIT) as usize),
             i => PrimKind::Sphere(i as usize - 1),
         }
     }
@@ -75,10 +77,14 @@ const CURVE_BIT: u32 = 1 << 30;
 /// Marks a disk in lane 3 of [`Prim::xs`].
 const DISK_BIT: u32 = 1 << 29;
 
+/// Marks a rectangle in lane 3 of [`Prim::xs`].
+const RECTANGLE_BIT: u32 = 1 << 28;
+
 enum PrimKind {
     Triangle,
     Sphere(usize),
     Disk(usize),
+    Rectangle(usize),
     Curve(usize),
     Instance(usize),
 }
@@ -103,10 +109,10 @@ pub struct BvhHit {
     pub t: f32,
     pub shape: u32,
     /// Triangle index within its mesh, segment index within its curve
-    /// file (0 for spheres and disks).
+    /// file (0 for spheres, disks and rectangles).
     pub index: u32,
     /// Barycentrics of vertices 1 and 2 (triangles); the parameter along
-    /// the segment in `b1` (curves); object x and y (disks).
+    /// the segment in `b1` (curves); object x and y (disks, rectangles).
     pub b1: f32,
     pub b2: f32,
     /// The instance hit, or [`BvhHit::NO_INSTANCE`] for a top-level shape.
@@ -136,6 +142,8 @@ pub struct Bvh {
     spheres: Vec<Sphere>,
     /// The disks, in the order of their primitives' indices.
     disks: Vec<Disk>,
+    /// The rectangles, in the order of their primitives' indices.
+    rectangles: Vec<Rectangle>,
     /// The curve segments, in the order of their primitives' indices.
     curves: Vec<CurveSegment>,
     refs: Vec<PrimRef>,
@@ -183,6 +191,7 @@ impl Bvh {
         let mut prims = Vec::new();
         let mut spheres = Vec::new();
         let mut disks = Vec::new();
+        let mut rectangles = Vec::new();
         let mut curves = Vec::new();
         let mut refs = Vec::new();
         let mut boxes = Vec::new();
@@ -217,6 +226,15 @@ impl Bvh {
                     });
                     boxes.push(k.bounds());
                 }
+                Geometry::Rectangle(r) => {
+                    prims.push(Prim::tagged(RECTANGLE_BIT | rectangles.len() as u32));
+                    rectangles.push(*r);
+                    refs.push(PrimRef {
+                        shape: si as u32,
+                        index: 0,
+                    });
+                    boxes.push(r.bounds());
+                }
                 Geometry::Curve(c) => {
                     for seg in 0..c.segment_count() {
                         prims.push(Prim::tagged(CURVE_BIT | curves.len() as u32));
@@ -248,6 +266,7 @@ impl Bvh {
                 prims,
                 spheres,
                 disks,
+                rectangles,
                 curves,
                 refs,
                 instances,
@@ -297,6 +316,7 @@ impl Bvh {
             prims,
             spheres,
             disks,
+            rectangles,
             curves,
             refs,
             instances,
@@ -354,17 +374,12 @@ impl Bvh {
                             ..BvhHit::none(t)
                         })
                 }
-                PrimKind::Disk(di) => {
-                    self.disks[di]
-                        .intersect(o, d, tmin, tmax)
-                        .map(|(t, x, y)| BvhHit {
-                            t,
-                            shape: self.refs[id].shape,
-                            b1: x,
-                            b2: y,
-                            ..BvhHit::none(t)
-                        })
-                }
+                PrimKind::Disk(di) => self.disks[di]
+                    .intersect(o, d, tmin, tmax)
+                    .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
+                PrimKind::Rectangle(ri) => self.rectangles[ri]
+                    .intersect(o, d, tmin, tmax)
+                    .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
                 PrimKind::Curve(ci) => {
                     self.curves[ci]
                         .intersect(o, d, tmin, tmax)
@@ -414,6 +429,9 @@ impl Bvh {
                 }
                 PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
                 PrimKind::Disk(di) => self.disks[di].intersect(o, d, tmin, tmax).is_some(),
+                PrimKind::Rectangle(ri) => {
+                    self.rectangles[ri].intersect(o, d, tmin, tmax).is_some()
+                }
                 PrimKind::Curve(ci) => self.curves[ci].intersect(o, d, tmin, tmax).is_some(),
                 PrimKind::Instance(ii) => {
                     let inst = &self.instances[ii];
@@ -422,5 +440,18 @@ impl Bvh {
                 }
             }
         })
+    }
+}
+
+/// The hit record of a flat analytic shape: its object coordinates `l`
+/// ride in the barycentrics' place.
+#[inline]
+fn planar_hit(t: f32, l: glam::Vec2, shape: u32) -> BvhHit {
+    BvhHit {
+        t,
+        shape,
+        b1: l.x,
+        b2: l.y,
+        ..BvhHit::none(t)
     }
 }

@@ -7,7 +7,9 @@ mod disk;
 mod instance;
 mod mesh;
 mod obj;
+mod plane;
 mod ply;
+mod rectangle;
 mod serialized;
 mod shapes;
 mod sphere;
@@ -17,11 +19,13 @@ mod wide_bvh;
 pub use attribute::MeshAttribute;
 pub use bvh::{Bvh, BvhHit};
 pub use curve::{load_curve, Curve, CurveBasis, CurveError, CurveSegment};
-pub use disk::{Disk, DiskError};
+pub use disk::Disk;
 pub use instance::Instance;
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
+pub use plane::{PlaneError, PlaneFrame};
 pub use ply::{load_ply, load_ply_full, parse_ply, parse_ply_full};
+pub use rectangle::Rectangle;
 pub use serialized::{
     load_serialized, load_serialized_full, parse_serialized, parse_serialized_full, SerializedError,
 };
@@ -39,6 +43,7 @@ pub enum Geometry {
     Mesh(TriangleMesh),
     Sphere(Sphere),
     Disk(Disk),
+    Rectangle(Rectangle),
     /// Round curves (already in world space: they are placed when read).
     Curve(Curve),
 }
@@ -48,7 +53,7 @@ impl Geometry {
     pub fn primitive_count(&self) -> usize {
         match self {
             Geometry::Mesh(m) => m.triangle_count(),
-            Geometry::Sphere(_) | Geometry::Disk(_) => 1,
+            Geometry::Sphere(_) | Geometry::Disk(_) | Geometry::Rectangle(_) => 1,
             Geometry::Curve(c) => c.segment_count(),
         }
     }
@@ -58,6 +63,7 @@ impl Geometry {
             Geometry::Mesh(m) => m.bounds(),
             Geometry::Sphere(s) => s.bounds(),
             Geometry::Disk(d) => d.bounds(),
+            Geometry::Rectangle(r) => r.bounds(),
             Geometry::Curve(c) => c.bounds(),
         }
     }
@@ -69,6 +75,7 @@ impl Geometry {
             Geometry::Mesh(m) => m.area(),
             Geometry::Sphere(s) => s.area(),
             Geometry::Disk(d) => d.area(),
+            Geometry::Rectangle(r) => r.area(),
             Geometry::Curve(_) => 0.0,
         }
     }
@@ -80,6 +87,7 @@ impl Geometry {
             Geometry::Mesh(m) => m.intersection(hit),
             Geometry::Sphere(s) => s.intersection(ray, hit.t),
             Geometry::Disk(d) => d.intersection(hit),
+            Geometry::Rectangle(r) => r.intersection(hit),
             Geometry::Curve(c) => c.intersection(ray, hit),
         };
         its.shape = hit.shape;
@@ -97,6 +105,7 @@ impl Geometry {
             Geometry::Mesh(m) => m.dpdu_dpdv(its.prim as usize),
             Geometry::Sphere(s) => s.dpdu_dpdv((its.p - s.center).normalize_or_zero()),
             Geometry::Disk(d) => d.dpdu_dpdv(its.p),
+            Geometry::Rectangle(r) => r.dpdu_dpdv(),
             Geometry::Curve(c) => c.dpdu_dpdv(its),
         }
     }
@@ -106,7 +115,8 @@ impl Geometry {
         match self {
             Geometry::Mesh(m) => Ok(m.transform(t)?),
             Geometry::Sphere(s) => Ok(s.transform(t)?),
-            Geometry::Disk(d) => Ok(d.transform(t)?),
+            Geometry::Disk(d) => d.transform(t).map_err(ShapeError::Disk),
+            Geometry::Rectangle(r) => r.transform(t).map_err(ShapeError::Rectangle),
             Geometry::Curve(c) => {
                 c.transform(t);
                 Ok(())
@@ -124,13 +134,9 @@ pub enum ShapeError {
     #[error("the sphere's {} {}", .0.describe_param(), .0)]
     Sphere(SphereError),
     #[error("the disk {0}")]
-    Disk(DiskError),
-}
-
-impl From<DiskError> for ShapeError {
-    fn from(e: DiskError) -> Self {
-        ShapeError::Disk(e)
-    }
+    Disk(PlaneError),
+    #[error("the rectangle {0}")]
+    Rectangle(PlaneError),
 }
 
 impl From<MeshError> for ShapeError {

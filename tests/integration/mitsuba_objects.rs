@@ -43,19 +43,23 @@ fn every_shape() {
     let path = dir.path().join("s.xml");
     let (desc, w) = load_scene_str(&text, &path).unwrap();
     assert!(w.is_empty(), "{w:?}");
-    close_f(mesh(&desc, 0).area(), 4.0 * 6.0, 1e-4);
+    close_f(desc.scene.shapes[0].geometry.area(), 4.0 * 6.0, 1e-6);
     close_f(mesh(&desc, 1).area(), 6.0, 1e-4);
     close_f(desc.scene.shapes[2].geometry.area(), 4.0 * PI, 1e-6);
     close_f(mesh(&desc, 3).area(), 2.0 * PI * 0.5 * 3.0, 1e-3);
-    // The rectangle faces +z, the (analytic) disk too; cube normals point
+    // The (analytic) rectangle faces +z, the disk too; cube normals point
     // outward.
-    for n in mesh(&desc, 0).normals() {
-        close(*n, Vec3::Z);
+    match &desc.scene.shapes[0].geometry {
+        Geometry::Rectangle(r) => {
+            close(r.frame.n, Vec3::Z);
+            close(r.frame.ey, Vec3::Y * 3.0);
+        }
+        g => panic!("{g:?}"),
     }
     match &desc.scene.shapes[2].geometry {
         Geometry::Disk(d) => {
-            close(d.n, Vec3::Z);
-            close(d.ex, Vec3::X * 2.0);
+            close(d.frame.n, Vec3::Z);
+            close(d.frame.ex, Vec3::X * 2.0);
         }
         g => panic!("{g:?}"),
     }
@@ -92,19 +96,29 @@ fn every_shape() {
     assert!(mesh(&desc, 7).normals().is_empty());
 }
 
-/// A disk is analytic, except one that emits: that stays a fan of
-/// triangles with the disk's exact area, so its light samples cover each
-/// triangle's solid angle rather than the disk's area.
+/// Disks and rectangles are analytic, except those that emit: they stay
+/// triangles (a fan with the disk's exact area, a pair), so their light
+/// samples cover each triangle's solid angle rather than the shape's area.
 #[test]
-fn an_emitting_disk_stays_a_fan() {
+fn emitting_disks_and_rectangles_stay_triangles() {
     let desc = load_clean(&scene(
         r#"<shape type="disk"><transform name="to_world"><scale x="2" y="0.5"/></transform></shape>
            <shape type="disk"><transform name="to_world"><scale x="2" y="0.5"/></transform>
+               <emitter type="area"/></shape>
+           <shape type="rectangle"><transform name="to_world"><scale x="2" y="0.5"/></transform></shape>
+           <shape type="rectangle"><transform name="to_world"><scale x="2" y="0.5"/></transform>
                <emitter type="area"/></shape>"#,
     ));
     assert!(matches!(desc.scene.shapes[0].geometry, Geometry::Disk(_)));
     close_f(desc.scene.shapes[0].geometry.area(), PI, 1e-6);
     close_f(mesh(&desc, 1).area(), PI, 1e-4);
+    assert!(matches!(
+        desc.scene.shapes[2].geometry,
+        Geometry::Rectangle(_)
+    ));
+    close_f(desc.scene.shapes[2].geometry.area(), 4.0, 1e-6);
+    assert_eq!(mesh(&desc, 3).triangle_count(), 2);
+    close_f(mesh(&desc, 3).area(), 4.0, 1e-6);
 }
 
 #[test]
@@ -114,20 +128,26 @@ fn flip_normals_and_mirrors() {
            <shape type="rectangle"><transform name="to_world"><scale z="-1"/></transform></shape>
            <shape type="disk"><boolean name="flip_normals" value="true"/></shape>"#,
     ));
+    // flip_normals turns each flat shape's front; a mirror through z
+    // turns the rectangle's normal too (inverse transpose).
+    for i in 0..3 {
+        match &desc.scene.shapes[i].geometry {
+            Geometry::Rectangle(r) => close(r.frame.n, Vec3::NEG_Z),
+            Geometry::Disk(d) => close(d.frame.n, Vec3::NEG_Z),
+            g => panic!("{g:?}"),
+        }
+    }
+    // An emitting rectangle is two triangles, flipped the same way.
+    let desc = load_clean(&scene(
+        r#"<shape type="rectangle"><boolean name="flip_normals" value="true"/>
+               <emitter type="area"/></shape>"#,
+    ));
     let m = mesh(&desc, 0);
     for (t, _) in m.indices().iter().enumerate() {
         close(m.geometric_normal(t), Vec3::NEG_Z);
     }
     for n in m.normals() {
         close(*n, Vec3::NEG_Z);
-    }
-    // A mirror through z turns the rectangle's normal (inverse transpose).
-    for n in mesh(&desc, 1).normals() {
-        close(*n, Vec3::NEG_Z);
-    }
-    match &desc.scene.shapes[2].geometry {
-        Geometry::Disk(d) => close(d.n, Vec3::NEG_Z),
-        g => panic!("{g:?}"),
     }
     // A flipped sphere becomes an inward-facing mesh, with a warning.
     let (desc, w) = load(&scene(

@@ -826,12 +826,23 @@ fn transform_of(ops: &str) -> Mapped {
     let desc = load_clean(&scene(&format!(
         "<shape type=\"rectangle\"><transform name=\"to_world\">{ops}</transform></shape>"
     )));
-    let p = &mesh(&desc, 0).positions();
+    let p = rectangle_corners(&desc, 0);
     Mapped {
         origin: (p[0] + p[2]) * 0.5,
         x: (p[1] - p[0]) * 0.5,
         y: (p[2] - p[1]) * 0.5,
     }
+}
+
+/// The corners of the (analytic) rectangle shape `i`, at object
+/// (-1, -1), (1, -1), (1, 1), (-1, 1).
+pub(crate) fn rectangle_corners(desc: &SceneFile, i: usize) -> [Vec3; 4] {
+    let Geometry::Rectangle(r) = &desc.scene.shapes[i].geometry else {
+        panic!("shape {i} is not a rectangle");
+    };
+    let f = &r.frame;
+    [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .map(|(x, y)| f.center + x * f.ex + y * f.ey)
 }
 
 #[test]
@@ -873,7 +884,7 @@ fn transforms_apply_in_document_order() {
         Vec3::new(1.0, 1.0, 0.0),
         Vec3::new(-1.0, 1.0, 0.0),
     ];
-    for (p, q) in mesh(&desc, 0).positions().iter().zip(rect) {
+    for (p, q) in rectangle_corners(&desc, 0).iter().zip(rect) {
         close(*p, m.transform_point3(q));
     }
     // matrix (row-major, 16 or 9 values), lookat, uniform scale.

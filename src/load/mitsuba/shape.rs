@@ -55,8 +55,9 @@ impl<'d> Ctx<'d> {
                 smooth: bool,
             },
             Sphere(Sphere),
-            /// Analytic, or a fan of triangles when it emits (see below).
+            /// Analytic, or triangles when they emit (see below).
             Disk,
+            Rectangle,
             /// Placed when read (its radii do not follow `to_world`).
             Curve(geometry::Curve),
         }
@@ -104,11 +105,7 @@ impl<'d> Ctx<'d> {
                     smooth,
                 }
             }
-            "rectangle" => Source::Mesh {
-                mesh: geometry::rectangle_mesh(),
-                attributes: Vec::new(),
-                smooth: false,
-            },
+            "rectangle" => Source::Rectangle,
             "cube" => Source::Mesh {
                 mesh: geometry::cube_mesh(),
                 attributes: Vec::new(),
@@ -219,16 +216,20 @@ impl<'d> Ctx<'d> {
             )
         };
         let mut attributes = Vec::new();
-        // A disk that emits stays a fan of triangles: its light samples
-        // then cover the solid angle of each triangle (spherical-triangle
-        // sampling), which near the light beats the uniform area sampling
-        // an analytic disk (like Mitsuba's) would get.
+        // A disk or rectangle that emits stays triangles (a fan, a pair):
+        // its light samples then cover the solid angle of each triangle
+        // (spherical-triangle sampling), which near the light beats the
+        // uniform area sampling an analytic shape (like Mitsuba's) gets.
+        let triangles = |mesh| Source::Mesh {
+            mesh,
+            attributes: Vec::new(),
+            smooth: false,
+        };
         let source = match source {
-            Source::Disk if area.is_some() => Source::Mesh {
-                mesh: geometry::disk_mesh(geometry::ROUND_SEGMENTS),
-                attributes: Vec::new(),
-                smooth: false,
-            },
+            Source::Disk if area.is_some() => {
+                triangles(geometry::disk_mesh(geometry::ROUND_SEGMENTS))
+            }
+            Source::Rectangle if area.is_some() => triangles(geometry::rectangle_mesh()),
             other => other,
         };
         let geometry = match source {
@@ -276,6 +277,14 @@ impl<'d> Ctx<'d> {
                 }
                 Geometry::Disk(d)
             }
+            Source::Rectangle => {
+                let mut r = geometry::Rectangle::new(&to_world)
+                    .map_err(|e| overflow(&ShapeError::Rectangle(e)))?;
+                if flip_normals {
+                    r.flip_normals();
+                }
+                Geometry::Rectangle(r)
+            }
             Source::Curve(c) => {
                 if let Some((_, at)) = &area {
                     return Err(self.err(
@@ -307,7 +316,10 @@ impl<'d> Ctx<'d> {
         // radiance) read this shape's data.
         let indices = match &geometry {
             Geometry::Mesh(m) => m.indices(),
-            Geometry::Sphere(_) | Geometry::Disk(_) | Geometry::Curve(_) => &[],
+            Geometry::Sphere(_)
+            | Geometry::Disk(_)
+            | Geometry::Rectangle(_)
+            | Geometry::Curve(_) => &[],
         };
         let bind = |t: &mut Texture| match t.mesh_attribute_mut() {
             Some(a) => a.bind(&attributes, indices),
