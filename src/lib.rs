@@ -26,4 +26,5 @@ pub mod scene;
 pub mod stats;
 pub mod tev;
 pub mod texture;
+pub mod unit_queue;
 pub mod verify;

@@ -1,13 +1,15 @@
 //! Progressive tile scheduler: renders the scene in passes over the whole
-//! image (each pass adds a few samples to every pixel), work units of a
-//! pass on rayon's pool, with deterministic per-sample seeding, a progress
+//! image (each pass adds a few samples to every pixel), work units on
+//! rayon's pool, with deterministic per-sample seeding, a progress
 //! bar, and cooperative cancellation.
 //!
 //! A work unit is a tile and a slice of the pass's samples: a small image
 //! has few tiles, so its passes are cut into sample slices until there are
-//! at least [`MIN_UNITS`] units, enough to keep 16 threads busy to the end
-//! of a pass. Big images keep one unit per tile (and the memory of one
-//! block per tile).
+//! at least [`MIN_UNITS`] units. Big images keep one unit per tile (and
+//! the memory of one block per tile). The units of all passes wait on one
+//! [`UnitQueue`], so threads never idle at the end of a pass: they go on
+//! to the next one (at most [`MIN_UNITS`] units beyond the pass being
+//! finished) while the calling thread merges finished passes in order.
 //!
 //! Determinism: sample `s` of pixel `p` always draws from the generator
 //! seeded by (seed, p, s); each unit splats into its own block and blocks
@@ -18,10 +20,8 @@
 //! the passes (live preview, checkpoints).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-use rayon::prelude::*;
 
 use crate::aov::{AovList, MAX_AOV_CHANNELS};
 use crate::image::{Bitmap, Film, FilmBlock, Filter};
@@ -30,6 +30,7 @@ use crate::math::Vec2;
 use crate::progress::{Progress, ProgressMode};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
+use crate::unit_queue::{Take, UnitQueue};
 
 /// Edge length of a square tile in pixels.
 pub const TILE_SIZE: u32 = 32;
@@ -184,16 +185,29 @@ pub struct WorkUnit {
 /// [`MIN_UNITS`] units (at most one slice per sample).
 pub fn work_units(tiles: &[Tile], s0: u32, s1: u32) -> Vec<WorkUnit> {
     let n = (s1 - s0) as usize;
-    let slices = MIN_UNITS.div_ceil(tiles.len().max(1)).clamp(1, n.max(1));
+    let slices = slices_per_tile(tiles.len(), n);
     let mut units = Vec::with_capacity(tiles.len() * slices);
     for &tile in tiles {
         for j in 0..slices {
-            let a = s0 + (n * j / slices) as u32;
-            let b = s0 + (n * (j + 1) / slices) as u32;
-            units.push(WorkUnit { tile, s0: a, s1: b });
+            let (s0, s1) = slice(s0, n, j, slices);
+            units.push(WorkUnit { tile, s0, s1 });
         }
     }
     units
+}
+
+/// How many sample slices each tile's share of a pass of `n` samples is
+/// cut into, for an image of `tile_count` tiles.
+fn slices_per_tile(tile_count: usize, n: usize) -> usize {
+    MIN_UNITS.div_ceil(tile_count.max(1)).clamp(1, n.max(1))
+}
+
+/// Slice `j` of `slices` equal slices of the samples `s0..s0 + n`.
+fn slice(s0: u32, n: usize, j: usize, slices: usize) -> (u32, u32) {
+    (
+        s0 + (n * j / slices) as u32,
+        s0 + (n * (j + 1) / slices) as u32,
+    )
 }
 
 /// Seeds the AOVs' random streams apart from the image's (the image is
@@ -239,7 +253,8 @@ pub fn render_tile(
 }
 
 /// Peak memory of a render per image pixel, an upper estimate: the film
-/// (16 bytes), a pass's blocks, the final bitmap (12) and the encoded
+/// (16 bytes), a pass's blocks (plus at most [`MIN_UNITS`] blocks of the
+/// next pass: a constant), the final bitmap (12) and the encoded
 /// outputs. Measured: 35.6 bytes (peak RSS of an 8000x8000 render).
 pub const PEAK_BYTES_PER_PIXEL: u64 = 40;
 
@@ -311,56 +326,83 @@ pub fn render_with_passes(
         }
         _ => Film::new(w as usize, film_h).with_aovs(aov_channels),
     };
-    let mut spp_done = first;
-    for (pass, &(s0, s1)) in passes.iter().enumerate() {
-        if cancel.load(Ordering::Relaxed) {
-            break;
+    // Every pass's units, in merge order, on one queue: threads go on to
+    // the next pass while the last units of one finish. This thread merges
+    // the passes in order and renders units while it waits.
+    // Unit j of a pass is slice j % k of tile j / k ([`work_units`]'s
+    // order), over the tiles that reach the strip (all without one).
+    let reached: Vec<Tile> = tiles
+        .iter()
+        .copied()
+        .filter(|t| opts.rows.is_none() || reaches(t))
+        .collect();
+    let slices: Vec<usize> = passes
+        .iter()
+        .map(|&(s0, s1)| slices_per_tile(tiles.len(), (s1 - s0) as usize))
+        .collect();
+    let queue = UnitQueue::new(slices.iter().map(|k| k * reached.len()), MIN_UNITS);
+    let unit_at = |i: usize| {
+        let (pass, j) = queue.locate(i);
+        let ((s0, s1), k) = (passes[pass], slices[pass]);
+        let (s0, s1) = slice(s0, (s1 - s0) as usize, j % k, k);
+        WorkUnit {
+            tile: reached[j / k],
+            s0,
+            s1,
         }
-        progress.start_pass(pass);
-        let mut units = work_units(&tiles, s0, s1);
-        if opts.rows.is_some() {
-            units.retain(|u| reaches(&u.tile));
-        }
-        let blocks: Mutex<Vec<Option<FilmBlock>>> = Mutex::new(vec![None; units.len()]);
-        units.par_iter().enumerate().for_each(|(i, unit)| {
-            if cancel.load(Ordering::Relaxed) {
-                return;
-            }
-            let WorkUnit { tile, s0, s1 } = *unit;
-            let Some(block) =
-                render_tile(scene, job, tile, (s0, s1), opts.seed, &opts.aovs, abandon)
-            else {
-                return;
-            };
+    };
+    let stop = || cancel.load(Ordering::Relaxed) || abandon.load(Ordering::Relaxed);
+    let render_unit = |i: usize| {
+        let WorkUnit { tile, s0, s1 } = unit_at(i);
+        let block = render_tile(scene, job, tile, (s0, s1), opts.seed, &opts.aovs, abandon);
+        if block.is_some() {
             let n = (tile.w * tile.h) as u64 * (s1 - s0) as u64;
             samples.fetch_add(n, Ordering::Relaxed);
-            blocks.lock().expect("no panics while holding the lock")[i] = Some(block);
             progress.add(n);
-        });
-        // A pass cut short is dropped whole: the film then holds samples
-        // 0..spp_done of every pixel, no more (so it can be continued).
-        if cancel.load(Ordering::Relaxed) {
-            break;
         }
-        // Merge in unit order: the sum is then independent of scheduling.
-        for mut b in blocks
-            .into_inner()
-            .expect("lock not poisoned")
-            .into_iter()
-            .flatten()
-        {
-            b.y0 -= r0 as i32;
-            film.merge(&b);
+        queue.finish(i, block);
+    };
+    let mut spp_done = first;
+    rayon::in_place_scope(|scope| {
+        for _ in 1..rayon::current_num_threads() {
+            scope.spawn(|_| {
+                while let Some(i) = queue.claim(stop) {
+                    render_unit(i);
+                }
+            });
         }
-        spp_done = s1;
-        on_pass(&PassInfo {
-            film: &film,
-            spp_done,
-            spp_total: job.spp,
-            samples: samples.load(Ordering::Relaxed),
-            elapsed: start.elapsed(),
-        });
-    }
+        for (pass, &(_, s1)) in passes.iter().enumerate() {
+            progress.start_pass(pass);
+            let blocks = loop {
+                match queue.try_take() {
+                    Take::Pass(blocks) => break Some(blocks),
+                    Take::Never => break None,
+                    Take::Pending => match queue.try_claim(stop) {
+                        Some(i) => render_unit(i),
+                        None => queue.wait(),
+                    },
+                }
+            };
+            // A pass cut short is dropped whole: the film then holds
+            // samples 0..spp_done of every pixel, no more (so it can be
+            // continued).
+            let Some(blocks) = blocks else { break };
+            // Merge in unit order: the sum is then independent of
+            // scheduling.
+            for mut b in blocks {
+                b.y0 -= r0 as i32;
+                film.merge(&b);
+            }
+            spp_done = s1;
+            on_pass(&PassInfo {
+                film: &film,
+                spp_done,
+                spp_total: job.spp,
+                samples: samples.load(Ordering::Relaxed),
+                elapsed: start.elapsed(),
+            });
+        }
+    });
     progress.finish();
     RenderOutput {
         image: film.to_bitmap(),
