@@ -184,16 +184,10 @@ pub struct WorkUnit {
 /// tile cut into the same number of equal sample slices, as many as make
 /// [`MIN_UNITS`] units (at most one slice per sample).
 pub fn work_units(tiles: &[Tile], s0: u32, s1: u32) -> Vec<WorkUnit> {
-    let n = (s1 - s0) as usize;
-    let slices = slices_per_tile(tiles.len(), n);
-    let mut units = Vec::with_capacity(tiles.len() * slices);
-    for &tile in tiles {
-        for j in 0..slices {
-            let (s0, s1) = slice(s0, n, j, slices);
-            units.push(WorkUnit { tile, s0, s1 });
-        }
-    }
-    units
+    let slices = slices_per_tile(tiles.len(), (s1 - s0) as usize);
+    (0..tiles.len() * slices)
+        .map(|j| nth_unit(tiles, slices, (s0, s1), j))
+        .collect()
 }
 
 /// How many sample slices each tile's share of a pass of `n` samples is
@@ -202,12 +196,16 @@ fn slices_per_tile(tile_count: usize, n: usize) -> usize {
     MIN_UNITS.div_ceil(tile_count.max(1)).clamp(1, n.max(1))
 }
 
-/// Slice `j` of `slices` equal slices of the samples `s0..s0 + n`.
-fn slice(s0: u32, n: usize, j: usize, slices: usize) -> (u32, u32) {
-    (
-        s0 + (n * j / slices) as u32,
-        s0 + (n * (j + 1) / slices) as u32,
-    )
+/// Unit `j` of the pass over samples `s0..s1` whose tiles are each cut
+/// into `slices` equal sample slices: slice `j % slices` of tile
+/// `j / slices` (tiles in order, slices in order within a tile).
+fn nth_unit(tiles: &[Tile], slices: usize, (s0, s1): (u32, u32), j: usize) -> WorkUnit {
+    let (n, k) = ((s1 - s0) as usize, j % slices);
+    WorkUnit {
+        tile: tiles[j / slices],
+        s0: s0 + (n * k / slices) as u32,
+        s1: s0 + (n * (k + 1) / slices) as u32,
+    }
 }
 
 /// Seeds the AOVs' random streams apart from the image's (the image is
@@ -329,8 +327,8 @@ pub fn render_with_passes(
     // Every pass's units, in merge order, on one queue: threads go on to
     // the next pass while the last units of one finish. This thread merges
     // the passes in order and renders units while it waits.
-    // Unit j of a pass is slice j % k of tile j / k ([`work_units`]'s
-    // order), over the tiles that reach the strip (all without one).
+    // A pass's units are [`work_units`]' (sliced as for the whole image),
+    // less those of tiles that do not reach the strip.
     let reached: Vec<Tile> = tiles
         .iter()
         .copied()
@@ -343,13 +341,7 @@ pub fn render_with_passes(
     let queue = UnitQueue::new(slices.iter().map(|k| k * reached.len()), MIN_UNITS);
     let unit_at = |i: usize| {
         let (pass, j) = queue.locate(i);
-        let ((s0, s1), k) = (passes[pass], slices[pass]);
-        let (s0, s1) = slice(s0, (s1 - s0) as usize, j % k, k);
-        WorkUnit {
-            tile: reached[j / k],
-            s0,
-            s1,
-        }
+        nth_unit(&reached, slices[pass], passes[pass], j)
     };
     let stop = || cancel.load(Ordering::Relaxed) || abandon.load(Ordering::Relaxed);
     let render_unit = |i: usize| {

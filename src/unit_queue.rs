@@ -177,9 +177,10 @@ impl<T> UnitQueue<T> {
         if st.done[pass] == b - a {
             st.taken += 1;
             st.first_held = b;
-            let results: Option<Vec<T>> = st.held.drain(..b - a).collect();
+            // All of them hold a result: `done` counts only those.
+            let results = st.held.drain(..b - a).flatten().collect();
             self.changed.notify_all();
-            return results.map_or(Take::Never, Take::Pass);
+            return Take::Pass(results);
         }
         // Unfinished: it can still finish while its units are handed out
         // or rendering; not once the queue stopped with none in flight,

@@ -196,54 +196,51 @@ impl Bvh {
         let mut refs = Vec::new();
         let mut boxes = Vec::new();
         let mut bounds = Aabb::EMPTY;
+        // One primitive: its record, the shape and index a hit reports,
+        // its box.
+        let mut add = |prim: Prim, shape: usize, index: usize, b: Aabb| {
+            prims.push(prim);
+            refs.push(PrimRef {
+                shape: shape as u32,
+                index: index as u32,
+            });
+            boxes.push(b);
+        };
         for (si, g) in shapes.iter().enumerate().take(range.end).skip(range.start) {
             match g {
                 Geometry::Mesh(m) => {
                     for ti in 0..m.triangle_count() {
-                        prims.push(Prim::triangle(m.vertices(ti)));
-                        refs.push(PrimRef {
-                            shape: si as u32,
-                            index: ti as u32,
-                        });
-                        boxes.push(m.triangle_bounds(ti));
+                        add(
+                            Prim::triangle(m.vertices(ti)),
+                            si,
+                            ti,
+                            m.triangle_bounds(ti),
+                        );
                     }
                 }
                 Geometry::Sphere(s) => {
-                    prims.push(Prim::tagged(spheres.len() as u32 + 1));
+                    add(Prim::tagged(spheres.len() as u32 + 1), si, 0, s.bounds());
                     spheres.push(*s);
-                    refs.push(PrimRef {
-                        shape: si as u32,
-                        index: 0,
-                    });
-                    boxes.push(s.bounds());
                 }
                 Geometry::Disk(k) => {
-                    prims.push(Prim::tagged(DISK_BIT | disks.len() as u32));
+                    add(
+                        Prim::tagged(DISK_BIT | disks.len() as u32),
+                        si,
+                        0,
+                        k.bounds(),
+                    );
                     disks.push(*k);
-                    refs.push(PrimRef {
-                        shape: si as u32,
-                        index: 0,
-                    });
-                    boxes.push(k.bounds());
                 }
                 Geometry::Rectangle(r) => {
-                    prims.push(Prim::tagged(RECTANGLE_BIT | rectangles.len() as u32));
+                    let tag = RECTANGLE_BIT | rectangles.len() as u32;
+                    add(Prim::tagged(tag), si, 0, r.bounds());
                     rectangles.push(*r);
-                    refs.push(PrimRef {
-                        shape: si as u32,
-                        index: 0,
-                    });
-                    boxes.push(r.bounds());
                 }
                 Geometry::Curve(c) => {
                     for seg in 0..c.segment_count() {
-                        prims.push(Prim::tagged(CURVE_BIT | curves.len() as u32));
+                        let tag = CURVE_BIT | curves.len() as u32;
+                        add(Prim::tagged(tag), si, seg, c.segment_bounds(seg));
                         curves.push(c.segment(seg));
-                        refs.push(PrimRef {
-                            shape: si as u32,
-                            index: seg as u32,
-                        });
-                        boxes.push(c.segment_bounds(seg));
                     }
                 }
             }
@@ -252,9 +249,7 @@ impl Bvh {
             let b = inst.world_bounds(groups[inst.group as usize].bounds);
             // An empty group places nothing.
             if !b.is_empty() {
-                prims.push(Prim::tagged(INSTANCE_BIT | i as u32));
-                refs.push(PrimRef { shape: 0, index: 0 });
-                boxes.push(b);
+                add(Prim::tagged(INSTANCE_BIT | i as u32), 0, 0, b);
             }
         }
         for b in &boxes {
