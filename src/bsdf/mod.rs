@@ -454,6 +454,27 @@ impl Bsdf {
         }
     }
 
+    /// True where light sampling should favour what the surface faces: the
+    /// BSDF is zero whenever `wi` and `wo` are on different sides of the
+    /// shading frame (`wi.z * wo.z <= 0`), so what is behind it can be
+    /// left out, and it has a diffuse lobe, for which the cosine-shaped
+    /// density that environment maps then use (`envmap/facing.rs`) is close
+    /// to the integrand. A purely glossy lobe gains too little from that
+    /// to pay for the extra table reads. False where unsure (transmission,
+    /// null lobes, tilted frames).
+    pub fn favours_facing_light(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_) | Bsdf::Microfacet(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
+                true
+            }
+            Bsdf::TwoSided(b) => b.front.favours_facing_light() && b.back.favours_facing_light(),
+            Bsdf::Blend(b) => b.first.favours_facing_light() && b.second.favours_facing_light(),
+            // The same models with textured parameters.
+            Bsdf::Textured(b) => b.base().favours_facing_light(),
+            _ => false,
+        }
+    }
+
     /// The fraction of light that passes straight through the surface
     /// (its null lobe's weight) along a direction at cosine `cos_i` to the
     /// shading normal: what a shadow ray keeps when it crosses it in

@@ -313,6 +313,7 @@ impl LightChoice {
             n,
             total,
             importance,
+            facing: None,
         }
     }
 
@@ -426,6 +427,18 @@ pub struct ChoicePoint {
     /// [`KEPT_IMPORTANCE`] of them (so `sample` and `pdf` do not compute
     /// them again: on Veach's scene, importance was 6% of a render).
     importance: [f32; KEPT_IMPORTANCE],
+    /// The normal of the side a surface receives light from, where it
+    /// receives light from one side only (a reflecting BSDF): light
+    /// sampling may then spend less on what is behind it.
+    pub facing: Option<Vec3>,
+}
+
+impl ChoicePoint {
+    /// The point for a surface that receives light only from the side
+    /// `facing` points to (if given).
+    pub fn facing(self, facing: Option<Vec3>) -> ChoicePoint {
+        ChoicePoint { facing, ..self }
+    }
 }
 
 /// Bounded lights whose importance a [`ChoicePoint`] keeps.

@@ -229,12 +229,12 @@ impl Emitter {
         }
     }
 
-    /// `(eval_infinite(d), pdf(.., d, .., which))` in one go (an environment
-    /// map finds its texels once).
-    pub fn eval_infinite_pdf(&self, d: Vec3, which: LightPdf) -> (Rgb, f32) {
+    /// `(eval_infinite(d), pdf(.., d, .., which, facing))` in one go (an
+    /// environment map finds its texels once).
+    pub fn eval_infinite_pdf(&self, d: Vec3, which: LightPdf, facing: Option<Vec3>) -> (Rgb, f32) {
         match self {
             Emitter::Constant(e) => (e.radiance, e.pdf(d)),
-            Emitter::Environment(e) => e.eval_pdf(d, which),
+            Emitter::Environment(e) => e.eval_pdf(d, which, facing),
             _ => (Rgb::ZERO, 0.0),
         }
     }
@@ -249,7 +249,9 @@ impl Emitter {
     }
 
     /// Samples incident illumination at `p_ref` with the density `which`
-    /// (only environment maps have more than one).
+    /// (only environment maps have more than one), for a surface that only
+    /// receives light from the side its normal `facing` points to, if given
+    /// (environment maps then sample less of what is behind it).
     pub fn sample(
         &self,
         ctx: &EmitterContext,
@@ -257,6 +259,7 @@ impl Emitter {
         u: Vec2,
         u1: f32,
         which: LightPdf,
+        facing: Option<Vec3>,
     ) -> Option<LightSample> {
         match self {
             Emitter::Area(e) => e.sample(ctx, p_ref, u, u1),
@@ -266,15 +269,15 @@ impl Emitter {
             Emitter::Directional(e) => e.sample(ctx, p_ref),
             Emitter::Constant(e) => e.sample(ctx, p_ref, u),
             Emitter::Environment(e) => {
-                let (wi, weight, pdf) = e.sample(u, which)?;
+                let (wi, weight, pdf) = e.sample(u, which, facing)?;
                 Some(LightSample::at_infinity(ctx, p_ref, wi, weight, pdf))
             }
         }
     }
 
     /// Solid-angle pdf that `sample` from `p_ref` with the density `which`
-    /// produces the point `at` (area lights) or the direction `wi`
-    /// (infinite).
+    /// and `facing` produces the point `at` (area lights) or the direction
+    /// `wi` (infinite).
     pub fn pdf(
         &self,
         ctx: &EmitterContext,
@@ -282,6 +285,7 @@ impl Emitter {
         wi: Vec3,
         at: &LightHit,
         which: LightPdf,
+        facing: Option<Vec3>,
     ) -> f32 {
         match self {
             Emitter::Area(e) => e.pdf(ctx, p_ref, wi, at),
@@ -290,7 +294,7 @@ impl Emitter {
             | Emitter::Projector(_)
             | Emitter::Directional(_) => 0.0,
             Emitter::Constant(e) => e.pdf(wi),
-            Emitter::Environment(e) => e.pdf(wi, which),
+            Emitter::Environment(e) => e.pdf(wi, which, facing),
         }
     }
 }

@@ -35,7 +35,8 @@ fn sample_light_with(
 ) -> Option<(LightSample, f32)> {
     let choice = scene.light_choice.as_ref()?;
     let (i, pchoice, u1) = choice.sample(at, numbers.choice)?;
-    let ls = scene.emitters[i].sample(&scene.emitter_context(), p, numbers.u, u1, which)?;
+    let ls =
+        scene.emitters[i].sample(&scene.emitter_context(), p, numbers.u, u1, which, at.facing)?;
     Some((ls, pchoice))
 }
 

@@ -83,7 +83,7 @@ pub(super) fn add_infinite_emission(
         }
         let (le, w) = match mis {
             Some(prev) => {
-                let (le, pdf) = e.eval_infinite_pdf(d, which);
+                let (le, pdf) = e.eval_infinite_pdf(d, which, prev.at.facing);
                 let pl = choice_pdf(scene, i as usize, prev.at) * pdf;
                 (le, power_heuristic(prev.pdf, pl))
             }
@@ -123,7 +123,14 @@ pub(super) fn add_area_emission(
                 prim: its.prim,
             };
             let pl = choice_pdf(scene, ei as usize, prev.at)
-                * e.pdf(&scene.emitter_context(), prev.p, d, &hit, which);
+                * e.pdf(
+                    &scene.emitter_context(),
+                    prev.p,
+                    d,
+                    &hit,
+                    which,
+                    prev.at.facing,
+                );
             power_heuristic(prev.pdf, pl)
         }
         None => 1.0,
@@ -222,7 +229,21 @@ pub fn li(
 
         // Next-event estimation.
         if let (Some(numbers), false) = (light_numbers, bsdf.is_specular()) {
-            prev_at = scene.choice_point(its.p, frame.n);
+            // A surface that only reflects receives light from the side of
+            // its shading normal that `wi` is on (the BSDF is zero across):
+            // an environment map then samples for that side (`facing.rs`).
+            // Only at the first vertex: its light reaches the pixel
+            // unattenuated and brings most of the variance (studio probe:
+            // MSE 0.52x with it there, 0.49x at every vertex), while each
+            // facing sample costs about a fifth more than the map's own.
+            let facing = (depth == 1 && bsdf.favours_facing_light()).then(|| {
+                if wi.z < 0.0 {
+                    -frame.n
+                } else {
+                    frame.n
+                }
+            });
+            prev_at = scene.choice_point(its.p, frame.n).facing(facing);
             if let Some((ls, pchoice)) = sample_light_with(scene, its.p, &prev_at, numbers, which) {
                 let wo = frame.to_local(ls.wi);
                 let f = bsdf.eval(sp, wi, wo);

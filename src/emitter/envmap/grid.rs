@@ -182,6 +182,25 @@ impl TexelGrid {
         }
     }
 
+    /// Prefetches the texels [`lookup`](Self::lookup) may read in cells
+    /// `cols` of band `band` (a short run of columns, not wrapping).
+    #[inline]
+    pub fn prefetch_span(&self, pixels: &[Rgb], cols: std::ops::Range<usize>, band: usize) {
+        let w = self.width;
+        let rows = match self.filter {
+            EnvFilter::Nearest => [self.rows[band], self.rows[band]],
+            EnvFilter::Bilinear => [self.rows[band], self.rows[band + 1]],
+        };
+        // One prefetch per cache line of the run (and the column after it).
+        let step = (64 / std::mem::size_of::<Rgb>()).max(1);
+        for r in rows {
+            let row = &pixels[r * w..(r + 1) * w];
+            for c in cols.clone().step_by(step).chain([cols.end.min(w - 1)]) {
+                prefetch(&row[c]);
+            }
+        }
+    }
+
     /// The mean over the sphere of the filtered lookup of `values` (one per
     /// texel), integrated exactly: per band, the lookup is linear in v
     /// between its vertex rows (bilinear) or constant (nearest), and is

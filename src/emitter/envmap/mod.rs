@@ -56,9 +56,16 @@
 //! nearly constant maps (mean - minimum <= 1% of the mean) both are the
 //! same.
 //!
+//! For a surface that only reflects, a third density per density above
+//! ([`EnvMap::sample`] with `facing`): the same times a bound of the
+//! cosine to the surface's normal per block of cells, so samples are not
+//! spent behind the surface and follow radiance x cosine more closely
+//! (`facing.rs`).
+//!
 //! Everything is built by [`EnvMap::new`] for the `image`, `filter` and
 //! rows it is given; the fields are read-only, so they cannot drift apart.
 
+mod facing;
 mod grid;
 mod latlong;
 mod warp;
@@ -68,6 +75,7 @@ pub use grid::TexelRows;
 use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
 use crate::math::{Transform, Vec2, Vec3, PI};
+use facing::{FacingBounds, FacingWarp};
 use grid::{CellPoint, TexelGrid};
 use latlong::{dir_to_uv_sin, normalize_robust, unit_dir_to_uv_sin, uv_to_dir_sin};
 use warp::EnvWarp;
@@ -110,11 +118,27 @@ pub struct EnvMap {
     /// Cells of the lookup and of the densities.
     grid: TexelGrid,
     /// The complete density; `None` if the map is black.
-    warp: Option<EnvWarp>,
+    warp: Option<Density>,
     /// The MIS-compensated density; `None` where it would equal `warp`.
-    mis_warp: Option<EnvWarp>,
+    mis_warp: Option<Density>,
     /// Mean luminance over the sphere of the unscaled map.
     mean_lum: f32,
+}
+
+/// A sampling density over the map, and the same restricted to surfaces
+/// facing one way (`facing.rs`).
+#[derive(Clone, Debug)]
+struct Density {
+    map: EnvWarp,
+    facing: FacingWarp,
+}
+
+impl Density {
+    fn new(grid: &TexelGrid, bounds: &FacingBounds, weight: &[f32]) -> Option<Density> {
+        let map = EnvWarp::new(grid, weight)?;
+        let facing = FacingWarp::new(&map, grid, bounds);
+        Some(Density { map, facing })
+    }
 }
 
 /// How far from orthonormal `to_world` may be (on M M^T; Mitsuba's
@@ -204,11 +228,12 @@ impl EnvMap {
             .map(|&p| luminance(p).max(0.0))
             .collect();
         let mean_lum = grid.sphere_mean(&lum) as f32;
-        let warp = EnvWarp::new(&grid, &lum);
+        let bounds = FacingBounds::new(&grid);
+        let warp = Density::new(&grid, &bounds, &lum);
         let min_lum = lum.iter().copied().fold(f32::INFINITY, f32::min);
         let mis_warp = if warp.is_some() && mean_lum - min_lum > 0.01 * mean_lum {
             let compensated: Vec<f32> = lum.iter().map(|&l| (l - mean_lum).max(0.0)).collect();
-            EnvWarp::new(&grid, &compensated)
+            Density::new(&grid, &bounds, &compensated)
         } else {
             None
         };
@@ -269,7 +294,7 @@ impl EnvMap {
 
     /// The density `which` selects (the complete one where the compensated
     /// one is not built); `None` if the map emits nothing.
-    fn warp(&self, which: LightPdf) -> Option<&EnvWarp> {
+    fn warp(&self, which: LightPdf) -> Option<&Density> {
         if !self.emits() {
             return None;
         }
@@ -279,9 +304,17 @@ impl EnvMap {
         }
     }
 
+    /// The bin of a world-space `facing` normal.
+    #[inline]
+    fn bin(&self, facing: Option<Vec3>) -> Option<usize> {
+        facing.and_then(|n| facing::bin_of(self.to_world.inv.transform_vector3(n)))
+    }
+
     /// (direction, radiance / pdf, solid-angle pdf) drawn from the density
-    /// `which`. `None` if the map emits nothing (or, with vanishing
-    /// probability, if the sample lands on a pole).
+    /// `which`, restricted to a surface facing `facing` if given (see
+    /// [`EnvMap::pdf`]). `None` if the map emits nothing, if such a surface
+    /// sees none of it, or (with vanishing probability) if the sample lands
+    /// on a pole.
     ///
     /// The radiance and pdf are those of the sampled point itself, as
     /// Mitsuba and pbrt return them: `pdf(d)` and `eval(d)` of the returned
@@ -290,11 +323,22 @@ impl EnvMap {
     /// within rounding of a texel's edge, where they may give the
     /// neighbour's value).
     #[inline]
-    pub fn sample(&self, u: Vec2, which: LightPdf) -> Option<(Vec3, Rgb, f32)> {
-        let warp = self.warp(which)?;
+    pub fn sample(
+        &self,
+        u: Vec2,
+        which: LightPdf,
+        facing: Option<Vec3>,
+    ) -> Option<(Vec3, Rgb, f32)> {
+        let density = self.warp(which)?;
+        let warp = &density.map;
+        let bin = self.bin(facing);
         let pixels = &self.image.pixels;
-        let pick = warp.pick(u, |col, band| self.grid.prefetch(pixels, col, band));
-        let p = warp.place(pick);
+        let p = match bin {
+            Some(bin) => density.facing.sample(warp, bin, u, |cols, band| {
+                self.grid.prefetch_span(pixels, cols, band)
+            })?,
+            None => warp.place(warp.pick(u, |col, band| self.grid.prefetch(pixels, col, band))),
+        };
         // A point on an edge where the density vanishes (a pole, or the
         // border of a compensated density's support) is pulled towards its
         // cell's centre: this moves a vanishing fraction of samples by a
@@ -308,7 +352,7 @@ impl EnvMap {
             let uv = self.grid.to_uv(p);
             let (local, sin_theta) = uv_to_dir_sin(uv);
             let world = self.to_world.vector(local).normalize_or_zero();
-            let pdf = pdf_from(warp, p, sin_theta);
+            let pdf = pdf_at(density, bin, p, sin_theta);
             if pdf > 0.0 && world != Vec3::ZERO {
                 let radiance = self.grid.lookup(&self.image.pixels, p) * self.scale;
                 return Some((world, radiance / pdf, pdf));
@@ -317,22 +361,23 @@ impl EnvMap {
         None
     }
 
-    /// Prefetches the tables and texels that `sample(u, which)` reads, for
-    /// a caller that knows `u` before it needs the sample (the path tracer
-    /// draws it before tracing the ray to the point that samples).
+    /// Prefetches the tables and texels that `sample(u, which, None)`
+    /// reads, for a caller that knows `u` before it needs the sample (the
+    /// path tracer draws it before tracing the ray to the point that
+    /// samples).
     #[inline]
     pub fn prefetch_sample(&self, u: Vec2, which: LightPdf) {
-        if let Some(warp) = self.warp(which) {
+        if let Some(density) = self.warp(which) {
             let pixels = &self.image.pixels;
-            warp.prefetch_pick(u, |col, band| self.grid.prefetch(pixels, col, band));
+            (density.map).prefetch_pick(u, |col, band| self.grid.prefetch(pixels, col, band));
         }
     }
 
-    /// `(eval(d), pdf(d, which))` with one trip from direction to texels:
-    /// what a path needs when a BSDF-sampled ray escapes to the map.
+    /// `(eval(d), pdf(d, which, facing))` with one trip from direction to
+    /// texels: what a path needs when a BSDF-sampled ray escapes to the map.
     #[inline]
-    pub fn eval_pdf(&self, d: Vec3, which: LightPdf) -> (Rgb, f32) {
-        let Some(warp) = self.warp(which) else {
+    pub fn eval_pdf(&self, d: Vec3, which: LightPdf, facing: Option<Vec3>) -> (Rgb, f32) {
+        let Some(density) = self.warp(which) else {
             return (Rgb::ZERO, 0.0);
         };
         match self.to_local(d) {
@@ -340,21 +385,25 @@ impl EnvMap {
                 let (uv, sin_theta) = unit_dir_to_uv_sin(l);
                 let p = self.grid.locate(uv);
                 let radiance = self.grid.lookup(&self.image.pixels, p) * self.scale;
-                (radiance, pdf_from(warp, p, sin_theta))
+                (radiance, pdf_at(density, self.bin(facing), p, sin_theta))
             }
             None => (Rgb::ZERO, 0.0),
         }
     }
 
-    /// Solid-angle pdf that `sample(_, which)` draws world direction `d`.
-    pub fn pdf(&self, d: Vec3, which: LightPdf) -> f32 {
-        let Some(warp) = self.warp(which) else {
+    /// Solid-angle pdf that `sample(_, which, facing)` draws world direction
+    /// `d`. With `facing` (a normal, need not be unit), the density is for a
+    /// surface that only receives light from the side `facing` points to:
+    /// it may vanish behind it, and is the map's density times a bound of
+    /// the cosine to `facing`, renormalised (`facing.rs`).
+    pub fn pdf(&self, d: Vec3, which: LightPdf, facing: Option<Vec3>) -> f32 {
+        let Some(density) = self.warp(which) else {
             return 0.0;
         };
         match self.to_local(d) {
             Some(l) => {
                 let (uv, sin_theta) = unit_dir_to_uv_sin(l);
-                pdf_from(warp, self.grid.locate(uv), sin_theta)
+                pdf_at(density, self.bin(facing), self.grid.locate(uv), sin_theta)
             }
             None => 0.0,
         }
@@ -401,13 +450,15 @@ impl EnvMap {
     }
 }
 
-/// Solid-angle density of `warp` at a point with the given sin(theta).
+/// Solid-angle density of `density` at a point with the given sin(theta),
+/// for a surface of normal bin `bin` if given.
 #[inline]
-fn pdf_from(warp: &EnvWarp, p: CellPoint, sin_theta: f32) -> f32 {
+fn pdf_at(density: &Density, bin: Option<usize>, p: CellPoint, sin_theta: f32) -> f32 {
     if sin_theta.is_nan() || sin_theta <= 0.0 {
         return 0.0;
     }
-    let pdf = warp.pdf(p) / (TWO_PI_SQ * sin_theta);
+    let ratio = bin.map_or(1.0, |b| density.facing.ratio(b, p));
+    let pdf = density.map.pdf(p) * ratio / (TWO_PI_SQ * sin_theta);
     if pdf.is_finite() {
         pdf
     } else {

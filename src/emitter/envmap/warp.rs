@@ -39,6 +39,13 @@ pub(super) struct EnvWarp {
     inv_integral: f32,
 }
 
+impl CellPick {
+    /// Cell (`col`, `band`) with `ux`, `uy` in [0, 1) to place a point in it.
+    pub fn new(col: usize, band: usize, ux: f32, uy: f32) -> CellPick {
+        CellPick { col, band, ux, uy }
+    }
+}
+
 impl EnvWarp {
     /// The density proportional to `weight` (one value per texel, >= 0)
     /// times sin(theta), filtered as `grid` filters lookups. `None` if it
@@ -78,21 +85,10 @@ impl EnvWarp {
                 };
             }
         }
-        // Cell weights: the sum of the corners (bilinear) or the value; a
-        // cell's integral is that times its band's height / W (/ 4).
-        let mut cell_weights = vec![0.0f32; grid.bands() * w];
-        for b in 0..grid.bands() {
-            let row = &mut cell_weights[b * w..(b + 1) * w];
-            if bilinear {
-                let (top, bottom) = (&values[b * w..][..w], &values[(b + 1) * w..][..w]);
-                for c in 0..w {
-                    let c1 = (c + 1) % w;
-                    row[c] = top[c] + top[c1] + bottom[c] + bottom[c1];
-                }
-            } else {
-                row.copy_from_slice(&values[b * w..][..w]);
-            }
-        }
+        let cell_weights: Vec<f32> = (0..grid.bands())
+            .flat_map(|b| (0..w).map(move |c| (c, b)))
+            .map(|(c, b)| cell_weight(&values, w, bilinear, c, b))
+            .collect();
         let cells = AliasRows::new(&cell_weights, w);
         let scale = if bilinear { 0.25 } else { 1.0 };
         let band_weights: Vec<f64> = (0..grid.bands())
@@ -118,6 +114,38 @@ impl EnvWarp {
             cells,
             inv_integral,
         })
+    }
+
+    /// Cell (`col`, `band`)'s weight: its integral is that times its
+    /// band's height / W (/ 4 for the bilinear filter).
+    #[inline]
+    pub fn cell_weight(&self, col: usize, band: usize) -> f32 {
+        cell_weight(&self.values, self.width, self.bilinear, col, band)
+    }
+
+    /// Running sums of the weights of cells `cols` of band `band` (each
+    /// as [`EnvWarp::cell_weight`] gives it) into `out[..cols.len()]`.
+    #[inline]
+    pub fn running_cell_weights(&self, cols: std::ops::Range<usize>, band: usize, out: &mut [f32]) {
+        let w = self.width;
+        let mut sum = 0.0f32;
+        if self.bilinear {
+            let (top, bottom) = (
+                &self.values[band * w..][..w],
+                &self.values[(band + 1) * w..][..w],
+            );
+            for (r, c) in out.iter_mut().zip(cols) {
+                let c1 = if c + 1 == w { 0 } else { c + 1 };
+                sum += top[c] + top[c1] + bottom[c] + bottom[c1];
+                *r = sum;
+            }
+        } else {
+            let row = &self.values[band * w..][..w];
+            for (r, &v) in out.iter_mut().zip(&row[cols]) {
+                sum += v;
+                *r = sum;
+            }
+        }
     }
 
     /// The four corner values of a bilinear cell: (top-left, top-right,
@@ -216,6 +244,19 @@ impl EnvWarp {
             self.values[p.band * self.width + p.col]
         };
         value * self.inv_integral
+    }
+}
+
+/// A cell's weight from the density's values (rows of `w`): the sum of its
+/// corners (bilinear) or its value (nearest).
+#[inline]
+fn cell_weight(values: &[f32], w: usize, bilinear: bool, col: usize, band: usize) -> f32 {
+    if bilinear {
+        let c1 = if col + 1 == w { 0 } else { col + 1 };
+        let (top, bottom) = (&values[band * w..][..w], &values[(band + 1) * w..][..w]);
+        top[col] + top[c1] + bottom[col] + bottom[c1]
+    } else {
+        values[band * w + col]
     }
 }
 
