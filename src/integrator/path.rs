@@ -235,7 +235,8 @@ pub fn li(
             // Only at the first vertex: its light reaches the pixel
             // unattenuated and brings most of the variance (studio probe:
             // MSE 0.52x with it there, 0.49x at every vertex), while each
-            // facing sample costs about a fifth more than the map's own.
+            // facing sample costs about a fifth more than the map's own
+            // (maps where it would not pay have no facing density at all).
             let facing = (depth == 1 && bsdf.favours_facing_light()).then(|| {
                 if wi.z < 0.0 {
                     -frame.n

@@ -335,8 +335,52 @@ pub(super) struct FacingWarp {
     cell_sums: Vec<f32>,
 }
 
+/// Below this predicted ratio of variances (facing density / map's, see
+/// [`predicted_variance_ratio`]) a density gets a facing version: a facing
+/// sample costs 10-20% of a render's time more, so it must pay. Set from
+/// the four Poly Haven probes of `bench/envmap/` (MIS-compensated
+/// densities): studio predicts 0.13 and rendered with 0.52x the MSE; sky,
+/// sunset and forest predict 0.31-0.48 and rendered with 0.95-1.0x, which
+/// did not pay for the time.
+pub(super) const WORTH_IT: f64 = 0.2;
+
+/// How much less noisy irradiance on diffuse surfaces is with the facing
+/// densities than with the map's, predicted from the blocks alone: per
+/// normal bin, the variance of estimating the sum over blocks of
+/// `weight x cos+` (cosine between the bin's and the block's axes) by
+/// drawing blocks from each density, summed over the bins; their ratio.
+/// NaN where neither estimate has any variance (all of the light in one
+/// block for every bin).
+fn predicted_variance_ratio(bounds: &FacingBounds, weights: &[f64]) -> f64 {
+    let z: f64 = weights.iter().sum();
+    let (mut map, mut facing) = (0.0, 0.0);
+    for (bin, axis) in bounds.bins.iter().map(|b| b.axis).enumerate() {
+        let (mut i, mut m_map, mut m_facing, mut seen) = (0.0, 0.0, 0.0, 0.0);
+        for (k, &w) in weights.iter().enumerate() {
+            let cos = axis.dot(bounds.cells[k].axis).max(0.0) as f64;
+            let c = bounds.cos(bin, k) as f64;
+            i += w * cos;
+            m_map += w * cos * cos;
+            seen += c * w;
+            if c > 0.0 {
+                m_facing += w * cos * cos / c;
+            }
+        }
+        map += z * m_map - i * i;
+        facing += seen * m_facing - i * i;
+    }
+    facing / map
+}
+
 impl FacingWarp {
-    pub fn new(warp: &EnvWarp, grid: &TexelGrid, bounds: &FacingBounds) -> FacingWarp {
+    /// The facing version of `warp`, or `None` where the predicted
+    /// variance ratio is not below `worth_it` ([`WORTH_IT`]).
+    pub fn new(
+        warp: &EnvWarp,
+        grid: &TexelGrid,
+        bounds: &FacingBounds,
+        worth_it: f64,
+    ) -> Option<FacingWarp> {
         let blocks = bounds.blocks;
         let bp = blocks.bands_per();
         let mut band_sums = vec![0.0f32; blocks.count() * bp];
@@ -360,6 +404,13 @@ impl FacingWarp {
                 warp.running_cell_weights(cols.clone(), band, &mut cell_sums[band * w..][cols]);
             }
         }
+        let predicted = predicted_variance_ratio(bounds, &block_weights);
+        if std::env::var_os("LENTE_DEBUG_FACING").is_some() {
+            eprintln!("facing: predicted variance ratio {predicted}");
+        }
+        if !(predicted < worth_it) {
+            return None;
+        }
         let total: f64 = block_weights.iter().sum();
         let mut pick_weights = vec![0.0f32; BINS * blocks.count()];
         let mut scales = vec![0.0f32; BINS];
@@ -375,13 +426,13 @@ impl FacingWarp {
                 row.fill(0.0);
             }
         }
-        FacingWarp {
+        Some(FacingWarp {
             bounds: bounds.clone(),
             picks: AliasRows::new(&pick_weights, blocks.count()),
             scales,
             band_sums,
             cell_sums,
-        }
+        })
     }
 
     /// The factor from the map's (u, v) density to bin `bin`'s at a point.

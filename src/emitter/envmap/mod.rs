@@ -130,13 +130,19 @@ pub struct EnvMap {
 #[derive(Clone, Debug)]
 struct Density {
     map: EnvWarp,
-    facing: FacingWarp,
+    /// `None` where it would not pay (`facing.rs`).
+    facing: Option<FacingWarp>,
 }
 
 impl Density {
-    fn new(grid: &TexelGrid, bounds: &FacingBounds, weight: &[f32]) -> Option<Density> {
+    fn new(
+        grid: &TexelGrid,
+        bounds: &FacingBounds,
+        weight: &[f32],
+        worth_it: f64,
+    ) -> Option<Density> {
         let map = EnvWarp::new(grid, weight)?;
-        let facing = FacingWarp::new(&map, grid, bounds);
+        let facing = FacingWarp::new(&map, grid, bounds, worth_it);
         Some(Density { map, facing })
     }
 }
@@ -194,6 +200,19 @@ impl EnvMap {
         filter: EnvFilter,
         rows: TexelRows,
     ) -> Result<EnvMap, EnvMapError> {
+        EnvMap::build(image, scale, to_world, filter, rows, facing::WORTH_IT)
+    }
+
+    /// [`EnvMap::new`] with facing densities built where their predicted
+    /// variance ratio is below `worth_it` (tests force them with infinity).
+    fn build(
+        image: Bitmap,
+        scale: f32,
+        to_world: Transform,
+        filter: EnvFilter,
+        rows: TexelRows,
+        worth_it: f64,
+    ) -> Result<EnvMap, EnvMapError> {
         let (w, h) = (image.width, image.height);
         if w == 0 || h == 0 || image.pixels.len() != w * h {
             return Err(EnvMapError::Empty {
@@ -229,11 +248,11 @@ impl EnvMap {
             .collect();
         let mean_lum = grid.sphere_mean(&lum) as f32;
         let bounds = FacingBounds::new(&grid);
-        let warp = Density::new(&grid, &bounds, &lum);
+        let warp = Density::new(&grid, &bounds, &lum, worth_it);
         let min_lum = lum.iter().copied().fold(f32::INFINITY, f32::min);
         let mis_warp = if warp.is_some() && mean_lum - min_lum > 0.01 * mean_lum {
             let compensated: Vec<f32> = lum.iter().map(|&l| (l - mean_lum).max(0.0)).collect();
-            Density::new(&grid, &bounds, &compensated)
+            Density::new(&grid, &bounds, &compensated, worth_it)
         } else {
             None
         };
@@ -304,10 +323,18 @@ impl EnvMap {
         }
     }
 
-    /// The bin of a world-space `facing` normal.
+    /// The facing version of `density` and the bin of a world-space
+    /// `facing` normal, where the density has one (else the map's own
+    /// density serves every surface).
     #[inline]
-    fn bin(&self, facing: Option<Vec3>) -> Option<usize> {
-        facing.and_then(|n| facing::bin_of(self.to_world.inv.transform_vector3(n)))
+    fn side<'a>(
+        &self,
+        density: &'a Density,
+        facing: Option<Vec3>,
+    ) -> Option<(&'a FacingWarp, usize)> {
+        let warp = density.facing.as_ref()?;
+        let bin = facing::bin_of(self.to_world.inv.transform_vector3(facing?))?;
+        Some((warp, bin))
     }
 
     /// (direction, radiance / pdf, solid-angle pdf) drawn from the density
@@ -331,10 +358,10 @@ impl EnvMap {
     ) -> Option<(Vec3, Rgb, f32)> {
         let density = self.warp(which)?;
         let warp = &density.map;
-        let bin = self.bin(facing);
+        let side = self.side(density, facing);
         let pixels = &self.image.pixels;
-        let p = match bin {
-            Some(bin) => density.facing.sample(warp, bin, u, |cols, band| {
+        let p = match side {
+            Some((facing, bin)) => facing.sample(warp, bin, u, |cols, band| {
                 self.grid.prefetch_span(pixels, cols, band)
             })?,
             None => warp.place(warp.pick(u, |col, band| self.grid.prefetch(pixels, col, band))),
@@ -352,7 +379,7 @@ impl EnvMap {
             let uv = self.grid.to_uv(p);
             let (local, sin_theta) = uv_to_dir_sin(uv);
             let world = self.to_world.vector(local).normalize_or_zero();
-            let pdf = pdf_at(density, bin, p, sin_theta);
+            let pdf = pdf_at(density, side, p, sin_theta);
             if pdf > 0.0 && world != Vec3::ZERO {
                 let radiance = self.grid.lookup(&self.image.pixels, p) * self.scale;
                 return Some((world, radiance / pdf, pdf));
@@ -385,7 +412,10 @@ impl EnvMap {
                 let (uv, sin_theta) = unit_dir_to_uv_sin(l);
                 let p = self.grid.locate(uv);
                 let radiance = self.grid.lookup(&self.image.pixels, p) * self.scale;
-                (radiance, pdf_at(density, self.bin(facing), p, sin_theta))
+                (
+                    radiance,
+                    pdf_at(density, self.side(density, facing), p, sin_theta),
+                )
             }
             None => (Rgb::ZERO, 0.0),
         }
@@ -403,7 +433,8 @@ impl EnvMap {
         match self.to_local(d) {
             Some(l) => {
                 let (uv, sin_theta) = unit_dir_to_uv_sin(l);
-                pdf_at(density, self.bin(facing), self.grid.locate(uv), sin_theta)
+                let side = self.side(density, facing);
+                pdf_at(density, side, self.grid.locate(uv), sin_theta)
             }
             None => 0.0,
         }
@@ -451,13 +482,18 @@ impl EnvMap {
 }
 
 /// Solid-angle density of `density` at a point with the given sin(theta),
-/// for a surface of normal bin `bin` if given.
+/// or of its facing version for a normal bin (`side`) if given.
 #[inline]
-fn pdf_at(density: &Density, bin: Option<usize>, p: CellPoint, sin_theta: f32) -> f32 {
+fn pdf_at(
+    density: &Density,
+    side: Option<(&FacingWarp, usize)>,
+    p: CellPoint,
+    sin_theta: f32,
+) -> f32 {
     if sin_theta.is_nan() || sin_theta <= 0.0 {
         return 0.0;
     }
-    let ratio = bin.map_or(1.0, |b| density.facing.ratio(b, p));
+    let ratio = side.map_or(1.0, |(f, bin)| f.ratio(bin, p));
     let pdf = density.map.pdf(p) * ratio / (TWO_PI_SQ * sin_theta);
     if pdf.is_finite() {
         pdf

@@ -910,6 +910,30 @@ fn pole_to_pole_rows_are_where_mitsuba_puts_them() {
 
 // Light for a surface that faces one way (`facing.rs`).
 
+/// A map with facing densities whatever their predicted gain.
+fn facing_map(image: Bitmap, to_world: Transform, filter: EnvFilter, rows: TexelRows) -> EnvMap {
+    EnvMap::build(image, 1.0, to_world, filter, rows, f64::INFINITY).unwrap()
+}
+
+fn facing_bilinear(image: Bitmap, to_world: Transform) -> EnvMap {
+    facing_map(image, to_world, EnvFilter::Bilinear, TexelRows::CellCentres)
+}
+
+/// Facing densities are built only where they are predicted to pay: not
+/// for a single small source, not for a smooth gradient.
+#[test]
+fn facing_densities_only_where_they_pay() {
+    for img in [one_hot(64, 32, &[(20, 9)]), gradient(96, 48)] {
+        let env = bilinear(img.clone(), rot_a());
+        assert!(env.warp.as_ref().unwrap().facing.is_none());
+        let forced = facing_bilinear(img, rot_a());
+        assert!(forced.warp.as_ref().unwrap().facing.is_some());
+        // Without one, a facing normal changes nothing.
+        let d = Vec3::new(0.3, 0.5, 0.2).normalize();
+        assert_eq!(env.pdf(d, C, Some(Vec3::Y)), env.pdf(d, C, None));
+    }
+}
+
 /// Normals the facing tests use: up, down-ish, sideways, oblique.
 fn facing_normals() -> [Vec3; 4] {
     [
@@ -928,12 +952,17 @@ fn chi2_facing() {
     // map's.)
     let cases = [
         (
-            bilinear(sun_map(128, 64), rot_mirror()),
+            facing_bilinear(sun_map(128, 64), rot_mirror()),
             C,
             facing_normals()[2],
         ),
         (
-            env_map(gradient(96, 48), 1.0, rot_a(), EnvFilter::Nearest).unwrap(),
+            facing_map(
+                gradient(96, 48),
+                rot_a(),
+                EnvFilter::Nearest,
+                TexelRows::CellCentres,
+            ),
             m,
             facing_normals()[1],
         ),
@@ -957,7 +986,15 @@ fn chi2_facing() {
 fn weight_is_eval_over_pdf_facing() {
     for rows in [TexelRows::CellCentres, TexelRows::PoleToPole] {
         for filter in [EnvFilter::Bilinear, EnvFilter::Nearest] {
-            let env = EnvMap::new(sun_map(64, 32), 2.0, rot_mirror(), filter, rows).unwrap();
+            let env = EnvMap::build(
+                sun_map(64, 32),
+                2.0,
+                rot_mirror(),
+                filter,
+                rows,
+                f64::INFINITY,
+            )
+            .unwrap();
             for which in [LightPdf::Complete, LightPdf::MisCompensated] {
                 for n in facing_normals() {
                     let what = format!("{rows:?} {filter:?} {which:?} facing {n}");
@@ -972,7 +1009,7 @@ fn weight_is_eval_over_pdf_facing() {
 /// wherever the map shines on the side the normal points to.
 #[test]
 fn facing_pdf_covers_the_lit_hemisphere() {
-    let env = bilinear(gradient(96, 48), rot_a());
+    let env = facing_bilinear(gradient(96, 48), rot_a());
     let mut s = Sampler::new(5, 5);
     let mut checked = 0;
     for _ in 0..200_000 {
@@ -999,16 +1036,24 @@ fn facing_irradiance_is_unbiased_and_less_noisy() {
     use crate::stats::{t_test, MeanVar};
     let cases = [
         (
-            bilinear(sun_map(128, 64), rot_mirror()),
+            facing_bilinear(sun_map(128, 64), rot_mirror()),
             facing_normals()[3],
         ),
-        (bilinear(gradient(96, 48), rot_a()), facing_normals()[0]),
         (
-            env_poles(one_hot(24, 12, &[(7, 3), (0, 11)]), rot_a()),
+            facing_bilinear(gradient(96, 48), rot_a()),
+            facing_normals()[0],
+        ),
+        (
+            facing_map(
+                one_hot(24, 12, &[(7, 3), (0, 11)]),
+                rot_a(),
+                EnvFilter::Bilinear,
+                TexelRows::PoleToPole,
+            ),
             facing_normals()[2],
         ),
         (
-            bilinear(constant(128, 64, Rgb::ONE), rot_a()),
+            facing_bilinear(constant(128, 64, Rgb::ONE), rot_a()),
             facing_normals()[3],
         ),
     ];
@@ -1051,7 +1096,7 @@ fn facing_away_from_all_light_samples_nothing() {
     // Light only in the bottom row, seen from a surface facing up (tall
     // enough that the blocks of the bottom rows are well below the
     // horizon).
-    let env = bilinear(
+    let env = facing_bilinear(
         one_hot(64, 256, &[(3, 255), (20, 255)]),
         Transform::IDENTITY,
     );
