@@ -408,7 +408,7 @@ impl FacingWarp {
         if std::env::var_os("LENTE_DEBUG_FACING").is_some() {
             eprintln!("facing: predicted variance ratio {predicted}");
         }
-        if !(predicted < worth_it) {
+        if predicted.is_nan() || predicted >= worth_it {
             return None;
         }
         let total: f64 = block_weights.iter().sum();
