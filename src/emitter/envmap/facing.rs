@@ -405,9 +405,6 @@ impl FacingWarp {
             }
         }
         let predicted = predicted_variance_ratio(bounds, &block_weights);
-        if std::env::var_os("LENTE_DEBUG_FACING").is_some() {
-            eprintln!("facing: predicted variance ratio {predicted}");
-        }
         if predicted.is_nan() || predicted >= worth_it {
             return None;
         }

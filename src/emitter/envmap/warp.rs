@@ -127,24 +127,10 @@ impl EnvWarp {
     /// as [`EnvWarp::cell_weight`] gives it) into `out[..cols.len()]`.
     #[inline]
     pub fn running_cell_weights(&self, cols: std::ops::Range<usize>, band: usize, out: &mut [f32]) {
-        let w = self.width;
         let mut sum = 0.0f32;
-        if self.bilinear {
-            let (top, bottom) = (
-                &self.values[band * w..][..w],
-                &self.values[(band + 1) * w..][..w],
-            );
-            for (r, c) in out.iter_mut().zip(cols) {
-                let c1 = if c + 1 == w { 0 } else { c + 1 };
-                sum += top[c] + top[c1] + bottom[c] + bottom[c1];
-                *r = sum;
-            }
-        } else {
-            let row = &self.values[band * w..][..w];
-            for (r, &v) in out.iter_mut().zip(&row[cols]) {
-                sum += v;
-                *r = sum;
-            }
+        for (r, c) in out.iter_mut().zip(cols) {
+            sum += self.cell_weight(c, band);
+            *r = sum;
         }
     }
 
