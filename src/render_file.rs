@@ -18,7 +18,10 @@ use std::path::Path;
 
 use crate::aov::AovList;
 use crate::color::Rgb;
-use crate::image::{load_exr_channels, save_exr_channels, Bitmap, ExrChannels, Film, ImageError};
+use crate::image::{
+    load_exr_channels, save_exr_channels, Bitmap, ExrChannels, Film, ImageError, OutChannel,
+    OutChannels,
+};
 
 /// lente's version, as written in render files.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -191,7 +194,6 @@ pub fn save_render(
     image: &Bitmap,
 ) -> Result<(), ImageError> {
     let data = film.data();
-    let pick = |f: fn(&(Rgb, f32)) -> f32| data.iter().map(f).collect::<Vec<f32>>();
     let params = serde_json::to_string(&m.params).unwrap_or_default();
     let mut attributes = vec![
         ("lente.version".to_string(), m.version.clone()),
@@ -218,37 +220,46 @@ pub fn save_render(
     if let Some(d) = &m.denoiser {
         attributes.push(("lente.denoiser".to_string(), d.clone()));
     }
-    let mut channels = ExrChannels {
+    // Every channel is read from the film and the image as the file is
+    // written: no copy of either (see `OutChannel`).
+    let px = &image.pixels;
+    let mut channels = OutChannels {
         width: film.width,
         height: film.height,
         channels: vec![
-            ("R".into(), image.pixels.iter().map(|p| p.x).collect()),
-            ("G".into(), image.pixels.iter().map(|p| p.y).collect()),
-            ("B".into(), image.pixels.iter().map(|p| p.z).collect()),
-            (FILM_CHANNELS[0].into(), pick(|d| d.0.x)),
-            (FILM_CHANNELS[1].into(), pick(|d| d.0.y)),
-            (FILM_CHANNELS[2].into(), pick(|d| d.0.z)),
-            (FILM_CHANNELS[3].into(), pick(|d| d.1)),
+            OutChannel::new("R", |i| px[i].x),
+            OutChannel::new("G", |i| px[i].y),
+            OutChannel::new("B", |i| px[i].z),
+            OutChannel::new(FILM_CHANNELS[0], |i| data[i].0.x),
+            OutChannel::new(FILM_CHANNELS[1], |i| data[i].0.y),
+            OutChannel::new(FILM_CHANNELS[2], |i| data[i].0.z),
+            OutChannel::new(FILM_CHANNELS[3], |i| data[i].1),
         ],
         attributes,
     };
     if m.denoiser.is_some() {
-        let noisy = film.to_bitmap();
         for (c, name) in ["noisy.R", "noisy.G", "noisy.B"].into_iter().enumerate() {
-            let values = noisy.pixels.iter().map(|p| p[c]).collect();
-            channels.channels.push((name.into(), values));
+            channels
+                .channels
+                .push(OutChannel::new(name, move |i| film.value(i)[c]));
         }
     }
     // AOVs: normalised as viewers and denoisers read them, and their sums.
     let names = m.aovs.channel_names();
     if names.len() == film.aov_channels() {
         let n = names.len();
+        let sums = film.aov_sums();
         for (c, name) in names.iter().enumerate() {
             channels
                 .channels
-                .push((name.to_string(), film.aov_channel(c)));
-            let sums = film.aov_sums().iter().skip(c).step_by(n).copied().collect();
-            channels.channels.push((format!("lente.film.{name}"), sums));
+                .push(OutChannel::new(name.to_string(), move |i| {
+                    film.aov_value(i, c)
+                }));
+            channels
+                .channels
+                .push(OutChannel::new(format!("lente.film.{name}"), move |i| {
+                    sums[i * n + c]
+                }));
         }
     }
     save_exr_channels(path, &channels)

@@ -204,18 +204,18 @@ impl Film {
     /// AOV channel `c` normalised by the image's weights (0 where no
     /// sample landed).
     pub fn aov_channel(&self, c: usize) -> Vec<f32> {
-        let n = self.aov_channels;
-        self.data
-            .iter()
-            .enumerate()
-            .map(|(i, &(_, w))| {
-                if w != 0.0 {
-                    self.aov[i * n + c] / w
-                } else {
-                    0.0
-                }
-            })
-            .collect()
+        (0..self.data.len()).map(|i| self.aov_value(i, c)).collect()
+    }
+
+    /// AOV channel `c` of pixel `i` (row-major): weighted sum over weight,
+    /// 0 where no sample landed.
+    pub fn aov_value(&self, i: usize, c: usize) -> f32 {
+        let w = self.data[i].1;
+        if w != 0.0 {
+            self.aov[i * self.aov_channels + c] / w
+        } else {
+            0.0
+        }
     }
 
     /// A film from its accumulated (sum of w * L, sum of w) per pixel,
@@ -283,9 +283,20 @@ impl Film {
     /// sample landed).
     pub fn to_bitmap(&self) -> Bitmap {
         let mut bmp = Bitmap::new(self.width, self.height);
-        for (dst, &(sum, w)) in bmp.pixels.iter_mut().zip(&self.data) {
-            *dst = if w != 0.0 { sum / w } else { Rgb::ZERO };
+        for (i, dst) in bmp.pixels.iter_mut().enumerate() {
+            *dst = self.value(i);
         }
         bmp
+    }
+
+    /// Pixel `i` (row-major) as viewers see it: weighted radiance over
+    /// weight, black where no sample landed.
+    pub fn value(&self, i: usize) -> Rgb {
+        let (sum, w) = self.data[i];
+        if w != 0.0 {
+            sum / w
+        } else {
+            Rgb::ZERO
+        }
     }
 }

@@ -15,6 +15,6 @@ pub use film::{Film, FilmBlock};
 pub use filter::{Filter, FilterError, FilterParam, MAX_FILTER_RADIUS};
 pub use io::{
     load_exr_channels, load_image, prepare_output, save_exr_channels, save_image, ExrChannels,
-    ImageError,
+    ImageError, OutChannel, OutChannels,
 };
 pub use tonemap::{save_png_tonemapped, tonemap, Exposure, Look, Tonemap, MAX_EXPOSURE_STOPS};

@@ -5,7 +5,7 @@ use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
-use super::io::{save_image, ImageError};
+use super::io::{save_png_pixels, ImageError};
 use super::Bitmap;
 use crate::color::Rgb;
 
@@ -38,6 +38,11 @@ fn hable(x: f32) -> f32 {
 }
 
 impl Tonemap {
+    /// [`Tonemap::map`] of each channel.
+    pub fn map_rgb(self, c: Rgb) -> Rgb {
+        Rgb::new(self.map(c.x), self.map(c.y), self.map(c.z))
+    }
+
     /// Maps one scaled linear value to [0, 1]. Negative values and NaN
     /// become 0; +infinity becomes 1.
     pub fn map(self, x: f32) -> f32 {
@@ -170,19 +175,25 @@ impl Look {
     }
 }
 
+/// The factor of an exposure in stops (1 where it overflows).
+fn exposure_scale(stops: f32) -> f32 {
+    let scale = stops.exp2();
+    if scale.is_finite() {
+        scale
+    } else {
+        1.0
+    }
+}
+
 /// Multiplies by 2^`exposure_stops`, then applies `op` per channel. The
 /// result is linear, in [0, 1].
 pub fn tonemap(image: &Bitmap, exposure_stops: f32, op: Tonemap) -> Bitmap {
-    let scale = exposure_stops.exp2();
-    let scale = if scale.is_finite() { scale } else { 1.0 };
-    image.map(|p| {
-        let q = p * scale;
-        Rgb::new(op.map(q.x), op.map(q.y), op.map(q.z))
-    })
+    let scale = exposure_scale(exposure_stops);
+    image.map(|p| op.map_rgb(p * scale))
 }
 
-/// Tone maps and saves as an 8-bit sRGB PNG (atomically, like
-/// [`save_image`]). The path must end in `.png`.
+/// Tone maps and saves as an 8-bit sRGB PNG, tone mapping each pixel as
+/// it is encoded (atomically, like [`save_image`]). The path must end in `.png`.
 pub fn save_png_tonemapped(
     path: &Path,
     image: &Bitmap,
@@ -199,7 +210,10 @@ pub fn save_png_tonemapped(
             message: "a tone-mapped image is saved as PNG: the file name must end in .png".into(),
         });
     }
-    save_image(path, &tonemap(image, exposure_stops, op))
+    let scale = exposure_scale(exposure_stops);
+    save_png_pixels(path, image.width, image.height, |i| {
+        op.map_rgb(image.pixels[i] * scale)
+    })
 }
 
 #[cfg(test)]

@@ -191,8 +191,12 @@ pub(super) fn decode(bytes: &[u8]) -> Result<RawImage, Malformed> {
     )))
 }
 
-/// One layer of 32-bit float R, G, B; ZIP compression, increasing scanlines.
-pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
+/// One layer of 32-bit float R, G, B; ZIP compression, increasing
+/// scanlines; written to `out` as it is encoded.
+pub(super) fn encode(
+    image: &Bitmap,
+    out: impl std::io::Write + std::io::Seek,
+) -> Result<(), Malformed> {
     let w = image.width;
     let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
         let p = image.pixels[pos.y() * w + pos.x()];
@@ -204,20 +208,10 @@ pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
         Encoding::SMALL_LOSSLESS,
         channels,
     );
-    write_layer(&Image::from_layer(layer))
-}
-
-/// The bytes of an EXR file of one layer.
-fn write_layer<'c, C>(image: &'c Image<Layer<C>>) -> Result<Vec<u8>, Malformed>
-where
-    C: exr::image::write::channels::WritableChannels<'c>,
-{
-    let mut out = Cursor::new(Vec::new());
-    image
+    Image::from_layer(layer)
         .write()
-        .to_buffered(&mut out)
-        .map_err(|e| format!("cannot encode OpenEXR: {e}"))?;
-    Ok(out.into_inner())
+        .to_buffered(out)
+        .map_err(|e| Malformed::from(format!("cannot encode OpenEXR: {e}")))
 }
 
 /// One image of named float channels and text header attributes.
@@ -255,23 +249,123 @@ fn text(s: &str) -> exr::meta::attribute::Text {
     exr::meta::attribute::Text::from_slice_unchecked(s.as_bytes())
 }
 
-/// One layer of the given 32-bit float channels (each `width * height`
-/// values), the attributes as text; ZIP compression.
-pub fn encode_channels(image: &Channels) -> Result<Vec<u8>, Malformed> {
-    let pixels = image.width * image.height;
-    if let Some((name, v)) = image.channels.iter().find(|(_, v)| v.len() != pixels) {
+/// A channel to write: its name and its value at each pixel (row-major
+/// index), computed while the file is written, so saving a render makes
+/// no copy of its film or image (a copy per channel was 28 bytes per pixel
+/// at the peak of a render's memory).
+pub struct OutChannel<'a> {
+    pub name: String,
+    pub value: Box<dyn Fn(usize) -> f32 + Sync + 'a>,
+}
+
+impl<'a> OutChannel<'a> {
+    pub fn new(name: impl Into<String>, value: impl Fn(usize) -> f32 + Sync + 'a) -> Self {
+        OutChannel {
+            name: name.into(),
+            value: Box::new(value),
+        }
+    }
+}
+
+/// An image of named float channels given per pixel, and text attributes:
+/// what [`encode_channels`] writes.
+pub struct OutChannels<'a> {
+    pub width: usize,
+    pub height: usize,
+    pub channels: Vec<OutChannel<'a>>,
+    /// (name, UTF-8 text).
+    pub attributes: Vec<(String, String)>,
+}
+
+/// [`OutChannels`] in the file's channel order (sorted by name).
+struct SortedChannels<'c, 'a> {
+    image: &'c OutChannels<'a>,
+    order: Vec<usize>,
+}
+
+impl<'s> exr::image::write::channels::WritableChannels<'s> for SortedChannels<'_, '_> {
+    fn infer_channel_list(&self) -> exr::meta::attribute::ChannelList {
+        exr::meta::attribute::ChannelList::new(
+            self.order
+                .iter()
+                .map(|&i| {
+                    exr::meta::attribute::ChannelDescription::named(
+                        text(&self.image.channels[i].name),
+                        exr::meta::attribute::SampleType::F32,
+                    )
+                })
+                .collect(),
+        )
+    }
+
+    fn infer_level_modes(&self) -> (exr::meta::attribute::LevelMode, exr::math::RoundingMode) {
+        (
+            exr::meta::attribute::LevelMode::Singular,
+            exr::math::RoundingMode::Down,
+        )
+    }
+
+    type Writer = SortedChannelsWriter<'s>;
+
+    fn create_writer(&'s self, _header: &exr::meta::header::Header) -> Self::Writer {
+        SortedChannelsWriter {
+            values: self
+                .order
+                .iter()
+                .map(|&i| &*self.image.channels[i].value)
+                .collect(),
+            width: self.image.width,
+        }
+    }
+}
+
+struct SortedChannelsWriter<'s> {
+    values: Vec<&'s (dyn Fn(usize) -> f32 + Sync)>,
+    width: usize,
+}
+
+impl exr::image::write::channels::ChannelsWriter for SortedChannelsWriter<'_> {
+    fn extract_uncompressed_block(
+        &self,
+        header: &exr::meta::header::Header,
+        block: exr::block::BlockIndex,
+    ) -> Vec<u8> {
+        exr::block::UncompressedBlock::collect_block_data_from_lines(
+            &header.channels,
+            block,
+            |line| {
+                let value = self.values[line.location.channel];
+                let start = line.location.position.y() * self.width + line.location.position.x();
+                line.write_samples(|i| value(start + i))
+                    .expect("a line's bytes hold its samples");
+            },
+        )
+    }
+}
+
+/// Writes one layer of the given 32-bit float channels, the attributes as
+/// text, ZIP compression, to `out` as it is encoded (no copy of the file
+/// in memory).
+pub fn encode_channels(
+    image: &OutChannels,
+    out: impl std::io::Write + std::io::Seek,
+) -> Result<(), Malformed> {
+    if image.channels.is_empty() || image.width == 0 || image.height == 0 {
+        return Err(Malformed::from(
+            "an OpenEXR file needs a channel and a pixel",
+        ));
+    }
+    let mut order: Vec<usize> = (0..image.channels.len()).collect();
+    order.sort_by(|&a, &b| image.channels[a].name.cmp(&image.channels[b].name));
+    if let Some(w) = order
+        .windows(2)
+        .find(|w| image.channels[w[0]].name == image.channels[w[1]].name)
+    {
         return Err(Malformed::from(format!(
-            "channel '{name}' has {} values for {}x{} pixels",
-            v.len(),
-            image.width,
-            image.height
+            "channel '{}' is given twice",
+            image.channels[w[0]].name
         )));
     }
-    let list: Vec<AnyChannel<FlatSamples>> = image
-        .channels
-        .iter()
-        .map(|(name, v)| AnyChannel::new(text(name), FlatSamples::F32(v.clone())))
-        .collect();
     let mut attributes = LayerAttributes::default();
     for (name, value) in &image.attributes {
         attributes.other.insert(
@@ -283,9 +377,12 @@ pub fn encode_channels(image: &Channels) -> Result<Vec<u8>, Malformed> {
         (image.width, image.height),
         attributes,
         Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(list.into()),
+        SortedChannels { image, order },
     );
-    write_layer(&Image::from_layer(layer))
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(out)
+        .map_err(|e| Malformed::from(format!("cannot encode OpenEXR: {e}")))
 }
 
 /// The first layer's channels (as 32-bit floats) and the text attributes
@@ -420,6 +517,52 @@ mod tests {
         let (back, warnings) = load_image(&path).unwrap();
         assert!(warnings.is_empty());
         assert_eq!(back, img);
+    }
+
+    #[test]
+    fn channels_given_per_pixel_round_trip_exactly() {
+        // Names out of order, a size that is not a whole number of ZIP
+        // blocks (16 lines), values that are not all finite: every channel
+        // reads back bit for bit under its own name.
+        let (w, h) = (37usize, 45usize);
+        let value = |c: usize, i: usize| match (c + i) % 11 {
+            0 => f32::INFINITY,
+            1 => -0.0,
+            k => (i as f32 * 0.37 + c as f32).sin() * 10f32.powi(k as i32 - 5),
+        };
+        let names = ["zeta", "R", "lente.film.B", "B", "alpha.1"];
+        let image = super::OutChannels {
+            width: w,
+            height: h,
+            channels: names
+                .iter()
+                .enumerate()
+                .map(|(c, n)| super::OutChannel::new(*n, move |i| value(c, i)))
+                .collect(),
+            attributes: vec![("lente.note".into(), "é 1".into())],
+        };
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        super::encode_channels(&image, &mut bytes).unwrap();
+        let back = super::decode_channels(bytes.get_ref()).unwrap();
+        assert_eq!((back.width, back.height), (w, h));
+        assert_eq!(back.attribute("lente.note"), Some("é 1"));
+        for (c, n) in names.iter().enumerate() {
+            let got = back.channel(n).unwrap();
+            for (i, g) in got.iter().enumerate() {
+                assert_eq!(g.to_bits(), value(c, i).to_bits(), "{n} pixel {i}");
+            }
+        }
+        let twice = super::OutChannels {
+            width: w,
+            height: h,
+            channels: vec![
+                super::OutChannel::new("R", |_| 0.0),
+                super::OutChannel::new("R", |_| 1.0),
+            ],
+            attributes: vec![],
+        };
+        let err = super::encode_channels(&twice, std::io::Cursor::new(Vec::new())).unwrap_err();
+        assert!(err.0.contains("'R' is given twice"), "{}", err.0);
     }
 
     #[test]

@@ -20,6 +20,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use super::Bitmap;
 use crate::color::Rgb;
 pub use exr::Channels as ExrChannels;
+pub use exr::{OutChannel, OutChannels};
 pub use png::Transfer;
 
 /// An image file that could not be read or written.
@@ -259,11 +260,16 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
             ),
         ));
     }
+    // EXR and PNG are encoded straight into the file.
+    match format {
+        Format::Exr => return write_atomically_with(path, |file| exr::encode(image, file)),
+        Format::Png => return write_atomically_with(path, |file| png::encode(image, file)),
+        _ => {}
+    }
     let bytes = match format {
-        Format::Exr => exr::encode(image),
+        Format::Exr | Format::Png => unreachable!("written above"),
         Format::Hdr => hdr::encode(image),
         Format::Pfm => Ok(pfm::encode(image)),
-        Format::Png => png::encode(image),
         Format::Jpeg => Err(Malformed::from(
             "lente writes no JPEG (lossy); use .png, .exr, .hdr or .pfm",
         )),
@@ -275,11 +281,30 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
     write_atomically(path, &bytes)
 }
 
-/// Saves named float channels with text attributes as an OpenEXR file
-/// (atomically, like [`save_image`]).
-pub fn save_exr_channels(path: &Path, image: &ExrChannels) -> Result<(), ImageError> {
-    let bytes = exr::encode_channels(image).map_err(|m| ImageError::new(path, m.0))?;
-    write_atomically(path, &bytes)
+/// Saves a `width` x `height` 8-bit sRGB PNG of the linear colours
+/// `pixel(i)` (row-major), made and encoded as it is written: no float
+/// copy of the image (atomically, like [`save_image`]).
+pub fn save_png_pixels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    pixel: impl Fn(usize) -> Rgb,
+) -> Result<(), ImageError> {
+    if width == 0 || height == 0 {
+        return Err(ImageError::new(
+            path,
+            format!("cannot save an empty image ({width}x{height} pixels)"),
+        ));
+    }
+    write_atomically_with(path, |file| {
+        png::encode_pixels(width, height, pixel, false, file)
+    })
+}
+
+/// Saves named float channels with text attributes as an OpenEXR file,
+/// encoded straight into the file (atomically, like [`save_image`]).
+pub fn save_exr_channels(path: &Path, image: &OutChannels) -> Result<(), ImageError> {
+    write_atomically_with(path, |file| exr::encode_channels(image, file))
 }
 
 /// Decodes an OpenEXR file's first layer from its bytes (see
@@ -299,6 +324,18 @@ pub fn load_exr_channels(path: &Path) -> Result<ExrChannels, ImageError> {
 /// Writes `bytes` to a temporary file beside `path`, then renames it to
 /// `path`. On failure the temporary file is removed.
 pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
+    write_atomically_with(path, |file| {
+        file.write_all(bytes)
+            .map_err(|e| Malformed::from(format!("cannot write: {e}")))
+    })
+}
+
+/// Like [`write_atomically`], the contents written by `write` to the
+/// temporary file as they are made.
+pub(crate) fn write_atomically_with(
+    path: &Path,
+    write: impl FnOnce(&mut fs::File) -> Result<(), Malformed>,
+) -> Result<(), ImageError> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let (dir, name) = folder_and_name(path)?;
     let tmp = temporary_beside(dir, &name, COUNTER.fetch_add(1, Ordering::Relaxed));
@@ -309,8 +346,9 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageErr
             .create_new(true)
             .open(&tmp)
             .map_err(|e| format!("cannot create temporary file {}: {e}", tmp.display()))?;
-        file.write_all(bytes)
-            .and_then(|()| file.sync_all())
+        write(&mut file)
+            .map_err(|m| format!("cannot write temporary file {}: {}", tmp.display(), m.0))?;
+        file.sync_all()
             .map_err(|e| format!("cannot write temporary file {}: {e}", tmp.display()))?;
         drop(file);
         fs::rename(&tmp, path)

@@ -8,7 +8,7 @@ use std::io::Cursor;
 use image::{DynamicImage, ImageDecoder, ImageEncoder};
 
 use super::RawImage;
-use crate::color::{srgb_decode, srgb_encode};
+use crate::color::{srgb_decode, srgb_encode, Rgb};
 use crate::image::Bitmap;
 
 /// How 8- and 16-bit values become floats.
@@ -104,39 +104,56 @@ fn finish_ldr(
 }
 
 /// 8-bit sRGB-encoded RGB, values clamped to [0, 1] (NaN becomes 0).
-pub(super) fn encode(image: &Bitmap) -> Result<Vec<u8>, Malformed> {
-    encode_scaled(image, 1.0, false)
+pub(super) fn encode(image: &Bitmap, out: impl std::io::Write) -> Result<(), Malformed> {
+    encode_pixels(image.width, image.height, |i| image.pixels[i], false, out)
 }
 
 /// Like [`encode`] after multiplying by `scale`; `fast` trades file size
 /// for speed (live previews).
 pub fn encode_scaled(image: &Bitmap, scale: f32, fast: bool) -> Result<Vec<u8>, Malformed> {
+    let mut out = Vec::new();
+    encode_pixels(
+        image.width,
+        image.height,
+        |i| image.pixels[i] * scale,
+        fast,
+        &mut out,
+    )?;
+    Ok(out)
+}
+
+/// A `width` x `height` PNG of the linear colours `pixel(i)` (row-major),
+/// sRGB-encoded and clamped to [0, 1], written to `out` as it is encoded:
+/// the 8-bit image is the one copy made (no tone-mapped float copy, no
+/// copy of the file in memory).
+pub fn encode_pixels(
+    width: usize,
+    height: usize,
+    pixel: impl Fn(usize) -> Rgb,
+    fast: bool,
+    out: impl std::io::Write,
+) -> Result<(), Malformed> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-    let (w, h) = match (u32::try_from(image.width), u32::try_from(image.height)) {
+    let (w, h) = match (u32::try_from(width), u32::try_from(height)) {
         (Ok(w), Ok(h)) => (w, h),
         _ => return Err(Malformed::from("image is too large for PNG")),
     };
     let quantise = |v: f32| {
-        let v = v * scale;
         if v.is_nan() {
             0
         } else {
             (srgb_encode(v) * 255.0 + 0.5) as u8
         }
     };
-    let buf: Vec<u8> = image
-        .pixels
-        .iter()
-        .flat_map(|p| p.to_array().map(quantise))
+    let buf: Vec<u8> = (0..width * height)
+        .flat_map(|i| pixel(i).to_array().map(quantise))
         .collect();
-    let mut out = Vec::new();
     let encoder = if fast {
-        PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
+        PngEncoder::new_with_quality(out, CompressionType::Fast, FilterType::Sub)
     } else {
-        PngEncoder::new(&mut out)
+        PngEncoder::new(out)
     };
     encoder
         .write_image(&buf, w, h, image::ExtendedColorType::Rgb8)
-        .map_err(|e| format!("cannot encode PNG: {e}"))?;
-    Ok(out)
+        .map_err(|e| Malformed::from(format!("cannot encode PNG: {e}")))
 }
