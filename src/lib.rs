@@ -11,6 +11,8 @@ pub mod denoise;
 pub mod emitter;
 pub mod fuzz;
 pub mod geometry;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod image;
 pub mod integrator;
 pub mod limits;

@@ -211,6 +211,12 @@ struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Where to render: cpu; gpu (compute shaders through wgpu: Vulkan,
+    /// Metal or DX12; a scene it does not support yet is an error naming
+    /// what); auto (the GPU when there is one and it supports the scene,
+    /// else the CPU, with a note).
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
+    device: DeviceArg,
     /// Seed of the random number streams (default 0); different seeds
     /// give independent renders.
     #[arg(long)]
@@ -276,6 +282,14 @@ impl LookArgs {
             tonemap: self.tonemap,
         }
     }
+}
+
+/// `--device` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum DeviceArg {
+    Cpu,
+    Gpu,
+    Auto,
 }
 
 /// `--progress` values.
@@ -476,6 +490,55 @@ struct Resumed {
     file: RenderFile,
 }
 
+/// The render on the GPU if `device` asks for it (None: render on the
+/// CPU). `auto` falls back to the CPU, saying why.
+#[cfg(feature = "gpu")]
+fn render_on_gpu(
+    device: DeviceArg,
+    scene: &Scene,
+    job: &lente::render::RenderJob,
+    opts: &RenderOptions,
+    cancel: &AtomicBool,
+    quiet: bool,
+) -> Result<Option<lente::render::RenderOutput>> {
+    match device {
+        DeviceArg::Cpu => Ok(None),
+        DeviceArg::Gpu => Ok(Some(lente::gpu::render(scene, job, opts, cancel)?)),
+        DeviceArg::Auto => match lente::gpu::render(scene, job, opts, cancel) {
+            Ok(out) => Ok(Some(out)),
+            Err(e) => {
+                if !quiet {
+                    eprintln!("note: rendering on the CPU: {e}");
+                }
+                Ok(None)
+            }
+        },
+    }
+}
+
+#[cfg(not(feature = "gpu"))]
+fn render_on_gpu(
+    device: DeviceArg,
+    _scene: &Scene,
+    _job: &lente::render::RenderJob,
+    _opts: &RenderOptions,
+    _cancel: &AtomicBool,
+    quiet: bool,
+) -> Result<Option<lente::render::RenderOutput>> {
+    match device {
+        DeviceArg::Cpu => Ok(None),
+        DeviceArg::Gpu => {
+            bail!("this lente was built without the GPU backend (cargo feature `gpu`)")
+        }
+        DeviceArg::Auto => {
+            if !quiet {
+                eprintln!("note: rendering on the CPU: built without the GPU backend");
+            }
+            Ok(None)
+        }
+    }
+}
+
 fn cmd_render(args: RenderArgs) -> Result<()> {
     let RenderArgs {
         scene: scene_arg,
@@ -487,6 +550,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         denoise,
         resolution,
         threads,
+        device,
         seed,
         quiet,
         progress,
@@ -774,7 +838,10 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
         }
     };
-    let out = pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass));
+    let out = match render_on_gpu(device, &scene, &job, &opts, &cancel, quiet)? {
+        Some(out) => out,
+        None => pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass)),
+    };
 
     let secs = out.elapsed.as_secs_f64();
     let mut written = meta.progressed(out.spp, secs);

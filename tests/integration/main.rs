@@ -23,6 +23,8 @@ mod determinism;
 mod envmap_integrators;
 mod furnace;
 mod geometry;
+#[cfg(feature = "gpu")]
+mod gpu;
 mod hostile_inputs;
 mod instancing;
 mod lights;

@@ -275,7 +275,7 @@ const CASES: &[Case] = &[
 ];
 
 /// Per-pixel means and variances of the means, RGB, row-major.
-struct Estimate {
+pub(crate) struct Estimate {
     width: usize,
     height: usize,
     mean: Vec<[f64; 3]>,
@@ -283,7 +283,40 @@ struct Estimate {
 }
 
 impl Estimate {
-    fn scaled(&self, s: f64) -> Estimate {
+    /// The estimate from `n` independent renders (`render(k)`, k in 0..n)
+    /// of a `w` x `h` image.
+    pub(crate) fn from_renders(
+        w: usize,
+        h: usize,
+        n: usize,
+        mut render: impl FnMut(usize) -> Bitmap,
+    ) -> Estimate {
+        let mut mean = vec![[0.0f64; 3]; w * h];
+        let mut m2 = vec![[0.0f64; 3]; w * h];
+        for k in 0..n {
+            let img = render(k);
+            for (i, px) in pixels(&img).iter().enumerate() {
+                for c in 0..3 {
+                    // Welford.
+                    let d = px[c] - mean[i][c];
+                    mean[i][c] += d / (k + 1) as f64;
+                    m2[i][c] += d * (px[c] - mean[i][c]);
+                }
+            }
+        }
+        let var = m2
+            .iter()
+            .map(|m| m.map(|x| x / ((n - 1) * n) as f64))
+            .collect();
+        Estimate {
+            width: w,
+            height: h,
+            mean,
+            var,
+        }
+    }
+
+    pub(crate) fn scaled(&self, s: f64) -> Estimate {
         Estimate {
             width: self.width,
             height: self.height,
@@ -292,7 +325,7 @@ impl Estimate {
         }
     }
 
-    fn mean_image(&self) -> Bitmap {
+    pub(crate) fn mean_image(&self) -> Bitmap {
         let mut b = Bitmap::new(self.width, self.height);
         for y in 0..self.height {
             for x in 0..self.width {
@@ -392,45 +425,24 @@ fn lente_estimate(case: &Case, defines: &[(&str, &str)]) -> Estimate {
         scene.camera.width() as usize,
         scene.camera.height() as usize,
     );
-    let n = case.renders as usize;
-    let mut mean = vec![[0.0f64; 3]; w * h];
-    let mut m2 = vec![[0.0f64; 3]; w * h];
-    for k in 0..n {
+    Estimate::from_renders(w, h, case.renders as usize, |k| {
         let opts = RenderOptions::new(k as u64 + 1);
-        let img = render(&scene, &desc.job, &opts, &AtomicBool::new(false)).image;
-        for (i, px) in pixels(&img).iter().enumerate() {
-            for c in 0..3 {
-                // Welford.
-                let d = px[c] - mean[i][c];
-                mean[i][c] += d / (k + 1) as f64;
-                m2[i][c] += d * (px[c] - mean[i][c]);
-            }
-        }
-    }
-    let var = m2
-        .iter()
-        .map(|m| m.map(|x| x / ((n - 1) * n) as f64))
-        .collect();
-    Estimate {
-        width: w,
-        height: h,
-        mean,
-        var,
-    }
+        render(&scene, &desc.job, &opts, &AtomicBool::new(false)).image
+    })
 }
 
 /// Block z-scores (per block and channel) and summary figures.
-struct Comparison {
-    z: Vec<f64>,
+pub(crate) struct Comparison {
+    pub(crate) z: Vec<f64>,
     blocks: usize,
-    max_abs_z: f64,
+    pub(crate) max_abs_z: f64,
     /// sum |block mean difference| / sum of Mitsuba's block means.
     mean_rel_diff: f64,
     /// (sum of lente's means - sum of Mitsuba's) / sum of Mitsuba's.
     overall_rel_diff: f64,
 }
 
-fn compare(a: &Estimate, b: &Estimate) -> Comparison {
+pub(crate) fn compare(a: &Estimate, b: &Estimate) -> Comparison {
     assert_eq!((a.width, a.height), (b.width, b.height), "image sizes");
     let (bw, bh) = (a.width.div_ceil(BLOCK), a.height.div_ceil(BLOCK));
     let mut z = Vec::new();
@@ -481,7 +493,7 @@ fn compare(a: &Estimate, b: &Estimate) -> Comparison {
 }
 
 /// The two-sided normal threshold for `m` tests at overall level ALPHA.
-fn sidak_threshold(m: usize) -> f64 {
+pub(crate) fn sidak_threshold(m: usize) -> f64 {
     let per_test = 1.0 - (1.0 - ALPHA).powf(1.0 / m as f64);
     Normal::standard().inverse_cdf(1.0 - per_test / 2.0)
 }

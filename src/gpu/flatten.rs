@@ -1,0 +1,441 @@
+//! The scene as the GPU reads it: a BVH over triangles and spheres (built
+//! on the CPU by obvhs), the primitives in leaf order, shading normals,
+//! one material and emission record per shape, the area lights with their
+//! choice CDF, and the render's parameters. What the GPU backend does not
+//! support yet is an error naming it, never a silently different image.
+
+use bytemuck::{Pod, Zeroable};
+use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, Boundable, BvhBuildParams};
+
+use crate::bsdf::Bsdf;
+use crate::color::Rgb;
+use crate::emitter::Emitter;
+use crate::geometry::Geometry;
+use crate::image::Filter;
+use crate::integrator::{Integrator, Strategy};
+use crate::math::Vec3;
+use crate::render::RenderJob;
+use crate::scene::Scene;
+
+/// "No index" in the GPU's records.
+pub const NONE: u32 = u32::MAX;
+
+/// Marks a sphere where a triangle has its normal slot.
+pub const SPHERE: u32 = u32::MAX - 1;
+
+/// Material kinds (`shapes[3 i].w`), as `bsdf.wgsl` names them.
+pub const MAT_DIFFUSE: u32 = 0;
+pub const MAT_TWO_SIDED_DIFFUSE: u32 = 1;
+pub const MAT_MIRROR: u32 = 2;
+pub const MAT_DIELECTRIC: u32 = 3;
+
+/// Entries of the filter's 1D weight table (over [0, radius]).
+pub const FILTER_TABLE: usize = 1024;
+
+/// The render's constants (a uniform buffer; `common.wgsl`'s `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Params {
+    pub to_world: [[f32; 4]; 4],
+    pub width: u32,
+    pub height: u32,
+    pub spp_pass: u32,
+    pub sample_base: u32,
+    pub seed_lo: u32,
+    pub seed_hi: u32,
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub tan_half_x: f32,
+    pub inv_aspect: f32,
+    pub lens_radius: f32,
+    pub focal_distance: f32,
+    pub near_clip: f32,
+    pub far_clip: f32,
+    pub filter_radius: f32,
+    pub light_count: u32,
+    /// Constant environment radiance; `w` is 1 if there is one.
+    pub env: [f32; 4],
+    /// Probability that emitter sampling picks the environment.
+    pub env_prob: f32,
+    pub node_count: u32,
+    pub _pad: [u32; 2],
+}
+
+/// The flattened scene.
+pub struct GpuScene {
+    pub params: Params,
+    /// Two per node: (min, first index as bits), (max, primitive count as
+    /// bits; 0 for an inner node whose children are `first`, `first + 1`).
+    pub nodes: Vec<[f32; 4]>,
+    /// Three per primitive in leaf order. Triangle: (v0, shape), (v1,
+    /// normal slot or NONE), (v2, light or NONE). Sphere: (centre, shape),
+    /// (radius, 0, 0, SPHERE), (0, 0, 0, light or NONE).
+    pub prims: Vec<[f32; 4]>,
+    /// Three per normal slot: a triangle's vertex normals.
+    pub normals: Vec<[f32; 4]>,
+    /// Three per shape: (reflectance, material kind), (emitted radiance,
+    /// 0), (eta, 0, 0, 0).
+    pub shapes: Vec<[f32; 4]>,
+    /// Four per area light: (p0 or centre, kind 0 triangle / 1 sphere),
+    /// (p1 or (radius, 0, 0), area), (p2, CDF up to and including it),
+    /// (radiance, shape).
+    pub lights: Vec<[f32; 4]>,
+    /// The filter's weight at `radius * i / (FILTER_TABLE - 1)`.
+    pub filter_table: Vec<f32>,
+}
+
+/// Something in the scene the GPU backend cannot render yet.
+#[derive(Debug, thiserror::Error)]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror and smooth dielectric BSDFs, area lights on meshes and rectangles and a constant environment, with the path tracer using MIS); render on the CPU (--device cpu)")]
+pub struct Unsupported(pub String);
+
+fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
+    Err(Unsupported(what.into()))
+}
+
+fn bits(u: u32) -> f32 {
+    f32::from_bits(u)
+}
+
+fn v4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+fn luminance(c: Rgb) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// One primitive before the BVH orders them.
+#[derive(Clone, Copy)]
+enum Prim {
+    Triangle {
+        shape: u32,
+        v: [Vec3; 3],
+        normals: Option<[Vec3; 3]>,
+    },
+    Sphere {
+        shape: u32,
+        center: Vec3,
+        radius: f32,
+    },
+}
+
+impl Prim {
+    fn bounds(&self) -> OAabb {
+        match *self {
+            Prim::Triangle { v, .. } => {
+                let lo = v[0].min(v[1]).min(v[2]);
+                let hi = v[0].max(v[1]).max(v[2]);
+                OAabb::new(lo.into(), hi.into())
+            }
+            Prim::Sphere { center, radius, .. } => {
+                let r = Vec3::splat(radius);
+                OAabb::new((center - r).into(), (center + r).into())
+            }
+        }
+    }
+}
+
+struct Bounded(OAabb);
+
+impl Boundable for Bounded {
+    fn aabb(&self) -> OAabb {
+        self.0
+    }
+}
+
+fn material(bsdf: &Bsdf) -> Result<([f32; 4], f32), Unsupported> {
+    Ok(match bsdf {
+        Bsdf::Diffuse(d) => (v4(d.albedo, bits(MAT_DIFFUSE)), 1.0),
+        Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
+            (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) if f == b => {
+                (v4(f.albedo, bits(MAT_TWO_SIDED_DIFFUSE)), 1.0)
+            }
+            _ => return unsupported("a two-sided BSDF other than two-sided diffuse"),
+        },
+        Bsdf::Mirror(_) => (v4(Vec3::ONE, bits(MAT_MIRROR)), 1.0),
+        Bsdf::Dielectric(d) => (v4(Vec3::ONE, bits(MAT_DIELECTRIC)), d.eta),
+        other => {
+            let name = format!("{other:?}");
+            let name = name.split(['(', ' ', '{']).next().unwrap_or("this");
+            return unsupported(format!("the {name} BSDF"));
+        }
+    })
+}
+
+impl GpuScene {
+    /// Flattens `scene` for `job`, or says what the GPU cannot render.
+    pub fn new(scene: &Scene, job: &RenderJob, seed: u64) -> Result<GpuScene, Unsupported> {
+        let (max_depth, rr_depth) = match &job.integrator {
+            Integrator::Path {
+                strategy: Strategy::Mis,
+                params,
+            } => {
+                if params.hide_emitters {
+                    return unsupported("hide_emitters");
+                }
+                (params.max_depth.unwrap_or(NONE), params.rr_depth)
+            }
+            Integrator::Path { .. } => {
+                return unsupported("path tracing without MIS (path_mats, path_ems)")
+            }
+            other => {
+                let name = format!("{other:?}");
+                let name = name.split(['(', ' ', '{']).next().unwrap_or("this");
+                return unsupported(format!("the {name} integrator"));
+            }
+        };
+        if !scene.media.is_empty() || scene.camera_medium.is_some() {
+            return unsupported("participating media");
+        }
+        if scene.bvh.instance_count() > 0 {
+            return unsupported("instances");
+        }
+        let cam = &scene.camera.params;
+        if cam.projection != crate::camera::Projection::Perspective {
+            return unsupported("an orthographic camera");
+        }
+        if cam.lens_radius > 0.0 && cam.aperture != crate::camera::Aperture::Circular {
+            return unsupported("a polygonal aperture");
+        }
+
+        // Primitives, materials, emission.
+        let mut prims = Vec::new();
+        let mut shapes = Vec::new();
+        for (s, geometry) in scene.geometry.iter().enumerate() {
+            let shape = s as u32;
+            let (mat, eta) = material(&scene.bsdfs[s])?;
+            let emission = match scene.shape_emitter[s] {
+                Some(e) => match &scene.emitters[e as usize] {
+                    Emitter::Area(a) if a.texture.is_none() => a.radiance,
+                    _ => return unsupported("a textured area light"),
+                },
+                None => Rgb::ZERO,
+            };
+            shapes.push(mat);
+            shapes.push(v4(emission, 0.0));
+            shapes.push([eta, 0.0, 0.0, 0.0]);
+            match geometry {
+                Geometry::Mesh(m) => {
+                    let has_normals = !m.normals().is_empty();
+                    for (t, idx) in m.indices().iter().enumerate() {
+                        let normals = has_normals.then(|| idx.map(|i| m.normals()[i as usize]));
+                        prims.push(Prim::Triangle {
+                            shape,
+                            v: m.vertices(t),
+                            normals,
+                        });
+                    }
+                }
+                Geometry::Rectangle(r) => {
+                    let f = &r.frame;
+                    let c = [
+                        f.center - f.ex - f.ey,
+                        f.center + f.ex - f.ey,
+                        f.center + f.ex + f.ey,
+                        f.center - f.ex + f.ey,
+                    ];
+                    // Wound so that the triangles' normal is the
+                    // rectangle's front.
+                    let flip = (c[1] - c[0]).cross(c[2] - c[0]).dot(f.n) < 0.0;
+                    for tri in [[c[0], c[1], c[2]], [c[0], c[2], c[3]]] {
+                        let v = if flip { [tri[0], tri[2], tri[1]] } else { tri };
+                        prims.push(Prim::Triangle {
+                            shape,
+                            v,
+                            normals: None,
+                        });
+                    }
+                }
+                // A sphere light renders 2-4% darker than on the CPU (and
+                // Mitsuba) near it: not found yet, so not rendered.
+                Geometry::Sphere(_) if emission != Rgb::ZERO => {
+                    return unsupported("spherical area lights")
+                }
+                Geometry::Sphere(sp) => prims.push(Prim::Sphere {
+                    shape,
+                    center: sp.center,
+                    radius: sp.radius,
+                }),
+                Geometry::Disk(_) => return unsupported("disks"),
+                Geometry::Curve(_) => return unsupported("curves"),
+            }
+        }
+        if prims.is_empty() {
+            return unsupported("a scene without shapes");
+        }
+
+        // Environment and other emitters.
+        let mut env = [0.0f32; 4];
+        for e in &scene.emitters {
+            match e {
+                Emitter::Area(_) => {}
+                Emitter::Constant(c) => {
+                    if env[3] != 0.0 {
+                        return unsupported("two constant environments");
+                    }
+                    env = v4(c.radiance, 1.0);
+                }
+                Emitter::Environment(_) => return unsupported("environment maps"),
+                Emitter::Point(_) => return unsupported("point lights"),
+                Emitter::Spot(_) => return unsupported("spot lights"),
+                Emitter::Projector(_) => return unsupported("projectors"),
+                Emitter::Directional(_) => return unsupported("directional lights"),
+            }
+        }
+
+        // Area lights: one entry per emitting triangle or sphere, chosen in
+        // proportion to power.
+        let mut lights = Vec::new();
+        let mut weights = Vec::new();
+        let mut prim_light = vec![NONE; prims.len()];
+        for (pi, p) in prims.iter().enumerate() {
+            let (shape, rec, area) = match *p {
+                Prim::Triangle { shape, v, .. } => {
+                    let area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
+                    (
+                        shape,
+                        [v4(v[0], bits(0)), v4(v[1], area), v4(v[2], 0.0)],
+                        area,
+                    )
+                }
+                Prim::Sphere {
+                    shape,
+                    center,
+                    radius,
+                } => {
+                    let area = 4.0 * std::f32::consts::PI * radius * radius;
+                    (
+                        shape,
+                        [v4(center, bits(1)), [radius, 0.0, 0.0, area], [0.0; 4]],
+                        area,
+                    )
+                }
+            };
+            let radiance =
+                Vec3::from_array(shapes[3 * shape as usize + 1][..3].try_into().unwrap());
+            let power = area * luminance(radiance);
+            if power > 0.0 && power.is_finite() {
+                prim_light[pi] = weights.len() as u32;
+                lights.extend(rec);
+                lights.push(v4(radiance, bits(shape)));
+                weights.push(power as f64);
+            }
+        }
+        let total: f64 = weights.iter().sum();
+        let mut run = 0.0f64;
+        for (i, w) in weights.iter().enumerate() {
+            run += w;
+            lights[4 * i + 2][3] = if i + 1 == weights.len() {
+                1.0
+            } else {
+                (run / total) as f32
+            };
+        }
+        let light_count = weights.len() as u32;
+        let env_prob = match (env[3] != 0.0, light_count > 0) {
+            (true, true) => 0.5,
+            (true, false) => 1.0,
+            _ => 0.0,
+        };
+
+        // The BVH, primitives in its leaf order.
+        let bounded: Vec<Bounded> = prims.iter().map(|p| Bounded(p.bounds())).collect();
+        let mut build_time = std::time::Duration::ZERO;
+        let bvh = build_bvh2(&bounded, BvhBuildParams::medium_build(), &mut build_time);
+        let mut nodes = Vec::with_capacity(bvh.nodes.len() * 2);
+        for n in &bvh.nodes {
+            nodes.push([
+                n.aabb.min.x,
+                n.aabb.min.y,
+                n.aabb.min.z,
+                bits(n.first_index),
+            ]);
+            nodes.push([n.aabb.max.x, n.aabb.max.y, n.aabb.max.z, bits(n.prim_count)]);
+        }
+        let mut flat = Vec::with_capacity(prims.len() * 3);
+        let mut normals = Vec::new();
+        for &i in &bvh.primitive_indices {
+            let light = bits(prim_light[i as usize]);
+            match prims[i as usize] {
+                Prim::Triangle {
+                    shape,
+                    v,
+                    normals: n,
+                } => {
+                    let slot = match n {
+                        Some(n) => {
+                            let slot = (normals.len() / 3) as u32;
+                            normals.extend(n.map(|n| v4(n, 0.0)));
+                            slot
+                        }
+                        None => NONE,
+                    };
+                    flat.push(v4(v[0], bits(shape)));
+                    flat.push(v4(v[1], bits(slot)));
+                    flat.push(v4(v[2], light));
+                }
+                Prim::Sphere {
+                    shape,
+                    center,
+                    radius,
+                } => {
+                    flat.push(v4(center, bits(shape)));
+                    flat.push([radius, 0.0, 0.0, bits(SPHERE)]);
+                    flat.push([0.0, 0.0, 0.0, light]);
+                }
+            }
+        }
+        if normals.is_empty() {
+            normals.push([0.0; 4]);
+        }
+        if lights.is_empty() {
+            lights.push([0.0; 4]);
+        }
+
+        let radius = job.filter.radius();
+        let filter_table = (0..FILTER_TABLE)
+            .map(|i| {
+                job.filter
+                    .eval_1d(radius * i as f32 / (FILTER_TABLE - 1) as f32)
+            })
+            .collect();
+        let params = Params {
+            to_world: cam.to_world.m.to_cols_array_2d(),
+            width: cam.width,
+            height: cam.height,
+            spp_pass: 1,
+            sample_base: 0,
+            seed_lo: seed as u32,
+            seed_hi: (seed >> 32) as u32,
+            max_depth,
+            rr_depth,
+            tan_half_x: (cam.fov_x_deg.to_radians() * 0.5).tan(),
+            inv_aspect: cam.height as f32 / cam.width as f32,
+            lens_radius: cam.lens_radius,
+            focal_distance: cam.focal_distance,
+            near_clip: cam.near_clip,
+            far_clip: cam.far_clip,
+            filter_radius: radius,
+            light_count,
+            env,
+            env_prob,
+            node_count: bvh.nodes.len() as u32,
+            _pad: [0; 2],
+        };
+        Ok(GpuScene {
+            params,
+            nodes,
+            prims: flat,
+            normals,
+            shapes,
+            lights,
+            filter_table,
+        })
+    }
+}
+
+/// The filter's support in pixels from the sample (the gather's reach).
+pub fn filter_reach(filter: &Filter) -> u32 {
+    filter.radius().ceil() as u32
+}

@@ -1,0 +1,253 @@
+//! The GPU backend: the same scenes rendered by compute shaders through
+//! wgpu (Vulkan, Metal, DX12; no vendor extensions), for
+//! `lente render --device gpu`.
+//!
+//! A pass runs two kernels: `path.wgsl` traces one path per thread for
+//! every pixel sample of the pass and writes its radiance and position in
+//! the pixel; `film.wgsl` then has each pixel gather the filter-weighted
+//! samples around it, in a fixed order, into the film. The film is the CPU
+//! renderer's (weighted sums and weights), so render files, resume and
+//! merge work as they do on the CPU. Renders are deterministic for a given
+//! seed on a given device; their random numbers are not the CPU's, so the
+//! images agree with the CPU's statistically (tests/integration/gpu.rs),
+//! not bit for bit. What the scene flattening ([`flatten`]) does not
+//! support is an error naming it.
+
+pub mod flatten;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use wgpu::util::DeviceExt;
+
+use crate::color::Rgb;
+use crate::image::Film;
+use crate::render::{RenderJob, RenderOptions, RenderOutput};
+use crate::scene::Scene;
+pub use flatten::{GpuScene, Unsupported};
+
+/// The shaders, one file per stage, concatenated per kernel.
+const PATH_SHADER: &str = concat!(
+    include_str!("shaders/params.wgsl"),
+    include_str!("shaders/sampling.wgsl"),
+    include_str!("shaders/intersect.wgsl"),
+    include_str!("shaders/bsdf.wgsl"),
+    include_str!("shaders/emitter.wgsl"),
+    include_str!("shaders/path.wgsl"),
+);
+const FILM_SHADER: &str = concat!(
+    include_str!("shaders/params.wgsl"),
+    include_str!("shaders/film.wgsl"),
+);
+
+/// At most this many bytes of samples per pass (16 per pixel sample).
+const PASS_BYTES: u64 = 128 << 20;
+
+/// Why a render could not run on the GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error(transparent)]
+    Unsupported(#[from] Unsupported),
+    #[error(
+        "no GPU adapter found (wgpu: Vulkan, Metal or DX12); render on the CPU (--device cpu)"
+    )]
+    NoAdapter,
+    #[error("the GPU device failed: {0}")]
+    Device(String),
+}
+
+/// The adapter wgpu picks (high performance first), if any.
+pub fn adapter() -> Option<wgpu::Adapter> {
+    let instance = wgpu::Instance::new(&wgpu::InstanceDescriptor::from_env_or_default());
+    pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..Default::default()
+    }))
+    .ok()
+}
+
+/// A one-line description of the adapter a GPU render would use.
+pub fn describe_adapter() -> Option<String> {
+    adapter().map(|a| {
+        let i = a.get_info();
+        format!("{} ({:?}, {})", i.name, i.backend, i.driver)
+    })
+}
+
+fn storage(device: &wgpu::Device, label: &str, data: &[u8]) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: data,
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
+/// Renders samples `opts.first_sample..job.spp` of every pixel on the GPU
+/// (added to `opts.film` if given), in passes; `cancel` stops after the
+/// pass in flight, keeping the passes done.
+pub fn render(
+    scene: &Scene,
+    job: &RenderJob,
+    opts: &RenderOptions,
+    cancel: &AtomicBool,
+) -> Result<RenderOutput, GpuError> {
+    if !opts.aovs.is_empty() {
+        return Err(Unsupported("AOVs".into()).into());
+    }
+    if opts.rows.is_some() {
+        return Err(Unsupported("rendering a strip of rows".into()).into());
+    }
+    let start = Instant::now();
+    let flat = GpuScene::new(scene, job, opts.seed)?;
+    let adapter = adapter().ok_or(GpuError::NoAdapter)?;
+    let limits = adapter.limits();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("lente"),
+        required_limits: limits.clone(),
+        ..Default::default()
+    }))
+    .map_err(|e| GpuError::Device(e.to_string()))?;
+
+    let (w, h) = (flat.params.width, flat.params.height);
+    let pixels = w as u64 * h as u64;
+    let first = opts.first_sample.min(job.spp);
+    let todo = job.spp - first;
+    let max_bytes = PASS_BYTES
+        .min(limits.max_storage_buffer_binding_size as u64)
+        .min(limits.max_buffer_size);
+    let spp_pass = ((max_bytes / (16 * pixels.max(1))) as u32).clamp(1, todo.max(1));
+
+    let params = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("params"),
+        size: std::mem::size_of::<flatten::Params>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let nodes = storage(&device, "nodes", bytemuck::cast_slice(&flat.nodes));
+    let prims = storage(&device, "prims", bytemuck::cast_slice(&flat.prims));
+    let normals = storage(&device, "normals", bytemuck::cast_slice(&flat.normals));
+    let shapes = storage(&device, "shapes", bytemuck::cast_slice(&flat.shapes));
+    let lights = storage(&device, "lights", bytemuck::cast_slice(&flat.lights));
+    let filter = storage(&device, "filter", bytemuck::cast_slice(&flat.filter_table));
+    let samples = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("samples"),
+        size: 16 * pixels * spp_pass as u64,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let film_bytes = 16 * pixels;
+    let film = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("film"),
+        size: film_bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: film_bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+
+    let pipeline = |source: &str, entry: &str| {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(entry),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: None,
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    };
+    let trace = pipeline(PATH_SHADER, "trace_samples");
+    let gather = pipeline(FILM_SHADER, "gather");
+    let bind = |p: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]| {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &p.get_bind_group_layout(0),
+            entries: &entries,
+        })
+    };
+    let trace_group = bind(
+        &trace,
+        &[
+            &params, &nodes, &prims, &normals, &shapes, &lights, &samples,
+        ],
+    );
+    let gather_group = bind(&gather, &[&params, &filter, &samples, &film]);
+
+    let max_groups = limits.max_compute_workgroups_per_dimension.max(1);
+    let mut done = first;
+    let mut samples_taken = 0u64;
+    let mut cancelled = false;
+    while done < job.spp {
+        if cancel.load(Ordering::Relaxed) {
+            cancelled = true;
+            break;
+        }
+        let n = spp_pass.min(job.spp - done);
+        let mut p = flat.params;
+        p.sample_base = done;
+        p.spp_pass = n;
+        queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
+        let groups = (pixels * n as u64).div_ceil(64);
+        let gx = groups.min(max_groups as u64) as u32;
+        let gy = groups.div_ceil(gx as u64) as u32;
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&trace);
+            pass.set_bind_group(0, &trace_group, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+            pass.set_pipeline(&gather);
+            pass.set_bind_group(0, &gather_group, &[]);
+            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
+        queue.submit([encoder.finish()]);
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Device(e.to_string()))?;
+        done += n;
+        samples_taken += pixels * n as u64;
+    }
+
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(&film, 0, &readback, 0, film_bytes);
+    queue.submit([encoder.finish()]);
+    readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+    let data: Vec<(Rgb, f32)> = {
+        let bytes = readback.slice(..).get_mapped_range();
+        bytemuck::cast_slice::<u8, [f32; 4]>(&bytes)
+            .iter()
+            .map(|v| (Rgb::new(v[0], v[1], v[2]), v[3]))
+            .collect()
+    };
+    let mut film = Film::from_data(w as usize, h as usize, data)
+        .ok_or_else(|| GpuError::Device("the film read back has the wrong size".into()))?;
+    if let Some(before) = &opts.film {
+        film.add(before);
+    }
+    Ok(RenderOutput {
+        image: film.to_bitmap(),
+        film,
+        spp: done,
+        elapsed: start.elapsed(),
+        samples: samples_taken,
+        cancelled,
+    })
+}

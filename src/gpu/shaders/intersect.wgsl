@@ -1,0 +1,217 @@
+// Ray queries against the flattened BVH (flatten.rs): nodes two vec4s
+// each, primitives three, children of an inner node side by side.
+
+struct Hit {
+    t: f32,
+    prim: u32,
+    b1: f32,
+    b2: f32,
+}
+
+// Distance at which the ray enters node `i`'s box, or INF if it misses it
+// before `tmax`.
+fn box_entry(i: u32, o: vec3<f32>, inv_d: vec3<f32>, tmax: f32) -> f32 {
+    let lo = (nodes[2u * i].xyz - o) * inv_d;
+    let hi = (nodes[2u * i + 1u].xyz - o) * inv_d;
+    let t0 = min(lo, hi);
+    let t1 = max(lo, hi);
+    let enter = max(max(t0.x, t0.y), max(t0.z, 0.0));
+    // Rounded outwards, like wide_bvh.rs's slab test.
+    let exit = min(min(t1.x, t1.y), min(t1.z, tmax)) * 1.0000004;
+    return select(INF, enter, enter <= exit);
+}
+
+fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
+    let tiny = abs(d) < vec3<f32>(1e-30);
+    return select(1.0 / d, select(vec3<f32>(1e30), vec3<f32>(-1e30), d < vec3<f32>(0.0)), tiny);
+}
+
+// Whether primitive `i` is hit in (tmin, tmax); the hit's distance and
+// barycentrics go to `hit`.
+fn intersect_prim(i: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, hit: ptr<function, Hit>) -> bool {
+    let r0 = prims[3u * i];
+    let r1 = prims[3u * i + 1u];
+    if (bitcast<u32>(r1.w) == SPHERE) {
+        let oc = o - r0.xyz;
+        let r = r1.x;
+        let b = dot(oc, d);
+        let c = dot(oc, oc) - r * r;
+        let disc = b * b - c;
+        if (disc < 0.0) {
+            return false;
+        }
+        let q = sqrt(disc);
+        var t = -b - q;
+        if (t <= tmin) {
+            t = -b + q;
+        }
+        if (t <= tmin || t >= tmax) {
+            return false;
+        }
+        *hit = Hit(t, i, 0.0, 0.0);
+        return true;
+    }
+    // Moeller and Trumbore.
+    let a = r0.xyz;
+    let e1 = r1.xyz - a;
+    let e2 = prims[3u * i + 2u].xyz - a;
+    let pv = cross(d, e2);
+    let det = dot(e1, pv);
+    if (det == 0.0) {
+        return false;
+    }
+    let inv = 1.0 / det;
+    let tv = o - a;
+    let u = dot(tv, pv) * inv;
+    if (u < 0.0 || u > 1.0) {
+        return false;
+    }
+    let qv = cross(tv, e1);
+    let v = dot(d, qv) * inv;
+    if (v < 0.0 || u + v > 1.0) {
+        return false;
+    }
+    let t = dot(e2, qv) * inv;
+    if (t <= tmin || t >= tmax) {
+        return false;
+    }
+    *hit = Hit(t, i, u, v);
+    return true;
+}
+
+// The closest hit along the ray in (tmin, tmax), or false.
+fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, hit: ptr<function, Hit>) -> bool {
+    let inv_d = safe_inverse(d);
+    var stack: array<u32, 64>;
+    var sp = 0u;
+    var node = 0u;
+    var tmax = tmax_in;
+    var found = false;
+    loop {
+        let count = bitcast<u32>(nodes[2u * node + 1u].w);
+        let first = bitcast<u32>(nodes[2u * node].w);
+        var descend = false;
+        if (count > 0u) {
+            for (var k = first; k < first + count; k++) {
+                if (intersect_prim(k, o, d, tmin, tmax, hit)) {
+                    tmax = (*hit).t;
+                    found = true;
+                }
+            }
+        } else {
+            let tl = box_entry(first, o, inv_d, tmax);
+            let tr = box_entry(first + 1u, o, inv_d, tmax);
+            if (tl < INF && tr < INF) {
+                let near_left = tl <= tr;
+                if (sp < 64u) {
+                    stack[sp] = select(first, first + 1u, near_left);
+                    sp++;
+                }
+                node = select(first + 1u, first, near_left);
+                descend = true;
+            } else if (tl < INF) {
+                node = first;
+                descend = true;
+            } else if (tr < INF) {
+                node = first + 1u;
+                descend = true;
+            }
+        }
+        if (!descend) {
+            if (sp == 0u) {
+                break;
+            }
+            sp--;
+            node = stack[sp];
+        }
+    }
+    return found;
+}
+
+// Whether anything blocks the ray in (0, tmax).
+fn occluded(o: vec3<f32>, d: vec3<f32>, tmax: f32) -> bool {
+    let inv_d = safe_inverse(d);
+    var stack: array<u32, 64>;
+    var sp = 0u;
+    var node = 0u;
+    var hit: Hit;
+    loop {
+        let count = bitcast<u32>(nodes[2u * node + 1u].w);
+        let first = bitcast<u32>(nodes[2u * node].w);
+        var descend = false;
+        if (count > 0u) {
+            for (var k = first; k < first + count; k++) {
+                if (intersect_prim(k, o, d, 0.0, tmax, &hit)) {
+                    return true;
+                }
+            }
+        } else {
+            let tl = box_entry(first, o, inv_d, tmax);
+            let tr = box_entry(first + 1u, o, inv_d, tmax);
+            if (tl < INF && tr < INF) {
+                if (sp < 64u) {
+                    stack[sp] = first + 1u;
+                    sp++;
+                }
+                node = first;
+                descend = true;
+            } else if (tl < INF) {
+                node = first;
+                descend = true;
+            } else if (tr < INF) {
+                node = first + 1u;
+                descend = true;
+            }
+        }
+        if (!descend) {
+            if (sp == 0u) {
+                break;
+            }
+            sp--;
+            node = stack[sp];
+        }
+    }
+    return false;
+}
+
+// What a path needs of the surface it hit.
+struct Surface {
+    p: vec3<f32>,
+    ng: vec3<f32>,
+    ns: vec3<f32>,
+    shape: u32,
+    light: u32,
+}
+
+fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
+    let r0 = prims[3u * h.prim];
+    let r1 = prims[3u * h.prim + 1u];
+    let r2 = prims[3u * h.prim + 2u];
+    let shape = bitcast<u32>(r0.w);
+    let slot = bitcast<u32>(r1.w);
+    let light = bitcast<u32>(r2.w);
+    if (slot == SPHERE) {
+        let n = normalize(o + h.t * d - r0.xyz);
+        return Surface(r0.xyz + r1.x * n, n, n, shape, light);
+    }
+    let b0 = 1.0 - h.b1 - h.b2;
+    let p = b0 * r0.xyz + h.b1 * r1.xyz + h.b2 * r2.xyz;
+    let ng = normalize(cross(r1.xyz - r0.xyz, r2.xyz - r0.xyz));
+    var ns = ng;
+    if (slot != NONE) {
+        let n = b0 * normals[3u * slot].xyz + h.b1 * normals[3u * slot + 1u].xyz
+            + h.b2 * normals[3u * slot + 2u].xyz;
+        let len = length(n);
+        if (len > 0.0) {
+            ns = n / len;
+        }
+    }
+    return Surface(p, ng, ns, shape, light);
+}
+
+// A ray's origin off the surface at `p` on the side `d` leaves to.
+fn spawn_origin(p: vec3<f32>, ng: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    let scale = max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z))));
+    let off = ng * (2e-4 * scale);
+    return select(p - off, p + off, dot(ng, d) > 0.0);
+}

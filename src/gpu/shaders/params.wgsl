@@ -1,0 +1,36 @@
+// The render's constants: `Params` in flatten.rs, field for field.
+struct Params {
+    to_world: mat4x4<f32>,
+    width: u32,
+    height: u32,
+    spp_pass: u32,
+    sample_base: u32,
+    seed_lo: u32,
+    seed_hi: u32,
+    max_depth: u32,
+    rr_depth: u32,
+    tan_half_x: f32,
+    inv_aspect: f32,
+    lens_radius: f32,
+    focal_distance: f32,
+    near_clip: f32,
+    far_clip: f32,
+    filter_radius: f32,
+    light_count: u32,
+    env: vec4<f32>,
+    env_prob: f32,
+    node_count: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+const NONE: u32 = 0xffffffffu;
+const SPHERE: u32 = 0xfffffffeu;
+const PI: f32 = 3.14159265358979;
+const INV_PI: f32 = 0.318309886183791;
+const INF: f32 = 3.0e38;
+
+// True for NaN and the infinities.
+fn not_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+}

@@ -1,0 +1,163 @@
+// The path tracer with MIS (integrator/path.rs, Strategy::Mis): one
+// thread per pixel sample, writing the sample's radiance and its position
+// in the pixel for film.wgsl to reconstruct.
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var<storage, read> nodes: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> prims: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> normals: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> shapes: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> lights: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> samples: array<vec4<f32>>;
+
+struct Ray {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    tmin: f32,
+    tmax: f32,
+}
+
+// camera.rs's generate_ray for the perspective and thin-lens cameras.
+fn camera_ray(film: vec2<f32>, aperture: vec2<f32>) -> Ray {
+    let sx = film.x / f32(P.width);
+    let sy = film.y / f32(P.height);
+    let dc = vec3<f32>(
+        (1.0 - 2.0 * sx) * P.tan_half_x,
+        (1.0 - 2.0 * sy) * P.tan_half_x * P.inv_aspect,
+        1.0,
+    );
+    var o = vec3<f32>(0.0);
+    var d = normalize(dc);
+    if (P.lens_radius > 0.0) {
+        let lens = P.lens_radius * square_to_uniform_disk(aperture);
+        o = vec3<f32>(lens, 0.0);
+        d = normalize(dc * P.focal_distance - o);
+    }
+    let inv_z = 1.0 / d.z;
+    let wo = (P.to_world * vec4<f32>(o, 1.0)).xyz;
+    let wd = normalize((P.to_world * vec4<f32>(d, 0.0)).xyz);
+    return Ray(wo, wd, P.near_clip * inv_z, P.far_clip * inv_z);
+}
+
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let a2 = a * a;
+    let b2 = b * b;
+    if (a2 + b2 == 0.0) {
+        return 0.0;
+    }
+    return a2 / (a2 + b2);
+}
+
+fn max3(v: vec3<f32>) -> f32 {
+    return max(v.x, max(v.y, v.z));
+}
+
+fn li(camera: Ray) -> vec3<f32> {
+    var l = vec3<f32>(0.0);
+    var beta = vec3<f32>(1.0);
+    var ray = camera;
+    var specular = true;
+    var prev_pdf = 0.0;
+    var prev_p = ray.o;
+    var eta_scale = 1.0;
+    var depth = 0u;
+    loop {
+        var h: Hit;
+        if (!closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h)) {
+            if (P.env.w != 0.0) {
+                var w = 1.0;
+                if (!specular) {
+                    w = power_heuristic(prev_pdf, env_pdf());
+                }
+                l += beta * P.env.xyz * w;
+            }
+            break;
+        }
+        let s = surface_at(h, ray.o, ray.d);
+        // Emission found by following the path (front side only).
+        if (s.light != NONE && dot(s.ng, ray.d) < 0.0) {
+            var w = 1.0;
+            if (!specular) {
+                w = power_heuristic(prev_pdf, area_pdf(s.light, prev_p, s.p, s.ng));
+            }
+            l += beta * lights[4u * s.light + 3u].xyz * w;
+        }
+        depth++;
+        if (depth >= P.max_depth) {
+            break;
+        }
+        let frame = frame_from_normal(s.ns);
+        let wi_world = -ray.d;
+        let wi = to_local(frame, wi_world);
+
+        // Next-event estimation.
+        let u_choice = next_1d();
+        let u_light = next_2d();
+        if (!is_specular(s.shape)) {
+            let ls = sample_light(s.p, u_choice, u_light);
+            if (ls.ok) {
+                let wo = to_local(frame, ls.wi);
+                let f = bsdf_eval(s.shape, wi, wo);
+                if (max3(f) > 0.0 && max3(ls.le) > 0.0) {
+                    let o = spawn_origin(s.p, s.ng, ls.wi);
+                    var tmax = INF;
+                    if (ls.dist < INF) {
+                        tmax = length(s.p + ls.wi * ls.dist - o) * (1.0 - 1e-3);
+                    }
+                    if (!occluded(o, ls.wi, tmax)) {
+                        let w = power_heuristic(ls.pdf, bsdf_pdf(s.shape, wi, wo));
+                        l += beta * f * abs(wo.z) * ls.le * (w / ls.pdf);
+                    }
+                }
+            }
+        }
+
+        // Continue the path by sampling the BSDF.
+        let u = next_2d();
+        let u_lobe = next_1d();
+        let bs = bsdf_sample(s.shape, wi, u, u_lobe);
+        if (!bs.ok) {
+            break;
+        }
+        let wo_world = to_world(frame, bs.wo);
+        // No light leaks through shading normals.
+        if (dot(wo_world, s.ng) * bs.wo.z <= 0.0 && dot(wi_world, s.ng) * wi.z > 0.0) {
+            break;
+        }
+        beta *= bs.weight;
+        eta_scale *= bs.eta * bs.eta;
+        specular = bs.specular;
+        prev_pdf = select(bs.pdf, 0.0, bs.specular);
+        prev_p = s.p;
+        if (max3(beta) <= 0.0) {
+            break;
+        }
+        // Russian roulette.
+        if (depth >= P.rr_depth) {
+            let q = min(max3(beta) * eta_scale, 0.99);
+            if (next_1d() >= q) {
+                break;
+            }
+            beta /= q;
+        }
+        ray = Ray(spawn_origin(s.p, s.ng, wo_world), wo_world, 0.0, INF);
+    }
+    return l;
+}
+
+@compute @workgroup_size(64)
+fn trace_samples(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let idx = gid.x + gid.y * groups.x * 64u;
+    let pixels = P.width * P.height;
+    if (idx >= pixels * P.spp_pass) {
+        return;
+    }
+    let pixel = idx % pixels;
+    let s = P.sample_base + idx / pixels;
+    rng_init(pixel, s);
+    let film = vec2<f32>(f32(pixel % P.width), f32(pixel / P.width)) + next_2d();
+    let aperture = next_2d();
+    let l = li(camera_ray(film, aperture));
+    let offset = film - floor(film);
+    samples[idx] = vec4<f32>(l, bitcast<f32>(pack2x16unorm(offset)));
+}

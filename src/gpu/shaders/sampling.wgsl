@@ -1,0 +1,90 @@
+// Random numbers (PCG, one stream per pixel sample) and warps
+// (sampling/warp.rs).
+
+var<private> rng_state: u32;
+
+fn pcg_hash(v: u32) -> u32 {
+    let s = v * 747796405u + 2891336453u;
+    let w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    return (w >> 22u) ^ w;
+}
+
+// The stream of sample `s` of pixel `pixel` under the render's seed.
+fn rng_init(pixel: u32, s: u32) {
+    let seed = pcg_hash(P.seed_lo ^ pcg_hash(P.seed_hi));
+    rng_state = pcg_hash(pcg_hash(seed ^ pcg_hash(pixel)) ^ (s * 0x9e3779b9u));
+}
+
+fn next_1d() -> f32 {
+    rng_state = rng_state * 747796405u + 2891336453u;
+    let s = rng_state;
+    let w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    return f32(((w >> 22u) ^ w) >> 8u) * (1.0 / 16777216.0);
+}
+
+fn next_2d() -> vec2<f32> {
+    let x = next_1d();
+    return vec2<f32>(x, next_1d());
+}
+
+// Shirley and Chiu's concentric map of the square to the unit disk.
+fn square_to_uniform_disk(u: vec2<f32>) -> vec2<f32> {
+    let o = 2.0 * u - vec2<f32>(1.0);
+    if (o.x == 0.0 && o.y == 0.0) {
+        return vec2<f32>(0.0);
+    }
+    var r: f32;
+    var theta: f32;
+    if (abs(o.x) > abs(o.y)) {
+        r = o.x;
+        theta = 0.25 * PI * (o.y / o.x);
+    } else {
+        r = o.y;
+        theta = 0.5 * PI - 0.25 * PI * (o.x / o.y);
+    }
+    return r * vec2<f32>(cos(theta), sin(theta));
+}
+
+fn square_to_cosine_hemisphere(u: vec2<f32>) -> vec3<f32> {
+    let d = square_to_uniform_disk(u);
+    return vec3<f32>(d, sqrt(max(0.0, 1.0 - dot(d, d))));
+}
+
+fn square_to_uniform_sphere(u: vec2<f32>) -> vec3<f32> {
+    let z = 1.0 - 2.0 * u.y;
+    let r = sqrt(max(0.0, 1.0 - z * z));
+    let phi = 2.0 * PI * u.x;
+    return vec3<f32>(r * cos(phi), r * sin(phi), z);
+}
+
+// Barycentrics (b1, b2) of a uniformly distributed point of a triangle.
+fn square_to_uniform_triangle(u: vec2<f32>) -> vec2<f32> {
+    let su = sqrt(u.x);
+    return vec2<f32>(u.y * su, 1.0 - su);
+}
+
+// Orthonormal basis around unit `n` (Duff et al. 2017).
+struct Frame {
+    s: vec3<f32>,
+    t: vec3<f32>,
+    n: vec3<f32>,
+}
+
+fn frame_from_normal(n: vec3<f32>) -> Frame {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return Frame(
+        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
+        n,
+    );
+}
+
+fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(v, f.s), dot(v, f.t), dot(v, f.n));
+}
+
+fn to_world(f: Frame, v: vec3<f32>) -> vec3<f32> {
+    return f.s * v.x + f.t * v.y + f.n * v.z;
+}

@@ -1,0 +1,171 @@
+//! The GPU backend (`--device gpu`) against the CPU renderer: the same
+//! scenes, K renders each with independent seeds, compared with the Mitsuba
+//! conformance check's block z-test (box filter, 8 x 8 blocks, Sidak
+//! threshold at 1% for all blocks together). The scenes cover what the GPU
+//! renders: rectangles, spheres, a cube and OBJ meshes; diffuse, two-sided
+//! diffuse, mirror and smooth dielectric; rectangle, sphere and mesh area
+//! lights and a constant sky; perspective and thin-lens cameras.
+//!
+//! Runs where wgpu finds an adapter (CI: Mesa's lavapipe, installed by
+//! `.ci/run`, which sets LENTE_REQUIRE_GPU so that a missing adapter fails
+//! rather than skips).
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use lente::image::{Bitmap, Filter};
+use lente::load::load_scene_with;
+use lente::render::{render, RenderJob, RenderOptions};
+use lente::scene::Scene;
+
+use super::mitsuba_conformance::{compare, sidak_threshold, Estimate};
+
+/// Independent renders per renderer and scene.
+const RENDERS: usize = 16;
+
+/// Whether the tests can run; panics where they must (LENTE_REQUIRE_GPU).
+fn gpu_here() -> bool {
+    if lente::gpu::adapter().is_some() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("LENTE_REQUIRE_GPU").is_none(),
+        "LENTE_REQUIRE_GPU is set but wgpu finds no adapter (install mesa-vulkan-drivers)"
+    );
+    eprintln!("skipped: no GPU adapter (install mesa-vulkan-drivers for lavapipe)");
+    false
+}
+
+/// A scene of the repository, at most 48 pixels wide, with a box filter
+/// (independent pixels, as the z-test assumes) and 64 spp.
+fn load(file: &str) -> (Scene, RenderJob) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+    let (mut desc, _) = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let cam = &mut desc.scene.camera;
+    if cam.width > 48 {
+        cam.height = (cam.height * 48).div_ceil(cam.width);
+        cam.width = 48;
+    }
+    desc.job.filter = Filter::Box { radius: 0.5 };
+    desc.job.spp = 64;
+    let scene = Scene::new(desc.scene).unwrap_or_else(|e| panic!("{file}: {e}"));
+    (scene, desc.job)
+}
+
+fn gpu_image(scene: &Scene, job: &RenderJob, seed: u64) -> Bitmap {
+    lente::gpu::render(
+        scene,
+        job,
+        &RenderOptions::new(seed),
+        &AtomicBool::new(false),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+    .image
+}
+
+fn estimates(file: &str) -> (Estimate, Estimate) {
+    let (scene, job) = load(file);
+    let (w, h) = (
+        scene.camera.width() as usize,
+        scene.camera.height() as usize,
+    );
+    let cpu = Estimate::from_renders(w, h, RENDERS, |k| {
+        let opts = RenderOptions::new(k as u64 + 1);
+        render(&scene, &job, &opts, &AtomicBool::new(false)).image
+    });
+    let gpu = Estimate::from_renders(w, h, RENDERS, |k| gpu_image(&scene, &job, k as u64 + 101));
+    (cpu, gpu)
+}
+
+fn cpu_width(e: &Estimate) -> usize {
+    e.mean_image().width
+}
+
+#[test]
+fn gpu_images_match_the_cpu_renderer() {
+    if !gpu_here() {
+        return;
+    }
+    let files = [
+        "tests/gpu/diffuse_box.xml",
+        "tests/gpu/glass_env.xml",
+        "scenes/cbox/cbox.xml",
+    ];
+    let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
+    let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();
+    let threshold = sidak_threshold(tests);
+    let mut failures = Vec::new();
+    for (file, (cpu, gpu)) in &pairs {
+        let c = compare(gpu, cpu);
+        eprintln!(
+            "{file}: max |z| {:.2} (threshold {threshold:.2})",
+            c.max_abs_z
+        );
+        if std::env::var_os("LENTE_GPU_DEBUG").is_some() {
+            let bw = cpu_width(cpu).div_ceil(8);
+            for (i, z) in c.z.iter().enumerate() {
+                if z.abs() > 2.5 {
+                    eprintln!(
+                        "  block ({}, {}) channel {}: z {z:.2}",
+                        (i / 3) % bw,
+                        (i / 3) / bw,
+                        i % 3
+                    );
+                }
+            }
+        }
+        if c.max_abs_z > threshold {
+            failures.push(format!("{file}: max |z| {:.2}", c.max_abs_z));
+        }
+        // The test can fail: 5% more light must be noticed.
+        let off = compare(&gpu.scaled(1.05), cpu);
+        assert!(
+            off.max_abs_z > threshold,
+            "{file}: a 5% brighter GPU image passes (max |z| {:.2})",
+            off.max_abs_z
+        );
+    }
+    assert!(failures.is_empty(), "GPU differs from CPU: {failures:?}");
+}
+
+#[test]
+fn gpu_renders_are_deterministic() {
+    if !gpu_here() {
+        return;
+    }
+    let (scene, job) = load("tests/gpu/glass_env.xml");
+    let render = |seed| {
+        lente::gpu::render(
+            &scene,
+            &job,
+            &RenderOptions::new(seed),
+            &AtomicBool::new(false),
+        )
+        .unwrap()
+        .film
+    };
+    let (a, b, c) = (render(3), render(3), render(4));
+    assert!(a.data() == b.data(), "same seed, different films");
+    assert!(a.data() != c.data(), "different seeds, same film");
+}
+
+#[test]
+fn unsupported_features_are_named() {
+    // Needs no adapter: the scene is checked before the device is opened.
+    let (scene, job) = load("tests/conformance/area_box.xml");
+    let err = lente::gpu::render(
+        &scene,
+        &job,
+        &RenderOptions::new(1),
+        &AtomicBool::new(false),
+    )
+    .err()
+    .expect("area_box has a rough conductor and a plastic");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("does not support the RoughConductor BSDF")
+            || msg.contains("does not support the Plastic BSDF"),
+        "{msg}"
+    );
+    assert!(msg.contains("--device cpu"), "{msg}");
+}
