@@ -86,7 +86,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror and smooth dielectric BSDFs, area lights on meshes and rectangles and a constant environment, with the path tracer using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror and smooth dielectric BSDFs, area lights and a constant environment, with the path tracer using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -246,11 +246,6 @@ impl GpuScene {
                             normals: None,
                         });
                     }
-                }
-                // A sphere light renders 2-4% darker than on the CPU (and
-                // Mitsuba) near it: not found yet, so not rendered.
-                Geometry::Sphere(_) if emission != Rgb::ZERO => {
-                    return unsupported("spherical area lights")
                 }
                 Geometry::Sphere(sp) => prims.push(Prim::Sphere {
                     shape,

@@ -100,11 +100,19 @@ fn li(camera: Ray) -> vec3<f32> {
                 let f = bsdf_eval(s.shape, wi, wo);
                 if (max3(f) > 0.0 && max3(ls.le) > 0.0) {
                     let o = spawn_origin(s.p, s.ng, ls.wi);
+                    // Towards the sampled point itself from the offset
+                    // origin: a ray parallel to `wi` from there may enter a
+                    // curved light before that point (near its silhouette)
+                    // and call it occluded.
+                    var d = ls.wi;
                     var tmax = INF;
                     if (ls.dist < INF) {
-                        tmax = length(s.p + ls.wi * ls.dist - o) * (1.0 - 1e-3);
+                        let to = s.p + ls.wi * ls.dist - o;
+                        tmax = length(to);
+                        d = to / tmax;
+                        tmax *= 1.0 - 1e-3;
                     }
-                    if (!occluded(o, ls.wi, tmax)) {
+                    if (!occluded(o, d, tmax)) {
                         let w = power_heuristic(ls.pdf, bsdf_pdf(s.shape, wi, wo));
                         l += beta * f * abs(wo.z) * ls.le * (w / ls.pdf);
                     }
