@@ -53,13 +53,37 @@ pub struct Params {
     pub far_clip: f32,
     pub filter_radius: f32,
     pub light_count: u32,
-    /// Constant environment radiance; `w` is 1 if there is one.
+    /// Constant environment radiance.
     pub env: [f32; 4],
     /// Probability that emitter sampling picks the environment.
     pub env_prob: f32,
     pub node_count: u32,
-    pub _pad: [u32; 2],
+    /// ENV_NONE, ENV_CONSTANT or ENV_MAP.
+    pub env_kind: u32,
+    /// Whether camera rays see the environment.
+    pub env_visible: u32,
+    /// Rows of the map's rotation to the world and back (w unused).
+    pub env_to_world: [[f32; 4]; 3],
+    pub env_to_local: [[f32; 4]; 3],
+    pub env_width: u32,
+    pub env_bands: u32,
+    pub env_bilinear: u32,
+    pub env_band_scale: f32,
+    pub env_band_offset: f32,
+    pub env_col_offset: f32,
+    /// Where each table starts in `env_data` (the texels start at 0).
+    pub off_edges: u32,
+    pub off_inv_heights: u32,
+    pub off_rows: u32,
+    pub off_band_cdf: u32,
+    pub off_col_cdf: u32,
+    pub _pad: u32,
 }
+
+/// `Params::env_kind`.
+pub const ENV_NONE: u32 = 0;
+pub const ENV_CONSTANT: u32 = 1;
+pub const ENV_MAP: u32 = 2;
 
 /// The flattened scene.
 pub struct GpuScene {
@@ -82,11 +106,15 @@ pub struct GpuScene {
     pub lights: Vec<[f32; 4]>,
     /// The filter's weight at `radius * i / (FILTER_TABLE - 1)`.
     pub filter_table: Vec<f32>,
+    /// The environment map's tables (`EnvGpuTables`), one after another:
+    /// texels (RGB), band edges, inverse band heights, texel rows (as
+    /// bits), band CDF, column CDFs.
+    pub env_data: Vec<f32>,
 }
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror and smooth dielectric BSDFs, area lights and a constant environment, with the path tracer using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror and smooth dielectric BSDFs, area lights, a constant environment and environment maps, with the path tracer using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -262,21 +290,51 @@ impl GpuScene {
 
         // Environment and other emitters.
         let mut env = [0.0f32; 4];
+        let mut env_kind = ENV_NONE;
+        let mut env_visible = 1;
+        let mut tables = None;
         for e in &scene.emitters {
+            if !matches!(e, Emitter::Area(_)) && env_kind != ENV_NONE {
+                return unsupported("more than one environment");
+            }
             match e {
                 Emitter::Area(_) => {}
                 Emitter::Constant(c) => {
-                    if env[3] != 0.0 {
-                        return unsupported("two constant environments");
-                    }
-                    env = v4(c.radiance, 1.0);
+                    env = v4(c.radiance, 0.0);
+                    env_kind = ENV_CONSTANT;
                 }
-                Emitter::Environment(_) => return unsupported("environment maps"),
+                Emitter::Environment(map) => {
+                    if let Some(t) = map.gpu_tables() {
+                        env_kind = ENV_MAP;
+                        env_visible = t.visible as u32;
+                        tables = Some(t);
+                    }
+                }
                 Emitter::Point(_) => return unsupported("point lights"),
                 Emitter::Spot(_) => return unsupported("spot lights"),
                 Emitter::Projector(_) => return unsupported("projectors"),
                 Emitter::Directional(_) => return unsupported("directional lights"),
             }
+        }
+        let mut env_data: Vec<f32> = Vec::new();
+        let mut offsets = [0u32; 5];
+        if let Some(t) = &tables {
+            env_data.extend(t.texels.iter().flatten());
+            for (k, part) in [
+                t.edges.clone(),
+                t.inv_heights.clone(),
+                t.rows.iter().map(|&r| bits(r)).collect(),
+                t.band_cdf.clone(),
+                t.col_cdf.clone(),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                offsets[k] = env_data.len() as u32;
+                env_data.extend(part);
+            }
+        } else {
+            env_data.push(0.0);
         }
 
         // Area lights: one entry per emitting triangle or sphere, chosen in
@@ -328,7 +386,7 @@ impl GpuScene {
             };
         }
         let light_count = weights.len() as u32;
-        let env_prob = match (env[3] != 0.0, light_count > 0) {
+        let env_prob = match (env_kind != ENV_NONE, light_count > 0) {
             (true, true) => 0.5,
             (true, false) => 1.0,
             _ => 0.0,
@@ -416,7 +474,22 @@ impl GpuScene {
             env,
             env_prob,
             node_count: bvh.nodes.len() as u32,
-            _pad: [0; 2],
+            env_kind,
+            env_visible,
+            env_to_world: rows4(tables.as_ref().map(|t| t.to_world)),
+            env_to_local: rows4(tables.as_ref().map(|t| t.to_local)),
+            env_width: tables.as_ref().map_or(0, |t| t.width),
+            env_bands: tables.as_ref().map_or(0, |t| t.bands),
+            env_bilinear: tables.as_ref().is_some_and(|t| t.bilinear) as u32,
+            env_band_scale: tables.as_ref().map_or(0.0, |t| t.band_scale),
+            env_band_offset: tables.as_ref().map_or(0.0, |t| t.band_offset),
+            env_col_offset: tables.as_ref().map_or(0.0, |t| t.col_offset),
+            off_edges: offsets[0],
+            off_inv_heights: offsets[1],
+            off_rows: offsets[2],
+            off_band_cdf: offsets[3],
+            off_col_cdf: offsets[4],
+            _pad: 0,
         };
         Ok(GpuScene {
             params,
@@ -426,8 +499,15 @@ impl GpuScene {
             shapes,
             lights,
             filter_table,
+            env_data,
         })
     }
+}
+
+/// A 3 x 3 matrix's rows as vec4s (identity if none).
+fn rows4(m: Option<[[f32; 3]; 3]>) -> [[f32; 4]; 3] {
+    let m = m.unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    m.map(|r| [r[0], r[1], r[2], 0.0])
 }
 
 /// The filter's support in pixels from the sample (the gather's reach).

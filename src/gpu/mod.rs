@@ -108,6 +108,23 @@ pub fn render(
     }))
     .map_err(|e| GpuError::Device(e.to_string()))?;
 
+    // wgpu reports validation and out-of-memory errors to a handler that
+    // panics by default: record them instead, and fail the render.
+    let failure = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
+    {
+        let failure = failure.clone();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            let mut f = failure.lock().unwrap_or_else(|p| p.into_inner());
+            f.get_or_insert_with(|| e.to_string());
+        }));
+    }
+    let failed = || -> Result<(), GpuError> {
+        match failure.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            Some(e) => Err(GpuError::Device(e)),
+            None => Ok(()),
+        }
+    };
+
     let (w, h) = (flat.params.width, flat.params.height);
     let pixels = w as u64 * h as u64;
     let first = opts.first_sample.min(job.spp);
@@ -129,6 +146,7 @@ pub fn render(
     let shapes = storage(&device, "shapes", bytemuck::cast_slice(&flat.shapes));
     let lights = storage(&device, "lights", bytemuck::cast_slice(&flat.lights));
     let filter = storage(&device, "filter", bytemuck::cast_slice(&flat.filter_table));
+    let env = storage(&device, "env", bytemuck::cast_slice(&flat.env_data));
     let samples = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("samples"),
         size: 16 * pixels * spp_pass as u64,
@@ -183,7 +201,7 @@ pub fn render(
     let trace_group = bind(
         &trace,
         &[
-            &params, &nodes, &prims, &normals, &shapes, &lights, &samples,
+            &params, &nodes, &prims, &normals, &shapes, &lights, &samples, &env,
         ],
     );
     let gather_group = bind(&gather, &[&params, &filter, &samples, &film]);
@@ -219,6 +237,7 @@ pub fn render(
         device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::Device(e.to_string()))?;
+        failed()?;
         done += n;
         samples_taken += pixels * n as u64;
     }
@@ -230,6 +249,7 @@ pub fn render(
     device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| GpuError::Device(e.to_string()))?;
+    failed()?;
     let data: Vec<(Rgb, f32)> = {
         let bytes = readback.slice(..).get_mapped_range();
         bytemuck::cast_slice::<u8, [f32; 4]>(&bytes)

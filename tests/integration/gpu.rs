@@ -4,7 +4,8 @@
 //! threshold at 1% for all blocks together). The scenes cover what the GPU
 //! renders: rectangles, spheres, a cube and OBJ meshes; diffuse, two-sided
 //! diffuse, mirror and smooth dielectric; rectangle, sphere and mesh area
-//! lights and a constant sky; perspective and thin-lens cameras.
+//! lights, a constant sky and environment maps (Mitsuba's and Nori's texel
+//! rows, a real probe with a sun); perspective and thin-lens cameras.
 //!
 //! Runs where wgpu finds an adapter (CI: Mesa's lavapipe, installed by
 //! `.ci/run`, which sets LENTE_REQUIRE_GPU so that a missing adapter fails
@@ -90,6 +91,8 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/diffuse_box.xml",
         "tests/gpu/glass_env.xml",
         "scenes/cbox/cbox.xml",
+        "tests/gpu/env_rows.xml",
+        "tests/gpu/env_sunset_nori.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

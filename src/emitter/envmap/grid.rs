@@ -47,8 +47,8 @@ pub(super) struct TexelGrid {
     pub width: usize,
     pub filter: EnvFilter,
     /// Band of v: floor(v * band_scale + band_offset), clamped.
-    band_scale: f32,
-    band_offset: f32,
+    pub band_scale: f32,
+    pub band_offset: f32,
     /// Band `b` covers [edges[b], edges[b + 1]] of v.
     edges: Vec<f32>,
     inv_heights: Vec<f32>,
@@ -112,7 +112,7 @@ impl TexelGrid {
 
     /// Half a column for the bilinear filter (its cells run between texel
     /// centres), none for the nearest.
-    fn col_offset(&self) -> f32 {
+    pub fn col_offset(&self) -> f32 {
         match self.filter {
             EnvFilter::Bilinear => 0.5,
             EnvFilter::Nearest => 0.0,

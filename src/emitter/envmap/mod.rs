@@ -66,6 +66,8 @@
 //! rows it is given; the fields are read-only, so they cannot drift apart.
 
 mod facing;
+#[cfg(feature = "gpu")]
+mod gpu_tables;
 mod grid;
 mod latlong;
 mod warp;

@@ -55,14 +55,163 @@ fn area_pdf(i: u32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
     return light_choice_pdf(i) * dist2 / (cos_l * lights[4u * i + 1u].w);
 }
 
-fn env_pdf() -> f32 {
-    return P.env_prob * (0.25 * INV_PI);
+// --- The environment: constant (uniform sphere) or a lat-long map
+// (emitter/envmap/: latlong.rs's (u, v), grid.rs's cells and lookup,
+// gpu_tables.rs's piecewise-constant density over the cells).
+
+fn env_u32(i: u32) -> u32 {
+    return bitcast<u32>(env_data[i]);
+}
+
+fn texel(row: u32, col: u32) -> vec3<f32> {
+    let i = 3u * (row * P.env_width + col);
+    return vec3<f32>(env_data[i], env_data[i + 1u], env_data[i + 2u]);
+}
+
+struct EnvCell {
+    col: u32,
+    band: u32,
+    fx: f32,
+    fy: f32,
+}
+
+// grid.rs's locate.
+fn env_locate(uv: vec2<f32>) -> EnvCell {
+    let w = P.env_width;
+    let x = uv.x * f32(w) - P.env_col_offset;
+    let xf = floor(x);
+    var col = u32(max(xf, 0.0));
+    if (xf < 0.0) {
+        col = w - 1u;
+    } else if (col >= w) {
+        col = 0u;
+    }
+    let fx = clamp(x - xf, 0.0, 1.0);
+    let band = u32(clamp(floor(uv.y * P.env_band_scale + P.env_band_offset), 0.0, f32(P.env_bands - 1u)));
+    let fy = clamp((uv.y - env_data[P.off_edges + band]) * env_data[P.off_inv_heights + band], 0.0, 1.0);
+    return EnvCell(col, band, fx, fy);
+}
+
+// grid.rs's lookup (texels already scaled).
+fn env_lookup(c: EnvCell) -> vec3<f32> {
+    let r0 = env_u32(P.off_rows + c.band);
+    if (P.env_bilinear == 0u) {
+        return texel(r0, c.col);
+    }
+    let r1 = env_u32(P.off_rows + c.band + 1u);
+    let c1 = select(c.col + 1u, 0u, c.col + 1u == P.env_width);
+    let top = mix(texel(r0, c.col), texel(r0, c1), c.fx);
+    let bottom = mix(texel(r1, c.col), texel(r1, c1), c.fx);
+    return mix(top, bottom, c.fy);
+}
+
+fn env_rotate(m: array<vec4<f32>, 3>, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(m[0].xyz, v), dot(m[1].xyz, v), dot(m[2].xyz, v));
+}
+
+// Probability of the cell under the sampling density.
+fn env_cell_prob(band: u32, col: u32) -> f32 {
+    var below = 0.0;
+    if (band > 0u) {
+        below = env_data[P.off_band_cdf + band - 1u];
+    }
+    let pb = env_data[P.off_band_cdf + band] - below;
+    let base = P.off_col_cdf + band * P.env_width;
+    var left = 0.0;
+    if (col > 0u) {
+        left = env_data[base + col - 1u];
+    }
+    return pb * (env_data[base + col] - left);
+}
+
+// Solid-angle density of a cell's uniform (u, v) at sin(theta).
+fn env_cell_pdf(c: EnvCell, sin_theta: f32) -> f32 {
+    if (sin_theta <= 0.0) {
+        return 0.0;
+    }
+    let dv = env_data[P.off_edges + c.band + 1u] - env_data[P.off_edges + c.band];
+    let pdf_uv = env_cell_prob(c.band, c.col) * f32(P.env_width) / dv;
+    return pdf_uv / (2.0 * PI * PI * sin_theta);
+}
+
+// Radiance along world direction `d` (rgb) and the density emitter
+// sampling would have chosen it with, the choice included (w).
+fn env_eval_pdf(d: vec3<f32>) -> vec4<f32> {
+    if (P.env_kind == ENV_CONSTANT) {
+        return vec4<f32>(P.env.xyz, P.env_prob * 0.25 * INV_PI);
+    }
+    let l = normalize(env_rotate(P.env_to_local, d));
+    let sin_theta = sqrt(l.x * l.x + l.z * l.z);
+    var u = atan2(l.x, -l.z) * (0.5 * INV_PI);
+    if (u < 0.0) {
+        u += 1.0;
+    }
+    if (u >= 1.0) {
+        u = 0.0;
+    }
+    let v = clamp(atan2(sin_theta, l.y) * INV_PI, 0.0, 1.0);
+    let c = env_locate(vec2<f32>(u, v));
+    return vec4<f32>(env_lookup(c), P.env_prob * env_cell_pdf(c, sin_theta));
+}
+
+// The first index in cdf[base .. base + n] whose value exceeds `x`.
+fn env_search(base: u32, n: u32, x: f32) -> u32 {
+    var lo = 0u;
+    var hi = n - 1u;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (env_data[base + mid] > x) {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+fn sample_env(u: vec2<f32>) -> LightSample {
+    if (P.env_kind == ENV_CONSTANT) {
+        let wi = square_to_uniform_sphere(u);
+        return LightSample(wi, INF, P.env.xyz, P.env_prob * 0.25 * INV_PI, true);
+    }
+    // A band, then a column in it; what is left of each number places the
+    // point inside the cell.
+    let band = env_search(P.off_band_cdf, P.env_bands, u.y);
+    var b0 = 0.0;
+    if (band > 0u) {
+        b0 = env_data[P.off_band_cdf + band - 1u];
+    }
+    let fy = clamp((u.y - b0) / (env_data[P.off_band_cdf + band] - b0), 0.0, 1.0);
+    let base = P.off_col_cdf + band * P.env_width;
+    let col = env_search(base, P.env_width, u.x);
+    var c0 = 0.0;
+    if (col > 0u) {
+        c0 = env_data[base + col - 1u];
+    }
+    let fx = clamp((u.x - c0) / (env_data[base + col] - c0), 0.0, 1.0);
+    var uu = (f32(col) + fx + P.env_col_offset) / f32(P.env_width);
+    if (uu >= 1.0) {
+        uu -= 1.0;
+    }
+    let v0 = env_data[P.off_edges + band];
+    let v = v0 + fy * (env_data[P.off_edges + band + 1u] - v0);
+    let phi = 2.0 * PI * clamp(uu, 0.0, 1.0);
+    let theta = PI * v;
+    let sin_theta = sin(theta);
+    let l = vec3<f32>(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi));
+    let wi = normalize(env_rotate(P.env_to_world, l));
+    // Radiance and density where the direction lands (the same cell but
+    // for rounding).
+    let e = env_eval_pdf(wi);
+    if (e.w <= 0.0) {
+        return no_light();
+    }
+    return LightSample(wi, INF, e.xyz, e.w, true);
 }
 
 fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     if (u_choice < P.env_prob) {
-        let wi = square_to_uniform_sphere(u);
-        return LightSample(wi, INF, P.env.xyz, env_pdf(), true);
+        return sample_env(u);
     }
     if (P.light_count == 0u) {
         return no_light();

@@ -20,9 +20,27 @@ struct Params {
     env: vec4<f32>,
     env_prob: f32,
     node_count: u32,
+    env_kind: u32,
+    env_visible: u32,
+    env_to_world: array<vec4<f32>, 3>,
+    env_to_local: array<vec4<f32>, 3>,
+    env_width: u32,
+    env_bands: u32,
+    env_bilinear: u32,
+    env_band_scale: f32,
+    env_band_offset: f32,
+    env_col_offset: f32,
+    off_edges: u32,
+    off_inv_heights: u32,
+    off_rows: u32,
+    off_band_cdf: u32,
+    off_col_cdf: u32,
     pad0: u32,
-    pad1: u32,
 }
+
+const ENV_NONE: u32 = 0u;
+const ENV_CONSTANT: u32 = 1u;
+const ENV_MAP: u32 = 2u;
 
 const NONE: u32 = 0xffffffffu;
 const SPHERE: u32 = 0xfffffffeu;

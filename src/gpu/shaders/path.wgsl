@@ -9,6 +9,7 @@
 @group(0) @binding(4) var<storage, read> shapes: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> lights: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> samples: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> env_data: array<f32>;
 
 struct Ray {
     o: vec3<f32>,
@@ -64,12 +65,13 @@ fn li(camera: Ray) -> vec3<f32> {
     loop {
         var h: Hit;
         if (!closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h)) {
-            if (P.env.w != 0.0) {
+            if (P.env_kind != ENV_NONE && (depth > 0u || P.env_visible != 0u)) {
+                let e = env_eval_pdf(ray.d);
                 var w = 1.0;
                 if (!specular) {
-                    w = power_heuristic(prev_pdf, env_pdf());
+                    w = power_heuristic(prev_pdf, e.w);
                 }
-                l += beta * P.env.xyz * w;
+                l += beta * e.xyz * w;
             }
             break;
         }

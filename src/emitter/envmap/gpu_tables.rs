@@ -1,0 +1,116 @@
+//! An environment map as the GPU backend reads it (`src/gpu/`): the scaled
+//! texels, the grid's cells exactly as [`TexelGrid`] lays them out (so the
+//! GPU's lookup is this one), the rotation both ways, and a piecewise-
+//! constant sampling density over the cells (marginal and conditional
+//! CDFs). The density is simpler than the CPU's (no bilinear warp, no MIS
+//! compensation, no facing densities) and, like it, positive wherever the
+//! map shines.
+
+use super::{EnvFilter, EnvMap};
+use crate::color::luminance;
+use crate::math::PI;
+
+/// The tables (see the module's doc).
+pub struct EnvGpuTables {
+    pub width: u32,
+    pub bands: u32,
+    pub bilinear: bool,
+    pub band_scale: f32,
+    pub band_offset: f32,
+    pub col_offset: f32,
+    /// Scaled texels, RGB, row-major.
+    pub texels: Vec<[f32; 3]>,
+    /// Band `b` covers `edges[b]..edges[b + 1]` of v.
+    pub edges: Vec<f32>,
+    pub inv_heights: Vec<f32>,
+    /// The texel row of each vertex row (bilinear) or band (nearest).
+    pub rows: Vec<u32>,
+    /// CDF over bands, then per band a CDF over its columns (each ending
+    /// at 1; a band of zero weight has a uniform one).
+    pub band_cdf: Vec<f32>,
+    pub col_cdf: Vec<f32>,
+    /// Rows of the rotation to the world and back.
+    pub to_world: [[f32; 3]; 3],
+    pub to_local: [[f32; 3]; 3],
+    pub visible: bool,
+}
+
+/// Running sums of `w` as a CDF ending at exactly 1 (uniform if all zero).
+fn cdf(w: &[f64]) -> Vec<f32> {
+    let total: f64 = w.iter().sum();
+    let n = w.len();
+    let mut run = 0.0;
+    w.iter()
+        .enumerate()
+        .map(|(i, &x)| {
+            run += x;
+            if i + 1 == n {
+                1.0
+            } else if total > 0.0 {
+                (run / total) as f32
+            } else {
+                (i + 1) as f32 / n as f32
+            }
+        })
+        .collect()
+}
+
+impl EnvMap {
+    /// The map's tables for the GPU; `None` if it emits nothing.
+    pub fn gpu_tables(&self) -> Option<EnvGpuTables> {
+        if !self.emits() {
+            return None;
+        }
+        let g = &self.grid;
+        let w = g.width;
+        let bands = g.bands();
+        let bilinear = g.filter == EnvFilter::Bilinear;
+        let px = &self.image.pixels;
+        let lum = |row: usize, col: usize| luminance(px[row * w + col]).max(0.0) as f64;
+        let mut band_w = Vec::with_capacity(bands);
+        let mut col_cdf = Vec::with_capacity(bands * w);
+        for b in 0..bands {
+            let (v0, v1) = g.band_range(b);
+            let solid = (2.0 * PI as f64 / w as f64)
+                * ((PI as f64 * v0 as f64).cos() - (PI as f64 * v1 as f64).cos());
+            // The largest texel the lookup interpolates in a cell bounds it.
+            let cells: Vec<f64> = (0..w)
+                .map(|c| {
+                    let most = if bilinear {
+                        let c1 = (c + 1) % w;
+                        let (r0, r1) = (g.texel_row(b), g.texel_row(b + 1));
+                        lum(r0, c).max(lum(r0, c1)).max(lum(r1, c)).max(lum(r1, c1))
+                    } else {
+                        lum(g.texel_row(b), c)
+                    };
+                    most * solid.max(0.0)
+                })
+                .collect();
+            band_w.push(cells.iter().sum());
+            col_cdf.extend(cdf(&cells));
+        }
+        let rows = if bilinear { bands + 1 } else { bands };
+        let m = self.to_world.m;
+        let inv = self.to_world.inv;
+        let rot = |m: glam::Mat4| {
+            [0, 1, 2].map(|r| [0, 1, 2].map(|c| m.col(c)[r]))
+        };
+        Some(EnvGpuTables {
+            width: w as u32,
+            bands: bands as u32,
+            bilinear,
+            band_scale: g.band_scale,
+            band_offset: g.band_offset,
+            col_offset: g.col_offset(),
+            texels: px.iter().map(|p| (*p * self.scale).to_array()).collect(),
+            edges: (0..=bands).map(|k| g.edge(k)).collect(),
+            inv_heights: (0..bands).map(|b| 1.0 / (g.edge(b + 1) - g.edge(b))).collect(),
+            rows: (0..rows).map(|k| g.texel_row(k) as u32).collect(),
+            band_cdf: cdf(&band_w),
+            col_cdf,
+            to_world: rot(m),
+            to_local: rot(inv),
+            visible: self.visible,
+        })
+    }
+}
