@@ -838,7 +838,12 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
         }
     };
-    let out = match render_on_gpu(device, &scene, &job, &opts, &cancel, quiet)? {
+    let gpu_out = render_on_gpu(device, &scene, &job, &opts, &cancel, quiet)?;
+    let where_ = match &gpu_out {
+        Some(_) => "on the GPU".to_string(),
+        None => format!("{threads} threads"),
+    };
+    let out = match gpu_out {
         Some(out) => out,
         None => pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass)),
     };
@@ -872,7 +877,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         Exposure::Stops(_) => String::new(),
     };
     println!(
-        "{}x{} pixels, {} spp{}{}, {} threads, {:.2} s, {:.3} M samples/s",
+        "{}x{} pixels, {} spp{}{}, {}, {:.2} s, {:.3} M samples/s",
         width,
         height,
         written.spp(),
@@ -886,7 +891,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         } else {
             ""
         },
-        threads,
+        where_,
         secs,
         out.samples as f64 / secs.max(1e-9) / 1e6,
     );

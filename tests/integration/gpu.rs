@@ -172,3 +172,25 @@ fn unsupported_features_are_named() {
     );
     assert!(msg.contains("--device cpu"), "{msg}");
 }
+
+#[test]
+fn device_flag_names_what_the_gpu_lacks_and_auto_falls_back() {
+    use super::cli_util::{run_fails_with, run_ok, text};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/area_box.xml");
+    let scene = scene.to_str().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    run_fails_with(
+        &["render", scene, "--device", "gpu", "--spp", "1", "-o", out],
+        "does not support the",
+    );
+    assert!(!dir.path().join("out.exr").exists(), "no output on failure");
+    let done = run_ok(&["render", scene, "--device", "auto", "--spp", "1", "-o", out]);
+    assert!(
+        text(&done.stderr).contains("note: rendering on the CPU: the GPU backend does not support"),
+        "{}",
+        text(&done.stderr)
+    );
+    assert!(dir.path().join("out.exr").exists());
+}

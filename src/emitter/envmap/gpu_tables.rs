@@ -92,9 +92,7 @@ impl EnvMap {
         let rows = if bilinear { bands + 1 } else { bands };
         let m = self.to_world.m;
         let inv = self.to_world.inv;
-        let rot = |m: glam::Mat4| {
-            [0, 1, 2].map(|r| [0, 1, 2].map(|c| m.col(c)[r]))
-        };
+        let rot = |m: glam::Mat4| [0, 1, 2].map(|r| [0, 1, 2].map(|c| m.col(c)[r]));
         Some(EnvGpuTables {
             width: w as u32,
             bands: bands as u32,
@@ -104,7 +102,9 @@ impl EnvMap {
             col_offset: g.col_offset(),
             texels: px.iter().map(|p| (*p * self.scale).to_array()).collect(),
             edges: (0..=bands).map(|k| g.edge(k)).collect(),
-            inv_heights: (0..bands).map(|b| 1.0 / (g.edge(b + 1) - g.edge(b))).collect(),
+            inv_heights: (0..bands)
+                .map(|b| 1.0 / (g.edge(b + 1) - g.edge(b)))
+                .collect(),
             rows: (0..rows).map(|k| g.texel_row(k) as u32).collect(),
             band_cdf: cdf(&band_w),
             col_cdf,
