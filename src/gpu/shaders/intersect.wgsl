@@ -79,6 +79,36 @@ fn intersect_prim(i: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, hit:
     return true;
 }
 
+// The child of inner node children `first`, `first + 1` to visit next
+// (the nearer one the ray enters), the other pushed if entered too; NONE if
+// the ray enters neither before `tmax`.
+fn enter_children(
+    first: u32,
+    o: vec3<f32>,
+    inv_d: vec3<f32>,
+    tmax: f32,
+    stack: ptr<function, array<u32, 64>>,
+    sp: ptr<function, u32>,
+) -> u32 {
+    let tl = box_entry(first, o, inv_d, tmax);
+    let tr = box_entry(first + 1u, o, inv_d, tmax);
+    if (tl < INF && tr < INF) {
+        let near_left = tl <= tr;
+        if (*sp < 64u) {
+            (*stack)[*sp] = select(first, first + 1u, near_left);
+            *sp = *sp + 1u;
+        }
+        return select(first + 1u, first, near_left);
+    }
+    if (tl < INF) {
+        return first;
+    }
+    if (tr < INF) {
+        return first + 1u;
+    }
+    return NONE;
+}
+
 // The closest hit along the ray in (tmin, tmax), or false.
 fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, hit: ptr<function, Hit>) -> bool {
     let inv_d = safe_inverse(d);
@@ -99,23 +129,8 @@ fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, hit: ptr<fun
                 }
             }
         } else {
-            let tl = box_entry(first, o, inv_d, tmax);
-            let tr = box_entry(first + 1u, o, inv_d, tmax);
-            if (tl < INF && tr < INF) {
-                let near_left = tl <= tr;
-                if (sp < 64u) {
-                    stack[sp] = select(first, first + 1u, near_left);
-                    sp++;
-                }
-                node = select(first + 1u, first, near_left);
-                descend = true;
-            } else if (tl < INF) {
-                node = first;
-                descend = true;
-            } else if (tr < INF) {
-                node = first + 1u;
-                descend = true;
-            }
+            node = enter_children(first, o, inv_d, tmax, &stack, &sp);
+            descend = node != NONE;
         }
         if (!descend) {
             if (sp == 0u) {
@@ -146,22 +161,8 @@ fn occluded(o: vec3<f32>, d: vec3<f32>, tmax: f32) -> bool {
                 }
             }
         } else {
-            let tl = box_entry(first, o, inv_d, tmax);
-            let tr = box_entry(first + 1u, o, inv_d, tmax);
-            if (tl < INF && tr < INF) {
-                if (sp < 64u) {
-                    stack[sp] = first + 1u;
-                    sp++;
-                }
-                node = first;
-                descend = true;
-            } else if (tl < INF) {
-                node = first;
-                descend = true;
-            } else if (tr < INF) {
-                node = first + 1u;
-                descend = true;
-            }
+            node = enter_children(first, o, inv_d, tmax, &stack, &sp);
+            descend = node != NONE;
         }
         if (!descend) {
             if (sp == 0u) {
