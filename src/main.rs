@@ -355,7 +355,28 @@ fn parse_define(s: &str) -> Result<(String, String), String> {
     Ok((name.to_string(), value.to_string()))
 }
 
+/// Restores the default action of SIGPIPE (Rust ignores it), so that
+/// `lente compare a.exr b.exr | head` ends quietly as other command-line
+/// tools do, instead of panicking on the closed pipe.
+#[cfg(unix)]
+fn quit_quietly_on_closed_pipe() {
+    extern "C" {
+        fn signal(signum: i32, handler: usize) -> usize;
+    }
+    const SIGPIPE: i32 = 13;
+    const SIG_DFL: usize = 0;
+    // SAFETY: setting a signal's action to the default is async-safe and
+    // done before any thread starts.
+    unsafe {
+        signal(SIGPIPE, SIG_DFL);
+    }
+}
+
+#[cfg(not(unix))]
+fn quit_quietly_on_closed_pipe() {}
+
 fn main() -> ExitCode {
+    quit_quietly_on_closed_pipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),
