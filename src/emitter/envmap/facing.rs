@@ -396,6 +396,11 @@ impl FacingWarp {
             }
             *weight = sum;
         }
+        // Decided from the blocks alone, before the per-cell sums are built.
+        let predicted = predicted_variance_ratio(bounds, &block_weights);
+        if predicted.is_nan() || predicted >= worth_it {
+            return None;
+        }
         let (w, bands) = (grid.width, grid.bands());
         let mut cell_sums = vec![0.0f32; w * bands];
         for band in 0..bands {
@@ -403,10 +408,6 @@ impl FacingWarp {
                 let cols = start..(start + blocks.cols_per()).min(w);
                 warp.running_cell_weights(cols.clone(), band, &mut cell_sums[band * w..][cols]);
             }
-        }
-        let predicted = predicted_variance_ratio(bounds, &block_weights);
-        if predicted.is_nan() || predicted >= worth_it {
-            return None;
         }
         let total: f64 = block_weights.iter().sum();
         let mut pick_weights = vec![0.0f32; BINS * blocks.count()];
