@@ -513,7 +513,6 @@ struct Resumed {
 
 /// The render on the GPU if `device` asks for it (None: render on the
 /// CPU). `auto` falls back to the CPU, saying why.
-#[cfg(feature = "gpu")]
 fn render_on_gpu(
     device: DeviceArg,
     scene: &Scene,
@@ -522,41 +521,27 @@ fn render_on_gpu(
     cancel: &AtomicBool,
     quiet: bool,
 ) -> Result<Option<lente::render::RenderOutput>> {
-    match device {
-        DeviceArg::Cpu => Ok(None),
-        DeviceArg::Gpu => Ok(Some(lente::gpu::render(scene, job, opts, cancel)?)),
-        DeviceArg::Auto => match lente::gpu::render(scene, job, opts, cancel) {
-            Ok(out) => Ok(Some(out)),
-            Err(e) => {
-                if !quiet {
-                    eprintln!("note: rendering on the CPU: {e}");
-                }
-                Ok(None)
-            }
-        },
+    if device == DeviceArg::Cpu {
+        return Ok(None);
     }
-}
-
-#[cfg(not(feature = "gpu"))]
-fn render_on_gpu(
-    device: DeviceArg,
-    _scene: &Scene,
-    _job: &lente::render::RenderJob,
-    _opts: &RenderOptions,
-    _cancel: &AtomicBool,
-    quiet: bool,
-) -> Result<Option<lente::render::RenderOutput>> {
-    match device {
-        DeviceArg::Cpu => Ok(None),
-        DeviceArg::Gpu => {
-            bail!("this lente was built without the GPU backend (cargo feature `gpu`)")
-        }
-        DeviceArg::Auto => {
+    #[cfg(feature = "gpu")]
+    let attempt = lente::gpu::render(scene, job, opts, cancel).map_err(anyhow::Error::from);
+    #[cfg(not(feature = "gpu"))]
+    let attempt = {
+        let _ = (scene, job, opts, cancel);
+        Err(anyhow::anyhow!(
+            "this lente was built without the GPU backend (cargo feature `gpu`)"
+        ))
+    };
+    match attempt {
+        Ok(out) => Ok(Some(out)),
+        Err(e) if device == DeviceArg::Auto => {
             if !quiet {
-                eprintln!("note: rendering on the CPU: built without the GPU backend");
+                eprintln!("note: rendering on the CPU: {e}");
             }
             Ok(None)
         }
+        Err(e) => Err(e),
     }
 }
 

@@ -11,10 +11,10 @@ use crate::bsdf::Bsdf;
 use crate::color::Rgb;
 use crate::emitter::Emitter;
 use crate::geometry::Geometry;
-use crate::image::Filter;
 use crate::integrator::{Integrator, Strategy};
 use crate::math::Vec3;
 use crate::render::RenderJob;
+use crate::sampling::Distribution1D;
 use crate::scene::Scene;
 
 /// "No index" in the GPU's records.
@@ -22,6 +22,10 @@ pub const NONE: u32 = u32::MAX;
 
 /// Marks a sphere where a triangle has its normal slot.
 pub const SPHERE: u32 = u32::MAX - 1;
+
+/// Area light kinds (`lights[4 i].w`), as `emitter.wgsl` names them.
+pub const LIGHT_TRIANGLE: u32 = 0;
+pub const LIGHT_SPHERE: u32 = 1;
 
 /// Material kinds (`shapes[3 i].w`), as `bsdf.wgsl` names them.
 pub const MAT_DIFFUSE: u32 = 0;
@@ -172,6 +176,15 @@ impl Boundable for Bounded {
     }
 }
 
+/// The enum variant a value's `Debug` form starts with (`RoughPlastic`).
+fn variant_name(v: &impl std::fmt::Debug) -> String {
+    let text = format!("{v:?}");
+    text.split(['(', ' ', '{'])
+        .next()
+        .unwrap_or("this")
+        .to_string()
+}
+
 fn material(bsdf: &Bsdf) -> Result<([f32; 4], f32), Unsupported> {
     Ok(match bsdf {
         Bsdf::Diffuse(d) => (v4(d.albedo, bits(MAT_DIFFUSE)), 1.0),
@@ -183,11 +196,7 @@ fn material(bsdf: &Bsdf) -> Result<([f32; 4], f32), Unsupported> {
         },
         Bsdf::Mirror(_) => (v4(Vec3::ONE, bits(MAT_MIRROR)), 1.0),
         Bsdf::Dielectric(d) => (v4(Vec3::ONE, bits(MAT_DIELECTRIC)), d.eta),
-        other => {
-            let name = format!("{other:?}");
-            let name = name.split(['(', ' ', '{']).next().unwrap_or("this");
-            return unsupported(format!("the {name} BSDF"));
-        }
+        other => return unsupported(format!("the {} BSDF", variant_name(other))),
     })
 }
 
@@ -207,11 +216,7 @@ impl GpuScene {
             Integrator::Path { .. } => {
                 return unsupported("path tracing without MIS (path_mats, path_ems)")
             }
-            other => {
-                let name = format!("{other:?}");
-                let name = name.split(['(', ' ', '{']).next().unwrap_or("this");
-                return unsupported(format!("the {name} integrator"));
-            }
+            other => return unsupported(format!("the {} integrator", variant_name(other))),
         };
         if !scene.media.is_empty() || scene.camera_medium.is_some() {
             return unsupported("participating media");
@@ -230,6 +235,7 @@ impl GpuScene {
         // Primitives, materials, emission.
         let mut prims = Vec::new();
         let mut shapes = Vec::new();
+        let mut emissions = Vec::with_capacity(scene.geometry.len());
         for (s, geometry) in scene.geometry.iter().enumerate() {
             let shape = s as u32;
             let (mat, eta) = material(&scene.bsdfs[s])?;
@@ -243,6 +249,7 @@ impl GpuScene {
             shapes.push(mat);
             shapes.push(v4(emission, 0.0));
             shapes.push([eta, 0.0, 0.0, 0.0]);
+            emissions.push(emission);
             match geometry {
                 Geometry::Mesh(m) => {
                     let has_normals = !m.normals().is_empty();
@@ -291,7 +298,6 @@ impl GpuScene {
         // Environment and other emitters.
         let mut env = [0.0f32; 4];
         let mut env_kind = ENV_NONE;
-        let mut env_visible = 1;
         let mut tables = None;
         for e in &scene.emitters {
             if !matches!(e, Emitter::Area(_)) && env_kind != ENV_NONE {
@@ -306,7 +312,6 @@ impl GpuScene {
                 Emitter::Environment(map) => {
                     if let Some(t) = map.gpu_tables() {
                         env_kind = ENV_MAP;
-                        env_visible = t.visible as u32;
                         tables = Some(t);
                     }
                 }
@@ -348,7 +353,11 @@ impl GpuScene {
                     let area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
                     (
                         shape,
-                        [v4(v[0], bits(0)), v4(v[1], area), v4(v[2], 0.0)],
+                        [
+                            v4(v[0], bits(LIGHT_TRIANGLE)),
+                            v4(v[1], area),
+                            v4(v[2], 0.0),
+                        ],
                         area,
                     )
                 }
@@ -360,33 +369,31 @@ impl GpuScene {
                     let area = 4.0 * std::f32::consts::PI * radius * radius;
                     (
                         shape,
-                        [v4(center, bits(1)), [radius, 0.0, 0.0, area], [0.0; 4]],
+                        [
+                            v4(center, bits(LIGHT_SPHERE)),
+                            [radius, 0.0, 0.0, area],
+                            [0.0; 4],
+                        ],
                         area,
                     )
                 }
             };
-            let radiance =
-                Vec3::from_array(shapes[3 * shape as usize + 1][..3].try_into().unwrap());
+            let radiance = emissions[shape as usize];
             let power = area * luminance(radiance);
             if power > 0.0 && power.is_finite() {
                 prim_light[pi] = weights.len() as u32;
                 lights.extend(rec);
                 lights.push(v4(radiance, bits(shape)));
-                weights.push(power as f64);
+                weights.push(power);
             }
         }
-        let total: f64 = weights.iter().sum();
-        let mut run = 0.0f64;
-        for (i, w) in weights.iter().enumerate() {
-            run += w;
-            lights[4 * i + 2][3] = if i + 1 == weights.len() {
-                1.0
-            } else {
-                (run / total) as f32
-            };
+        if !weights.is_empty() {
+            let choice = Distribution1D::new(&weights);
+            for (i, &upper) in choice.cdf()[1..].iter().enumerate() {
+                lights[4 * i + 2][3] = upper;
+            }
         }
-        let light_count = weights.len() as u32;
-        let env_prob = match (env_kind != ENV_NONE, light_count > 0) {
+        let env_prob = match (env_kind != ENV_NONE, !weights.is_empty()) {
             (true, true) => 0.5,
             (true, false) => 1.0,
             _ => 0.0,
@@ -453,12 +460,11 @@ impl GpuScene {
                     .eval_1d(radius * i as f32 / (FILTER_TABLE - 1) as f32)
             })
             .collect();
-        let params = Params {
+        let mut params = Params {
             to_world: cam.to_world.m.to_cols_array_2d(),
             width: cam.width,
             height: cam.height,
             spp_pass: 1,
-            sample_base: 0,
             seed_lo: seed as u32,
             seed_hi: (seed >> 32) as u32,
             max_depth,
@@ -470,27 +476,33 @@ impl GpuScene {
             near_clip: cam.near_clip,
             far_clip: cam.far_clip,
             filter_radius: radius,
-            light_count,
+            light_count: weights.len() as u32,
             env,
             env_prob,
             node_count: bvh.nodes.len() as u32,
             env_kind,
-            env_visible,
-            env_to_world: rows4(tables.as_ref().map(|t| t.to_world)),
-            env_to_local: rows4(tables.as_ref().map(|t| t.to_local)),
-            env_width: tables.as_ref().map_or(0, |t| t.width),
-            env_bands: tables.as_ref().map_or(0, |t| t.bands),
-            env_bilinear: tables.as_ref().is_some_and(|t| t.bilinear) as u32,
-            env_band_scale: tables.as_ref().map_or(0.0, |t| t.band_scale),
-            env_band_offset: tables.as_ref().map_or(0.0, |t| t.band_offset),
-            env_col_offset: tables.as_ref().map_or(0.0, |t| t.col_offset),
-            off_edges: offsets[0],
-            off_inv_heights: offsets[1],
-            off_rows: offsets[2],
-            off_band_cdf: offsets[3],
-            off_col_cdf: offsets[4],
-            _pad: 0,
+            env_visible: 1,
+            ..Params::zeroed()
         };
+        if let Some(t) = &tables {
+            let rows = |m: [[f32; 3]; 3]| m.map(|r| [r[0], r[1], r[2], 0.0]);
+            params.env_visible = t.visible as u32;
+            params.env_to_world = rows(t.to_world);
+            params.env_to_local = rows(t.to_local);
+            params.env_width = t.width;
+            params.env_bands = t.bands;
+            params.env_bilinear = t.bilinear as u32;
+            params.env_band_scale = t.band_scale;
+            params.env_band_offset = t.band_offset;
+            params.env_col_offset = t.col_offset;
+            [
+                params.off_edges,
+                params.off_inv_heights,
+                params.off_rows,
+                params.off_band_cdf,
+                params.off_col_cdf,
+            ] = offsets;
+        }
         Ok(GpuScene {
             params,
             nodes,
@@ -502,15 +514,4 @@ impl GpuScene {
             env_data,
         })
     }
-}
-
-/// A 3 x 3 matrix's rows as vec4s (identity if none).
-fn rows4(m: Option<[[f32; 3]; 3]>) -> [[f32; 4]; 3] {
-    let m = m.unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-    m.map(|r| [r[0], r[1], r[2], 0.0])
-}
-
-/// The filter's support in pixels from the sample (the gather's reach).
-pub fn filter_reach(filter: &Filter) -> u32 {
-    filter.radius().ceil() as u32
 }

@@ -66,14 +66,6 @@ pub fn adapter() -> Option<wgpu::Adapter> {
     .ok()
 }
 
-/// A one-line description of the adapter a GPU render would use.
-pub fn describe_adapter() -> Option<String> {
-    adapter().map(|a| {
-        let i = a.get_info();
-        format!("{} ({:?}, {})", i.name, i.backend, i.driver)
-    })
-}
-
 fn storage(device: &wgpu::Device, label: &str, data: &[u8]) -> wgpu::Buffer {
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),

@@ -59,6 +59,13 @@ impl Distribution1D {
         self.integral
     }
 
+    /// The running sums: `n + 1` values from 0 to exactly 1 (uniform where
+    /// every weight is zero); cell `i` is picked for `u` in
+    /// `[cdf[i], cdf[i + 1])`.
+    pub fn cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
     /// Probability of picking cell `i` as a discrete choice.
     pub fn discrete_pdf(&self, i: usize) -> f32 {
         self.cdf[i + 1] - self.cdf[i]

@@ -9,6 +9,7 @@
 use super::{EnvFilter, EnvMap};
 use crate::color::luminance;
 use crate::math::PI;
+use crate::sampling::Distribution1D;
 
 /// The tables (see the module's doc).
 pub struct EnvGpuTables {
@@ -35,24 +36,10 @@ pub struct EnvGpuTables {
     pub visible: bool,
 }
 
-/// Running sums of `w` as a CDF ending at exactly 1 (uniform if all zero).
-fn cdf(w: &[f64]) -> Vec<f32> {
-    let total: f64 = w.iter().sum();
-    let n = w.len();
-    let mut run = 0.0;
-    w.iter()
-        .enumerate()
-        .map(|(i, &x)| {
-            run += x;
-            if i + 1 == n {
-                1.0
-            } else if total > 0.0 {
-                (run / total) as f32
-            } else {
-                (i + 1) as f32 / n as f32
-            }
-        })
-        .collect()
+/// The upper ends of `weights`' CDF cells (a [`Distribution1D`]'s running
+/// sums without the leading 0): what the GPU's binary searches read.
+fn cdf(weights: &[f32]) -> Vec<f32> {
+    Distribution1D::new(weights).cdf()[1..].to_vec()
 }
 
 impl EnvMap {
@@ -74,7 +61,7 @@ impl EnvMap {
             let solid = (2.0 * PI as f64 / w as f64)
                 * ((PI as f64 * v0 as f64).cos() - (PI as f64 * v1 as f64).cos());
             // The largest texel the lookup interpolates in a cell bounds it.
-            let cells: Vec<f64> = (0..w)
+            let cells: Vec<f32> = (0..w)
                 .map(|c| {
                     let most = if bilinear {
                         let c1 = (c + 1) % w;
@@ -83,10 +70,10 @@ impl EnvMap {
                     } else {
                         lum(g.texel_row(b), c)
                     };
-                    most * solid.max(0.0)
+                    (most * solid.max(0.0)) as f32
                 })
                 .collect();
-            band_w.push(cells.iter().sum());
+            band_w.push(cells.iter().map(|&c| c as f64).sum::<f64>() as f32);
             col_cdf.extend(cdf(&cells));
         }
         let rows = if bilinear { bands + 1 } else { bands };

@@ -4,6 +4,8 @@
 // A light's record: lights[4 i] = (p0 or centre, kind), [4 i + 1] = (p1 or
 // (radius, 0, 0), area), [4 i + 2] = (p2, CDF), [4 i + 3] = (radiance, shape).
 
+const LIGHT_SPHERE: u32 = 1u;
+
 struct LightSample {
     wi: vec3<f32>,
     dist: f32,
@@ -40,7 +42,7 @@ fn sphere_cone_cos(p: vec3<f32>, c: vec3<f32>, r: f32) -> f32 {
 // normal `n`, seen from `p`.
 fn area_pdf(i: u32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
     let r0 = lights[4u * i];
-    if (bitcast<u32>(r0.w) == 1u) {
+    if (bitcast<u32>(r0.w) == LIGHT_SPHERE) {
         let cos_max = sphere_cone_cos(p, r0.xyz, lights[4u * i + 1u].x);
         if (cos_max < 1.0) {
             return light_choice_pdf(i) / (2.0 * PI * (1.0 - cos_max));
@@ -233,7 +235,7 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     let r1 = lights[4u * i + 1u];
     var q: vec3<f32>;
     var n: vec3<f32>;
-    if (bitcast<u32>(r0.w) == 1u) {
+    if (bitcast<u32>(r0.w) == LIGHT_SPHERE) {
         // A sphere seen from outside: uniformly in the cone it fills
         // (geometry/sphere.rs's sample_cone), else by area.
         let cos_max = sphere_cone_cos(p, r0.xyz, r1.x);

@@ -109,8 +109,10 @@ fn enter_children(
     return NONE;
 }
 
-// The closest hit along the ray in (tmin, tmax), or false.
-fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, hit: ptr<function, Hit>) -> bool {
+// Walks the BVH for primitives hit in (tmin, tmax), nearer children
+// first: the closest hit into `hit` (true if any), or with `any`, true at
+// the first hit found.
+fn traverse(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, any: bool, hit: ptr<function, Hit>) -> bool {
     let inv_d = safe_inverse(d);
     var stack: array<u32, 64>;
     var sp = 0u;
@@ -124,6 +126,9 @@ fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, hit: ptr<fun
         if (count > 0u) {
             for (var k = first; k < first + count; k++) {
                 if (intersect_prim(k, o, d, tmin, tmax, hit)) {
+                    if (any) {
+                        return true;
+                    }
                     tmax = (*hit).t;
                     found = true;
                 }
@@ -143,36 +148,15 @@ fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax_in: f32, hit: ptr<fun
     return found;
 }
 
+// The closest hit along the ray in (tmin, tmax), or false.
+fn closest_hit(o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, hit: ptr<function, Hit>) -> bool {
+    return traverse(o, d, tmin, tmax, false, hit);
+}
+
 // Whether anything blocks the ray in (0, tmax).
 fn occluded(o: vec3<f32>, d: vec3<f32>, tmax: f32) -> bool {
-    let inv_d = safe_inverse(d);
-    var stack: array<u32, 64>;
-    var sp = 0u;
-    var node = 0u;
     var hit: Hit;
-    loop {
-        let count = bitcast<u32>(nodes[2u * node + 1u].w);
-        let first = bitcast<u32>(nodes[2u * node].w);
-        var descend = false;
-        if (count > 0u) {
-            for (var k = first; k < first + count; k++) {
-                if (intersect_prim(k, o, d, 0.0, tmax, &hit)) {
-                    return true;
-                }
-            }
-        } else {
-            node = enter_children(first, o, inv_d, tmax, &stack, &sp);
-            descend = node != NONE;
-        }
-        if (!descend) {
-            if (sp == 0u) {
-                break;
-            }
-            sp--;
-            node = stack[sp];
-        }
-    }
-    return false;
+    return traverse(o, d, 0.0, tmax, true, &hit);
 }
 
 // What a path needs of the surface it hit.

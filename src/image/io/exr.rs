@@ -208,7 +208,18 @@ pub(super) fn encode(
         Encoding::SMALL_LOSSLESS,
         channels,
     );
-    Image::from_layer(layer)
+    write_layer(&Image::from_layer(layer), out)
+}
+
+/// Writes an image of one layer to `out` as it is encoded.
+fn write_layer<'c, C>(
+    image: &'c Image<Layer<C>>,
+    out: impl std::io::Write + std::io::Seek,
+) -> Result<(), Malformed>
+where
+    C: exr::image::write::channels::WritableChannels<'c>,
+{
+    image
         .write()
         .to_buffered(out)
         .map_err(|e| Malformed::from(format!("cannot encode OpenEXR: {e}")))
@@ -379,10 +390,7 @@ pub fn encode_channels(
         Encoding::SMALL_LOSSLESS,
         SortedChannels { image, order },
     );
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(out)
-        .map_err(|e| Malformed::from(format!("cannot encode OpenEXR: {e}")))
+    write_layer(&Image::from_layer(layer), out)
 }
 
 /// The first layer's channels (as 32-bit floats) and the text attributes

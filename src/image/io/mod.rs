@@ -240,15 +240,7 @@ fn finish(raw: RawImage) -> Result<(Bitmap, Vec<String>), Malformed> {
 /// Written atomically: to a temporary file in the same folder, then renamed.
 pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
     let format = Format::from_path(path)?;
-    if image.width == 0 || image.height == 0 {
-        return Err(ImageError::new(
-            path,
-            format!(
-                "cannot save an empty image ({}x{} pixels)",
-                image.width, image.height
-            ),
-        ));
-    }
+    check_not_empty(path, image.width, image.height)?;
     if image.width.checked_mul(image.height) != Some(image.pixels.len()) {
         return Err(ImageError::new(
             path,
@@ -260,14 +252,10 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
             ),
         ));
     }
-    // EXR and PNG are encoded straight into the file.
-    match format {
+    let bytes = match format {
+        // Encoded straight into the file.
         Format::Exr => return write_atomically_with(path, |file| exr::encode(image, file)),
         Format::Png => return write_atomically_with(path, |file| png::encode(image, file)),
-        _ => {}
-    }
-    let bytes = match format {
-        Format::Exr | Format::Png => unreachable!("written above"),
         Format::Hdr => hdr::encode(image),
         Format::Pfm => Ok(pfm::encode(image)),
         Format::Jpeg => Err(Malformed::from(
@@ -281,6 +269,17 @@ pub fn save_image(path: &Path, image: &Bitmap) -> Result<(), ImageError> {
     write_atomically(path, &bytes)
 }
 
+/// An image of no pixels cannot be saved.
+fn check_not_empty(path: &Path, width: usize, height: usize) -> Result<(), ImageError> {
+    if width == 0 || height == 0 {
+        return Err(ImageError::new(
+            path,
+            format!("cannot save an empty image ({width}x{height} pixels)"),
+        ));
+    }
+    Ok(())
+}
+
 /// Saves a `width` x `height` 8-bit sRGB PNG of the linear colours
 /// `pixel(i)` (row-major), made and encoded as it is written: no float
 /// copy of the image (atomically, like [`save_image`]).
@@ -290,12 +289,7 @@ pub fn save_png_pixels(
     height: usize,
     pixel: impl Fn(usize) -> Rgb,
 ) -> Result<(), ImageError> {
-    if width == 0 || height == 0 {
-        return Err(ImageError::new(
-            path,
-            format!("cannot save an empty image ({width}x{height} pixels)"),
-        ));
-    }
+    check_not_empty(path, width, height)?;
     write_atomically_with(path, |file| {
         png::encode_pixels(width, height, pixel, false, file)
     })
