@@ -520,15 +520,17 @@ fn render_on_gpu(
     opts: &RenderOptions,
     cancel: &AtomicBool,
     quiet: bool,
+    on_pass: impl FnMut(&PassInfo),
 ) -> Result<Option<lente::render::RenderOutput>> {
     if device == DeviceArg::Cpu {
         return Ok(None);
     }
     #[cfg(feature = "gpu")]
-    let attempt = lente::gpu::render(scene, job, opts, cancel).map_err(anyhow::Error::from);
+    let attempt = lente::gpu::render_with_passes(scene, job, opts, cancel, on_pass)
+        .map_err(anyhow::Error::from);
     #[cfg(not(feature = "gpu"))]
     let attempt = {
-        let _ = (scene, job, opts, cancel);
+        let _ = (scene, job, opts, cancel, on_pass);
         Err(anyhow::anyhow!(
             "this lente was built without the GPU backend (cargo feature `gpu`)"
         ))
@@ -820,7 +822,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         .context("cannot start the worker threads")?;
     // The pass callback only reads the film: the image is the same bit for
     // bit with or without a preview or checkpoints.
-    let on_pass = |info: &PassInfo| {
+    let mut on_pass = |info: &PassInfo| {
         // Normalised once for the page and tev.
         let image = (preview.is_some() || tev.is_some()).then(|| Arc::new(info.film.to_bitmap()));
         if let (Some((state, _)), Some(image)) = (&preview, &image) {
@@ -844,14 +846,14 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
         }
     };
-    let gpu_out = render_on_gpu(device, &scene, &job, &opts, &cancel, quiet)?;
+    let gpu_out = render_on_gpu(device, &scene, &job, &opts, &cancel, quiet, &mut on_pass)?;
     let where_ = match &gpu_out {
         Some(_) => "on the GPU".to_string(),
         None => format!("{threads} threads"),
     };
     let out = match gpu_out {
         Some(out) => out,
-        None => pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, on_pass)),
+        None => pool.install(|| render_with_passes(&scene, &job, &opts, &cancel, &mut on_pass)),
     };
 
     let secs = out.elapsed.as_secs_f64();

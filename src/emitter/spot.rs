@@ -91,6 +91,21 @@ impl SpotLight {
         self.cos_cutoff
     }
 
+    /// Cosine of the beam angle (full intensity inside it).
+    pub fn cos_beam(&self) -> f32 {
+        self.cos_beam
+    }
+
+    /// The world-to-light linear map (the cone's axis is the local +z).
+    pub fn to_local(&self) -> Mat3 {
+        self.to_local
+    }
+
+    /// Whether a texture is projected through the cone.
+    pub fn is_textured(&self) -> bool {
+        self.texture.is_some()
+    }
+
     /// Luminance of the power it emits: the intensity (times the
     /// texture's mean) over the cone, the falloff counted at half.
     pub fn power(&self) -> f32 {

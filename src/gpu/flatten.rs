@@ -7,6 +7,7 @@
 use bytemuck::{Pod, Zeroable};
 use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, Boundable, BvhBuildParams};
 
+use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
 use crate::bsdf::Bsdf;
 use crate::color::Rgb;
 use crate::emitter::Emitter;
@@ -23,15 +24,33 @@ pub const NONE: u32 = u32::MAX;
 /// Marks a sphere where a triangle has its normal slot.
 pub const SPHERE: u32 = u32::MAX - 1;
 
-/// Area light kinds (`lights[4 i].w`), as `emitter.wgsl` names them.
+/// Vec4 words per area or delta light in `lights`.
+pub const LIGHT_WORDS: usize = 5;
+
+/// Light kinds (`lights[LIGHT_WORDS i].w`), as `emitter.wgsl` names them.
 pub const LIGHT_TRIANGLE: u32 = 0;
 pub const LIGHT_SPHERE: u32 = 1;
+pub const LIGHT_POINT: u32 = 2;
+pub const LIGHT_SPOT: u32 = 3;
+pub const LIGHT_DIRECTIONAL: u32 = 4;
 
-/// Material kinds (`shapes[3 i].w`), as `bsdf.wgsl` names them.
+/// Vec4 words per shape's material record in `shapes`.
+pub const SHAPE_WORDS: usize = 3;
+
+/// Material kinds (`shapes[SHAPE_WORDS s].w`), as `bsdf.wgsl` names them.
+/// Kinds from `MAT_MIRROR` on are purely specular (no light sampling).
 pub const MAT_DIFFUSE: u32 = 0;
 pub const MAT_TWO_SIDED_DIFFUSE: u32 = 1;
-pub const MAT_MIRROR: u32 = 2;
-pub const MAT_DIELECTRIC: u32 = 3;
+pub const MAT_ROUGH_CONDUCTOR: u32 = 2;
+pub const MAT_PLASTIC: u32 = 3;
+pub const MAT_ROUGH_PLASTIC: u32 = 4;
+pub const MAT_MIRROR: u32 = 8;
+pub const MAT_DIELECTRIC: u32 = 9;
+pub const MAT_CONDUCTOR: u32 = 10;
+
+/// Microfacet distributions (`shapes[SHAPE_WORDS s + 2].w`).
+pub const DISTR_BECKMANN: u32 = 0;
+pub const DISTR_GGX: u32 = 1;
 
 /// Entries of the filter's 1D weight table (over [0, radius]).
 pub const FILTER_TABLE: usize = 1024;
@@ -101,12 +120,14 @@ pub struct GpuScene {
     pub prims: Vec<[f32; 4]>,
     /// Three per normal slot: a triangle's vertex normals.
     pub normals: Vec<[f32; 4]>,
-    /// Three per shape: (reflectance, material kind), (emitted radiance,
-    /// 0), (eta, 0, 0, 0).
+    /// `SHAPE_WORDS` per shape ([`material`] says what they hold), then
+    /// the rough plastics' coating transmittance tables (16 words each).
     pub shapes: Vec<[f32; 4]>,
-    /// Four per area light: (p0 or centre, kind 0 triangle / 1 sphere),
-    /// (p1 or (radius, 0, 0), area), (p2, CDF up to and including it),
-    /// (radiance, shape).
+    /// `LIGHT_WORDS` per light: (p0, centre, position or direction to the
+    /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
+    /// 0; area or the spot's cos cutoff), (p2 or row 1; CDF up to and
+    /// including it), (radiance, intensity or irradiance; shape or NONE),
+    /// (row 2; the spot's cos beam).
     pub lights: Vec<[f32; 4]>,
     /// The filter's weight at `radius * i / (FILTER_TABLE - 1)`.
     pub filter_table: Vec<f32>,
@@ -118,7 +139,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror and smooth dielectric BSDFs, area lights, a constant environment and environment maps, with the path tracer using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror, conductor, rough conductor, plastic, rough plastic and smooth dielectric BSDFs, area, point, spot and directional lights, a constant environment and environment maps, with the path tracer using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -185,17 +206,94 @@ fn variant_name(v: &impl std::fmt::Debug) -> String {
         .to_string()
 }
 
-fn material(bsdf: &Bsdf) -> Result<([f32; 4], f32), Unsupported> {
+/// The microfacet roughness word: alpha, and the distribution as bits.
+fn roughness(d: &MicrofacetDistribution) -> Result<(f32, f32), Unsupported> {
+    if !d.is_isotropic() {
+        return unsupported("anisotropic roughness");
+    }
+    let kind = match d.kind {
+        MicrofacetType::Beckmann => DISTR_BECKMANN,
+        MicrofacetType::Ggx => DISTR_GGX,
+    };
+    Ok((d.alpha_u, bits(kind)))
+}
+
+/// A plastic's diffuse term: the diffuse reflectance over what the
+/// coating reflects back inside (`internal`).
+fn plastic_diffuse(kd: Rgb, internal: f32, nonlinear: bool) -> Rgb {
+    if nonlinear {
+        kd / (Rgb::ONE - kd * internal)
+    } else {
+        kd / (1.0 - internal)
+    }
+}
+
+/// A shape's `SHAPE_WORDS` material words, as `bsdf.wgsl` reads them:
+/// (A, kind), (B, alpha), (C, distribution) with, per kind, A the
+/// diffuse reflectance (diffuse), the specular reflectance (conductors)
+/// or the diffuse term (plastics); B (eta, 0, 0) (dielectric), eta
+/// (conductors) or the specular reflectance (plastics); C k (conductors)
+/// or (eta, specular sampling weight, transmittance table) (plastics).
+/// Rough plastics append their table to `tables`, whose words follow the
+/// records (`table_base` is where they start).
+fn material(
+    bsdf: &Bsdf,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<[[f32; 4]; 3], Unsupported> {
+    let zero = [0.0; 4];
     Ok(match bsdf {
-        Bsdf::Diffuse(d) => (v4(d.albedo, bits(MAT_DIFFUSE)), 1.0),
+        Bsdf::Diffuse(d) => [v4(d.albedo, bits(MAT_DIFFUSE)), zero, zero],
         Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
             (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) if f == b => {
-                (v4(f.albedo, bits(MAT_TWO_SIDED_DIFFUSE)), 1.0)
+                [v4(f.albedo, bits(MAT_TWO_SIDED_DIFFUSE)), zero, zero]
             }
             _ => return unsupported("a two-sided BSDF other than two-sided diffuse"),
         },
-        Bsdf::Mirror(_) => (v4(Vec3::ONE, bits(MAT_MIRROR)), 1.0),
-        Bsdf::Dielectric(d) => (v4(Vec3::ONE, bits(MAT_DIELECTRIC)), d.eta),
+        Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
+        Bsdf::Dielectric(d) => [
+            v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
+            [d.eta, 0.0, 0.0, 0.0],
+            zero,
+        ],
+        Bsdf::Conductor(c) => [
+            v4(c.specular_reflectance, bits(MAT_CONDUCTOR)),
+            v4(c.eta, 0.0),
+            v4(c.k, 0.0),
+        ],
+        Bsdf::RoughConductor(c) => {
+            let (alpha, distr) = roughness(&c.distr)?;
+            [
+                v4(c.specular_reflectance, bits(MAT_ROUGH_CONDUCTOR)),
+                v4(c.eta, alpha),
+                v4(c.k, distr),
+            ]
+        }
+        Bsdf::Plastic(p) => [
+            v4(
+                plastic_diffuse(p.diffuse_reflectance, p.fdr_int, p.nonlinear),
+                bits(MAT_PLASTIC),
+            ),
+            v4(p.specular_reflectance, 0.0),
+            [p.eta, p.specular_sampling_weight, 0.0, 0.0],
+        ],
+        Bsdf::RoughPlastic(p) => {
+            let (alpha, distr) = roughness(&p.distr)?;
+            let table = (table_base + tables.len()) as u32;
+            tables.extend(
+                p.external_transmittance
+                    .chunks(4)
+                    .map(|c| [c[0], c[1], c[2], c[3]]),
+            );
+            [
+                v4(
+                    plastic_diffuse(p.diffuse_reflectance, p.internal_reflectance, p.nonlinear),
+                    bits(MAT_ROUGH_PLASTIC),
+                ),
+                v4(p.specular_reflectance, alpha),
+                [p.eta, p.specular_sampling_weight, bits(table), distr],
+            ]
+        }
         other => return unsupported(format!("the {} BSDF", variant_name(other))),
     })
 }
@@ -235,10 +333,12 @@ impl GpuScene {
         // Primitives, materials, emission.
         let mut prims = Vec::new();
         let mut shapes = Vec::new();
+        let mut tables = Vec::new();
+        let table_base = SHAPE_WORDS * scene.geometry.len();
         let mut emissions = Vec::with_capacity(scene.geometry.len());
         for (s, geometry) in scene.geometry.iter().enumerate() {
             let shape = s as u32;
-            let (mat, eta) = material(&scene.bsdfs[s])?;
+            shapes.extend(material(&scene.bsdfs[s], table_base, &mut tables)?);
             let emission = match scene.shape_emitter[s] {
                 Some(e) => match &scene.emitters[e as usize] {
                     Emitter::Area(a) if a.texture.is_none() => a.radiance,
@@ -246,9 +346,6 @@ impl GpuScene {
                 },
                 None => Rgb::ZERO,
             };
-            shapes.push(mat);
-            shapes.push(v4(emission, 0.0));
-            shapes.push([eta, 0.0, 0.0, 0.0]);
             emissions.push(emission);
             match geometry {
                 Geometry::Mesh(m) => {
@@ -294,15 +391,20 @@ impl GpuScene {
         if prims.is_empty() {
             return unsupported("a scene without shapes");
         }
+        shapes.extend(tables);
 
-        // Environment and other emitters.
+        // The environment, and the delta lights' records (each with its
+        // power, for the choice below).
         let mut env = [0.0f32; 4];
         let mut env_kind = ENV_NONE;
         let mut tables = None;
+        let mut delta_lights = Vec::new();
+        let ctx = scene.emitter_context();
         for e in &scene.emitters {
-            if !matches!(e, Emitter::Area(_)) && env_kind != ENV_NONE {
+            if matches!(e, Emitter::Constant(_) | Emitter::Environment(_)) && env_kind != ENV_NONE {
                 return unsupported("more than one environment");
             }
+            let none = bits(NONE);
             match e {
                 Emitter::Area(_) => {}
                 Emitter::Constant(c) => {
@@ -315,10 +417,43 @@ impl GpuScene {
                         tables = Some(t);
                     }
                 }
-                Emitter::Point(_) => return unsupported("point lights"),
-                Emitter::Spot(_) => return unsupported("spot lights"),
+                Emitter::Point(p) => delta_lights.push((
+                    [
+                        v4(p.position, bits(LIGHT_POINT)),
+                        [0.0; 4],
+                        [0.0; 4],
+                        v4(p.intensity, none),
+                        [0.0; 4],
+                    ],
+                    e.power(&ctx),
+                )),
+                Emitter::Spot(s) => {
+                    if s.is_textured() {
+                        return unsupported("a textured spot light");
+                    }
+                    let rows = s.to_local().transpose();
+                    delta_lights.push((
+                        [
+                            v4(s.position, bits(LIGHT_SPOT)),
+                            v4(rows.x_axis, s.cos_cutoff()),
+                            v4(rows.y_axis, 0.0),
+                            v4(s.intensity, none),
+                            v4(rows.z_axis, s.cos_beam()),
+                        ],
+                        e.power(&ctx),
+                    ));
+                }
+                Emitter::Directional(d) => delta_lights.push((
+                    [
+                        v4(-d.direction, bits(LIGHT_DIRECTIONAL)),
+                        [0.0; 4],
+                        [0.0; 4],
+                        v4(d.irradiance, none),
+                        [0.0; 4],
+                    ],
+                    e.power(&ctx),
+                )),
                 Emitter::Projector(_) => return unsupported("projectors"),
-                Emitter::Directional(_) => return unsupported("directional lights"),
             }
         }
         let mut env_data: Vec<f32> = Vec::new();
@@ -342,8 +477,8 @@ impl GpuScene {
             env_data.push(0.0);
         }
 
-        // Area lights: one entry per emitting triangle or sphere, chosen in
-        // proportion to power.
+        // Lights: one entry per emitting triangle or sphere, and the delta
+        // lights, chosen in proportion to power.
         let mut lights = Vec::new();
         let mut weights = Vec::new();
         let mut prim_light = vec![NONE; prims.len()];
@@ -384,13 +519,20 @@ impl GpuScene {
                 prim_light[pi] = weights.len() as u32;
                 lights.extend(rec);
                 lights.push(v4(radiance, bits(shape)));
+                lights.push([0.0; 4]);
+                weights.push(power);
+            }
+        }
+        for (rec, power) in delta_lights {
+            if power > 0.0 && power.is_finite() {
+                lights.extend(rec);
                 weights.push(power);
             }
         }
         if !weights.is_empty() {
             let choice = Distribution1D::new(&weights);
             for (i, &upper) in choice.cdf()[1..].iter().enumerate() {
-                lights[4 * i + 2][3] = upper;
+                lights[LIGHT_WORDS * i + 2][3] = upper;
             }
         }
         let env_prob = match (env_kind != ENV_NONE, !weights.is_empty()) {

@@ -22,7 +22,8 @@ use wgpu::util::DeviceExt;
 
 use crate::color::Rgb;
 use crate::image::Film;
-use crate::render::{RenderJob, RenderOptions, RenderOutput};
+use crate::progress::Progress;
+use crate::render::{pass_schedule_from, PassInfo, RenderJob, RenderOptions, RenderOutput};
 use crate::scene::Scene;
 pub use flatten::{GpuScene, Unsupported};
 
@@ -75,13 +76,29 @@ fn storage(device: &wgpu::Device, label: &str, data: &[u8]) -> wgpu::Buffer {
 }
 
 /// Renders samples `opts.first_sample..job.spp` of every pixel on the GPU
-/// (added to `opts.film` if given), in passes; `cancel` stops after the
-/// pass in flight, keeping the passes done.
+/// (added to `opts.film` if given); `cancel` stops the render, keeping
+/// the passes done.
 pub fn render(
     scene: &Scene,
     job: &RenderJob,
     opts: &RenderOptions,
     cancel: &AtomicBool,
+) -> Result<RenderOutput, GpuError> {
+    render_with_passes(scene, job, opts, cancel, |_| {})
+}
+
+/// Like [`render`], in the CPU renderer's passes ([`pass_schedule_from`]),
+/// reporting progress as `opts.progress` asks and calling `on_pass` with
+/// the film after each (for the preview, tev and checkpoints). A pass cut
+/// short by `cancel` (or `opts.abandon`) is dropped whole, as on the CPU:
+/// the film then holds samples `0..spp` of every pixel, so the render can
+/// be continued.
+pub fn render_with_passes(
+    scene: &Scene,
+    job: &RenderJob,
+    opts: &RenderOptions,
+    cancel: &AtomicBool,
+    mut on_pass: impl FnMut(&PassInfo),
 ) -> Result<RenderOutput, GpuError> {
     if !opts.aovs.is_empty() {
         return Err(Unsupported("AOVs".into()).into());
@@ -146,7 +163,7 @@ pub fn render(
         mapped_at_creation: false,
     });
     let film_bytes = 16 * pixels;
-    let film = device.create_buffer(&wgpu::BufferDescriptor {
+    let gpu_film = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("film"),
         size: film_bytes,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
@@ -196,70 +213,107 @@ pub fn render(
             &params, &nodes, &prims, &normals, &shapes, &lights, &samples, &env,
         ],
     );
-    let gather_group = bind(&gather, &[&params, &filter, &samples, &film]);
+    let gather_group = bind(&gather, &[&params, &filter, &samples, &gpu_film]);
 
     let max_groups = limits.max_compute_workgroups_per_dimension.max(1);
-    let mut done = first;
+    let never = AtomicBool::new(false);
+    let abandon = opts.abandon.as_deref().unwrap_or(&never);
+    let stop = || cancel.load(Ordering::Relaxed) || abandon.load(Ordering::Relaxed);
+    let passes = pass_schedule_from(first, job.spp);
+    let progress = Progress::new(opts.progress, pixels, todo, passes.len());
+    // The film of the passes done (with `opts.film` added), read back
+    // after each pass.
+    let mut film = match &opts.film {
+        Some(f) => f.clone(),
+        None => Film::new(w as usize, h as usize),
+    };
+    let mut spp_done = first;
     let mut samples_taken = 0u64;
-    let mut cancelled = false;
-    while done < job.spp {
-        if cancel.load(Ordering::Relaxed) {
-            cancelled = true;
-            break;
+    'passes: for (index, &(s0, s1)) in passes.iter().enumerate() {
+        progress.start_pass(index);
+        let mut done = s0;
+        let mut pass_samples = 0u64;
+        while done < s1 {
+            if stop() {
+                break 'passes;
+            }
+            let n = spp_pass.min(s1 - done);
+            let mut p = flat.params;
+            p.sample_base = done;
+            p.spp_pass = n;
+            queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
+            let groups = (pixels * n as u64).div_ceil(64);
+            let gx = groups.min(max_groups as u64) as u32;
+            let gy = groups.div_ceil(gx as u64) as u32;
+            let mut encoder = device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&trace);
+                pass.set_bind_group(0, &trace_group, &[]);
+                pass.dispatch_workgroups(gx, gy, 1);
+                pass.set_pipeline(&gather);
+                pass.set_bind_group(0, &gather_group, &[]);
+                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+            }
+            queue.submit([encoder.finish()]);
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| GpuError::Device(e.to_string()))?;
+            failed()?;
+            done += n;
+            pass_samples += pixels * n as u64;
+            progress.add(pixels * n as u64);
         }
-        let n = spp_pass.min(job.spp - done);
-        let mut p = flat.params;
-        p.sample_base = done;
-        p.spp_pass = n;
-        queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
-        let groups = (pixels * n as u64).div_ceil(64);
-        let gx = groups.min(max_groups as u64) as u32;
-        let gy = groups.div_ceil(gx as u64) as u32;
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&trace);
-            pass.set_bind_group(0, &trace_group, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
-            pass.set_pipeline(&gather);
-            pass.set_bind_group(0, &gather_group, &[]);
-            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-        }
-        queue.submit([encoder.finish()]);
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Device(e.to_string()))?;
+        film = read_film(&device, &queue, &gpu_film, &readback, (w, h))?;
         failed()?;
-        done += n;
-        samples_taken += pixels * n as u64;
+        if let Some(before) = &opts.film {
+            film.add(before);
+        }
+        spp_done = s1;
+        samples_taken += pass_samples;
+        on_pass(&PassInfo {
+            film: &film,
+            spp_done,
+            spp_total: job.spp,
+            samples: samples_taken,
+            elapsed: start.elapsed(),
+        });
     }
+    progress.finish();
+    Ok(RenderOutput {
+        image: film.to_bitmap(),
+        film,
+        spp: spp_done,
+        elapsed: start.elapsed(),
+        samples: samples_taken,
+        cancelled: cancel.load(Ordering::Relaxed),
+    })
+}
 
+/// The film the GPU has accumulated so far, copied back to memory.
+fn read_film(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    film: &wgpu::Buffer,
+    readback: &wgpu::Buffer,
+    (w, h): (u32, u32),
+) -> Result<Film, GpuError> {
+    let bytes = film.size();
     let mut encoder = device.create_command_encoder(&Default::default());
-    encoder.copy_buffer_to_buffer(&film, 0, &readback, 0, film_bytes);
+    encoder.copy_buffer_to_buffer(film, 0, readback, 0, bytes);
     queue.submit([encoder.finish()]);
     readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
     device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| GpuError::Device(e.to_string()))?;
-    failed()?;
     let data: Vec<(Rgb, f32)> = {
-        let bytes = readback.slice(..).get_mapped_range();
-        bytemuck::cast_slice::<u8, [f32; 4]>(&bytes)
+        let mapped = readback.slice(..).get_mapped_range();
+        bytemuck::cast_slice::<u8, [f32; 4]>(&mapped)
             .iter()
             .map(|v| (Rgb::new(v[0], v[1], v[2]), v[3]))
             .collect()
     };
-    let mut film = Film::from_data(w as usize, h as usize, data)
-        .ok_or_else(|| GpuError::Device("the film read back has the wrong size".into()))?;
-    if let Some(before) = &opts.film {
-        film.add(before);
-    }
-    Ok(RenderOutput {
-        image: film.to_bitmap(),
-        film,
-        spp: done,
-        elapsed: start.elapsed(),
-        samples: samples_taken,
-        cancelled,
-    })
+    readback.unmap();
+    Film::from_data(w as usize, h as usize, data)
+        .ok_or_else(|| GpuError::Device("the film read back has the wrong size".into()))
 }

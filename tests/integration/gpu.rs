@@ -3,9 +3,11 @@
 //! conformance check's block z-test (box filter, 8 x 8 blocks, Sidak
 //! threshold at 1% for all blocks together). The scenes cover what the GPU
 //! renders: rectangles, spheres, a cube and OBJ meshes; diffuse, two-sided
-//! diffuse, mirror and smooth dielectric; rectangle, sphere and mesh area
-//! lights, a constant sky and environment maps (Mitsuba's and Nori's texel
-//! rows, a real probe with a sun); perspective and thin-lens cameras.
+//! diffuse, mirror, smooth dielectric, conductor, rough conductor (GGX and
+//! Beckmann), plastic and rough plastic; rectangle, sphere and mesh area
+//! lights, point, spot and directional lights, a constant sky and
+//! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
+//! sun); perspective and thin-lens cameras.
 //!
 //! Runs where wgpu finds an adapter (CI: Mesa's lavapipe, installed by
 //! `.ci/run`, which sets LENTE_REQUIRE_GPU so that a missing adapter fails
@@ -93,6 +95,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "scenes/cbox/cbox.xml",
         "tests/gpu/env_rows.xml",
         "tests/gpu/env_sunset_nori.xml",
+        "tests/gpu/glossy_delta_lights.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();
@@ -152,10 +155,74 @@ fn gpu_renders_are_deterministic() {
     assert!(a.data() != c.data(), "different seeds, same film");
 }
 
+/// The GPU renders in the CPU's passes, reporting each with its film (for
+/// the preview, tev and checkpoints); Ctrl-C drops the pass in flight, and
+/// a render continued from its film takes the samples after it.
+#[test]
+fn gpu_passes_are_reported_dropped_when_cut_and_continued() {
+    if !gpu_here() {
+        return;
+    }
+    let (scene, mut job) = load("tests/gpu/glass_env.xml");
+    job.spp = 16;
+    // Box filter: every sample adds exactly 1 to its pixel's weight.
+    let weights_are =
+        |film: &lente::image::Film, spp: u32| film.data().iter().all(|&(_, w)| w == spp as f32);
+    let mut seen = Vec::new();
+    let full = lente::gpu::render_with_passes(
+        &scene,
+        &job,
+        &RenderOptions::new(5),
+        &AtomicBool::new(false),
+        |info| {
+            assert!(
+                weights_are(info.film, info.spp_done),
+                "pass to {} spp: pixel weights are not the sample counts",
+                info.spp_done
+            );
+            seen.push(info.spp_done);
+        },
+    )
+    .unwrap();
+    let expected: Vec<u32> = lente::render::pass_schedule_from(0, 16)
+        .iter()
+        .map(|p| p.1)
+        .collect();
+    assert_eq!(seen, expected);
+    assert!(weights_are(&full.film, 16) && !full.cancelled);
+
+    // Cancelled once the second pass is in: the third is never kept.
+    let cancel = AtomicBool::new(false);
+    let mut passes = 0;
+    let cut = lente::gpu::render_with_passes(&scene, &job, &RenderOptions::new(5), &cancel, |_| {
+        passes += 1;
+        if passes == 2 {
+            cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    })
+    .unwrap();
+    assert!(cut.cancelled);
+    assert_eq!(cut.spp, expected[1]);
+    assert!(weights_are(&cut.film, cut.spp));
+
+    // Continued from there to 16 spp: the samples of the whole render.
+    let mut opts = RenderOptions::new(5);
+    opts.first_sample = cut.spp;
+    opts.film = Some(cut.film);
+    let rest = lente::gpu::render(&scene, &job, &opts, &AtomicBool::new(false)).unwrap();
+    assert_eq!(rest.spp, 16);
+    assert!(weights_are(&rest.film, 16));
+    let close =
+        rest.film.data().iter().zip(full.film.data()).all(|(a, b)| {
+            (a.0 - b.0).abs().max_element() <= 1e-4 * b.0.abs().max_element().max(1.0)
+        });
+    assert!(close, "the continued render is not the whole render");
+}
+
 #[test]
 fn unsupported_features_are_named() {
     // Needs no adapter: the scene is checked before the device is opened.
-    let (scene, job) = load("tests/conformance/area_box.xml");
+    let (scene, job) = load("tests/conformance/media.xml");
     let err = lente::gpu::render(
         &scene,
         &job,
@@ -163,11 +230,10 @@ fn unsupported_features_are_named() {
         &AtomicBool::new(false),
     )
     .err()
-    .expect("area_box has a rough conductor and a plastic");
+    .expect("media.xml uses the volumetric path tracer");
     let msg = err.to_string();
     assert!(
-        msg.contains("does not support the RoughConductor BSDF")
-            || msg.contains("does not support the Plastic BSDF"),
+        msg.contains("does not support the VolPath integrator"),
         "{msg}"
     );
     assert!(msg.contains("--device cpu"), "{msg}");
@@ -177,13 +243,13 @@ fn unsupported_features_are_named() {
 fn device_flag_names_what_the_gpu_lacks_and_auto_falls_back() {
     use super::cli_util::{run_fails_with, run_ok, text};
     let dir = tempfile::tempdir().unwrap();
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/area_box.xml");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/media.xml");
     let scene = scene.to_str().unwrap();
     let out = dir.path().join("out");
     let out = out.to_str().unwrap();
     run_fails_with(
         &["render", scene, "--device", "gpu", "--spp", "1", "-o", out],
-        "does not support the",
+        "does not support the VolPath integrator",
     );
     assert!(!dir.path().join("out.exr").exists(), "no output on failure");
     let done = run_ok(&["render", scene, "--device", "auto", "--spp", "1", "-o", out]);

@@ -1,11 +1,31 @@
 // The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, mirror.rs,
-// dielectric.rs), in the shading frame (z along the shading normal).
-// A shape's record: shapes[3 s] = (reflectance, kind), shapes[3 s + 2].x = eta.
+// dielectric.rs, conductor.rs, rough_conductor.rs, plastic.rs,
+// rough_plastic.rs), in the shading frame (z along the shading normal).
+// A shape's record (flatten.rs's `material`, SHAPE_WORDS vec4s):
+// [0] = (A, kind), [1] = (B, alpha), [2] = (C, distribution), with A the
+// diffuse reflectance, the specular reflectance (conductors) or the
+// diffuse term (plastics); B (eta, 0, 0), eta (conductors) or the specular
+// reflectance (plastics); C k (conductors) or (eta, specular sampling
+// weight, transmittance table) (plastics).
+//
+// Rough lobes are isotropic. Their microfacet normals are drawn from the
+// visible normals for GGX (Heitz 2018) and from D(m) cos(theta_m) for
+// Beckmann (the CPU draws Beckmann's visible normals with a tabulated
+// inverse that the GPU does not port): a different density, the same
+// BSDF, so the same image in expectation.
+
+const SHAPE_WORDS: u32 = 3u;
 
 const MAT_DIFFUSE: u32 = 0u;
 const MAT_TWO_SIDED_DIFFUSE: u32 = 1u;
-const MAT_MIRROR: u32 = 2u;
-const MAT_DIELECTRIC: u32 = 3u;
+const MAT_ROUGH_CONDUCTOR: u32 = 2u;
+const MAT_PLASTIC: u32 = 3u;
+const MAT_ROUGH_PLASTIC: u32 = 4u;
+const MAT_MIRROR: u32 = 8u;
+const MAT_DIELECTRIC: u32 = 9u;
+const MAT_CONDUCTOR: u32 = 10u;
+
+const DISTR_GGX: u32 = 1u;
 
 struct BsdfSample {
     wo: vec3<f32>,
@@ -20,48 +40,27 @@ fn no_sample() -> BsdfSample {
     return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, 1.0, false);
 }
 
-fn material_kind(shape: u32) -> u32 {
-    return bitcast<u32>(shapes[3u * shape].w);
+fn material_word(shape: u32, k: u32) -> vec4<f32> {
+    return shapes[SHAPE_WORDS * shape + k];
 }
 
+fn material_kind(shape: u32) -> u32 {
+    return bitcast<u32>(material_word(shape, 0u).w);
+}
+
+// Purely specular materials: no light sampling at their surfaces.
 fn is_specular(shape: u32) -> bool {
     return material_kind(shape) >= MAT_MIRROR;
 }
 
-// Two-sided diffuse: the back seen as the front.
-fn diffuse_side(kind: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec2<f32> {
-    if (kind == MAT_TWO_SIDED_DIFFUSE && wi.z < 0.0) {
-        return vec2<f32>(-wi.z, -wo.z);
-    }
-    return vec2<f32>(wi.z, wo.z);
+fn reflect_about(wi: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
+    return 2.0 * dot(wi, m) * m - wi;
 }
 
-fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let kind = material_kind(shape);
-    if (kind > MAT_TWO_SIDED_DIFFUSE) {
-        return vec3<f32>(0.0);
-    }
-    let z = diffuse_side(kind, wi, wo);
-    if (z.x <= 0.0 || z.y <= 0.0) {
-        return vec3<f32>(0.0);
-    }
-    return shapes[3u * shape].xyz * INV_PI;
-}
-
-fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let kind = material_kind(shape);
-    if (kind > MAT_TWO_SIDED_DIFFUSE) {
-        return 0.0;
-    }
-    let z = diffuse_side(kind, wi, wo);
-    if (z.x <= 0.0 || z.y <= 0.0) {
-        return 0.0;
-    }
-    return z.y * INV_PI;
-}
+// --- Fresnel (fresnel.rs).
 
 // Unpolarised Fresnel reflectance, cosine of the refracted direction and
-// the relative IOR across (fresnel.rs's fresnel_dielectric).
+// the relative IOR across (fresnel_dielectric).
 fn fresnel_dielectric(cos_in: f32, eta: f32) -> vec3<f32> {
     var cos_i = cos_in;
     var eta_ti = eta;
@@ -82,8 +81,239 @@ fn fresnel_dielectric(cos_in: f32, eta: f32) -> vec3<f32> {
     return vec3<f32>(0.5 * (rs * rs + rp * rp), cos_t, eta_ti);
 }
 
+// Conductor Fresnel reflectance per channel (fresnel_conductor).
+fn fresnel_conductor(cos_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec3<f32> {
+    let cos2 = cos_i * cos_i;
+    let sin2 = 1.0 - cos2;
+    let sin4 = sin2 * sin2;
+    let temp_1 = eta * eta - k * k - vec3<f32>(sin2);
+    let a2_pb2 = sqrt(max(temp_1 * temp_1 + 4.0 * k * k * eta * eta, vec3<f32>(0.0)));
+    let a = sqrt(max(0.5 * (a2_pb2 + temp_1), vec3<f32>(0.0)));
+    let term_1 = a2_pb2 + vec3<f32>(cos2);
+    let term_2 = 2.0 * cos_i * a;
+    let r_s = (term_1 - term_2) / (term_1 + term_2);
+    let term_3 = a2_pb2 * cos2 + vec3<f32>(sin4);
+    let term_4 = term_2 * sin2;
+    let r_p = r_s * (term_3 - term_4) / (term_3 + term_4);
+    return 0.5 * (r_s + r_p);
+}
+
+// --- Isotropic microfacet distributions (distribution.rs).
+
+struct Microfacet {
+    alpha: f32,
+    ggx: bool,
+}
+
+fn microfacet(shape: u32) -> Microfacet {
+    let distr = bitcast<u32>(material_word(shape, 2u).w);
+    return Microfacet(material_word(shape, 1u).w, distr == DISTR_GGX);
+}
+
+// D(m), zero below the horizon.
+fn microfacet_d(md: Microfacet, m: vec3<f32>) -> f32 {
+    let a2 = md.alpha * md.alpha;
+    let cos2 = m.z * m.z;
+    let s2 = (m.x * m.x + m.y * m.y) / a2;
+    var d: f32;
+    if (md.ggx) {
+        let t = s2 + cos2;
+        d = 1.0 / (PI * a2 * t * t);
+    } else {
+        d = exp(-s2 / cos2) / (PI * a2 * cos2 * cos2);
+    }
+    if (d * m.z > 1e-20 && !not_finite(d)) {
+        return d;
+    }
+    return 0.0;
+}
+
+// Smith's G1(v, m) with the sidedness check.
+fn smith_g1(md: Microfacet, v: vec3<f32>, m: vec3<f32>) -> f32 {
+    if (dot(v, m) * v.z <= 0.0) {
+        return 0.0;
+    }
+    let xy = md.alpha * md.alpha * (v.x * v.x + v.y * v.y);
+    if (xy == 0.0) {
+        return 1.0;
+    }
+    let tan2 = xy / (v.z * v.z);
+    if (md.ggx) {
+        return 2.0 / (1.0 + sqrt(1.0 + tan2));
+    }
+    let a = 1.0 / sqrt(tan2);
+    if (a >= 1.6) {
+        return 1.0;
+    }
+    let a2 = a * a;
+    return (3.535 * a + 2.181 * a2) / (1.0 + 2.276 * a + 2.577 * a2);
+}
+
+// A microfacet normal: GGX's visible normals seen from `wi` (upper
+// hemisphere), Beckmann's D(m) cos(theta_m).
+fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    if (!md.ggx) {
+        let cos_t = 1.0 / sqrt(1.0 - md.alpha * md.alpha * log(1.0 - u.x));
+        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+        let phi = 2.0 * PI * u.y;
+        return vec3<f32>(cos(phi) * sin_t, sin(phi) * sin_t, cos_t);
+    }
+    let wi_p = normalize(vec3<f32>(md.alpha * wi.x, md.alpha * wi.y, wi.z));
+    let r = sqrt(wi_p.x * wi_p.x + wi_p.y * wi_p.y);
+    var sin_phi = 0.0;
+    var cos_phi = 1.0;
+    if (r > 1e-7) {
+        sin_phi = clamp(wi_p.y / r, -1.0, 1.0);
+        cos_phi = clamp(wi_p.x / r, -1.0, 1.0);
+    }
+    var p = square_to_uniform_disk(u);
+    let s = 0.5 * (1.0 + wi_p.z);
+    let h = sqrt(max(1.0 - p.x * p.x, 0.0));
+    p.y = h * (1.0 - s) + p.y * s;
+    let z = sqrt(max(1.0 - dot(p, p), 0.0));
+    let sin_i = sqrt(max(1.0 - wi_p.z * wi_p.z, 0.0));
+    let norm = 1.0 / (sin_i * p.y + wi_p.z * z);
+    let s11 = vec2<f32>((wi_p.z * p.y - sin_i * z) * norm, p.x * norm);
+    let sx = (cos_phi * s11.x - sin_phi * s11.y) * md.alpha;
+    let sy = (sin_phi * s11.x + cos_phi * s11.y) * md.alpha;
+    return normalize(vec3<f32>(-sx, -sy, 1.0));
+}
+
+// Solid-angle density over `wo` of reflecting `wi` about a normal from
+// sample_microfacet.
+fn microfacet_reflection_pdf(md: Microfacet, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let m = normalize(wi + wo);
+    if (dot(wi, m) <= 0.0 || dot(wo, m) <= 0.0) {
+        return 0.0;
+    }
+    if (md.ggx) {
+        return microfacet_d(md, m) * smith_g1(md, wi, m) / (4.0 * wi.z);
+    }
+    return microfacet_d(md, m) * m.z / (4.0 * dot(wo, m));
+}
+
+// --- Plastics.
+
+fn prob_specular(f: f32, weight: f32) -> f32 {
+    let ps = f * weight;
+    let pd = (1.0 - f) * (1.0 - weight);
+    return ps / (ps + pd);
+}
+
+// The rough plastic's coating transmittance at `cos` (rough_plastic.rs's
+// 64-entry table, linear between entries).
+fn coating_transmittance(shape: u32, cos: f32) -> f32 {
+    let base = 4u * bitcast<u32>(material_word(shape, 2u).z);
+    let x = cos * 63.0;
+    let i = min(u32(max(x, 0.0)), 62u);
+    let t = x - f32(i);
+    let a = shapes[(base + i) / 4u][(base + i) % 4u];
+    let b = shapes[(base + i + 1u) / 4u][(base + i + 1u) % 4u];
+    return a * (1.0 - t) + b * t;
+}
+
+// Probability of the rough plastic's glossy lobe seen from `wi`.
+fn rough_plastic_glossy_prob(shape: u32, wi: vec3<f32>) -> f32 {
+    let t = coating_transmittance(shape, wi.z);
+    return prob_specular(1.0 - t, material_word(shape, 2u).y);
+}
+
+// --- The BSDF interface the path tracer calls.
+
+// f(wi, wo) of the non-specular part.
+fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let kind = material_kind(shape);
+    if (kind >= MAT_MIRROR) {
+        return vec3<f32>(0.0);
+    }
+    var zi = wi.z;
+    var zo = wo.z;
+    if (kind == MAT_TWO_SIDED_DIFFUSE && wi.z < 0.0) {
+        // The back seen as the front.
+        zi = -zi;
+        zo = -zo;
+    }
+    if (zi <= 0.0 || zo <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let a = material_word(shape, 0u).xyz;
+    if (kind <= MAT_TWO_SIDED_DIFFUSE) {
+        return a * INV_PI;
+    }
+    let b = material_word(shape, 1u).xyz;
+    let c = material_word(shape, 2u);
+    if (kind == MAT_PLASTIC) {
+        let eta = c.x;
+        let f_i = fresnel_dielectric(wi.z, eta).x;
+        let f_o = fresnel_dielectric(wo.z, eta).x;
+        return a * (INV_PI / (eta * eta) * (1.0 - f_i) * (1.0 - f_o));
+    }
+    let md = microfacet(shape);
+    let h = normalize(wi + wo);
+    let dg = microfacet_d(md, h) * smith_g1(md, wi, h) * smith_g1(md, wo, h) / (4.0 * wi.z * wo.z);
+    if (kind == MAT_ROUGH_CONDUCTOR) {
+        return a * fresnel_conductor(dot(wi, h), b, c.xyz) * dg;
+    }
+    // Rough plastic.
+    let eta = c.x;
+    let f = fresnel_dielectric(dot(wi, h), eta).x;
+    let t = coating_transmittance(shape, wi.z) * coating_transmittance(shape, wo.z);
+    return b * (dg * f) + a * (INV_PI / (eta * eta) * t);
+}
+
+// Solid-angle density of bsdf_sample's non-specular part.
+fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let kind = material_kind(shape);
+    if (kind >= MAT_MIRROR) {
+        return 0.0;
+    }
+    var zi = wi.z;
+    var zo = wo.z;
+    if (kind == MAT_TWO_SIDED_DIFFUSE && wi.z < 0.0) {
+        zi = -zi;
+        zo = -zo;
+    }
+    if (zi <= 0.0 || zo <= 0.0) {
+        return 0.0;
+    }
+    if (kind <= MAT_TWO_SIDED_DIFFUSE) {
+        return zo * INV_PI;
+    }
+    if (kind == MAT_PLASTIC) {
+        let c = material_word(shape, 2u);
+        let f_i = fresnel_dielectric(wi.z, c.x).x;
+        return (1.0 - prob_specular(f_i, c.y)) * wo.z * INV_PI;
+    }
+    let glossy = microfacet_reflection_pdf(microfacet(shape), wi, wo);
+    if (kind == MAT_ROUGH_CONDUCTOR) {
+        return glossy;
+    }
+    let p = rough_plastic_glossy_prob(shape, wi);
+    return p * glossy + (1.0 - p) * wo.z * INV_PI;
+}
+
+// A rough lobe's sample: reflected about a microfacet normal if `glossy`,
+// else cosine-distributed, weighted by f cos / pdf of the whole BSDF.
+fn sample_rough(shape: u32, wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
+    var wo: vec3<f32>;
+    if (glossy) {
+        wo = reflect_about(wi, sample_microfacet(microfacet(shape), wi, u));
+    } else {
+        wo = square_to_cosine_hemisphere(u);
+    }
+    if (wo.z <= 0.0 || not_finite(wo.x + wo.y + wo.z)) {
+        return no_sample();
+    }
+    let pdf = bsdf_pdf(shape, wi, wo);
+    if (pdf <= 0.0) {
+        return no_sample();
+    }
+    return BsdfSample(wo, bsdf_eval(shape, wi, wo) * (wo.z / pdf), pdf, false, 1.0, true);
+}
+
 fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let kind = material_kind(shape);
+    let a = material_word(shape, 0u).xyz;
     if (kind <= MAT_TWO_SIDED_DIFFUSE) {
         var flip = false;
         if (wi.z <= 0.0) {
@@ -100,22 +330,51 @@ fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
         if (flip) {
             wo.z = -wo.z;
         }
-        return BsdfSample(wo, shapes[3u * shape].xyz, pdf, false, 1.0, true);
+        return BsdfSample(wo, a, pdf, false, 1.0, true);
     }
+    if (kind == MAT_DIELECTRIC) {
+        let eta = material_word(shape, 1u).x;
+        let f = fresnel_dielectric(wi.z, eta);
+        if (u_lobe < f.x) {
+            return BsdfSample(vec3<f32>(-wi.x, -wi.y, wi.z), vec3<f32>(1.0), f.x, true, 1.0, true);
+        }
+        let eta_ti = f.z;
+        let wo = vec3<f32>(-wi.x / eta_ti, -wi.y / eta_ti, select(f.y, -f.y, wi.z >= 0.0));
+        let scale = 1.0 / (eta_ti * eta_ti);
+        return BsdfSample(normalize(wo), vec3<f32>(scale), 1.0 - f.x, true, eta_ti, true);
+    }
+    // The rest are one-sided.
+    if (wi.z <= 0.0) {
+        return no_sample();
+    }
+    let mirror = vec3<f32>(-wi.x, -wi.y, wi.z);
     if (kind == MAT_MIRROR) {
-        if (wi.z <= 0.0) {
+        return BsdfSample(mirror, vec3<f32>(1.0), 1.0, true, 1.0, true);
+    }
+    let b = material_word(shape, 1u).xyz;
+    let c = material_word(shape, 2u);
+    if (kind == MAT_CONDUCTOR) {
+        return BsdfSample(mirror, a * fresnel_conductor(wi.z, b, c.xyz), 1.0, true, 1.0, true);
+    }
+    if (kind == MAT_PLASTIC) {
+        let eta = c.x;
+        let f_i = fresnel_dielectric(wi.z, eta).x;
+        let p_spec = prob_specular(f_i, c.y);
+        if (u_lobe < p_spec) {
+            return BsdfSample(mirror, b * (f_i / p_spec), p_spec, true, 1.0, true);
+        }
+        let wo = square_to_cosine_hemisphere(u);
+        if (wo.z <= 0.0) {
             return no_sample();
         }
-        return BsdfSample(vec3<f32>(-wi.x, -wi.y, wi.z), vec3<f32>(1.0), 1.0, true, 1.0, true);
+        let p_diff = 1.0 - p_spec;
+        let f_o = fresnel_dielectric(wo.z, eta).x;
+        let weight = a * ((1.0 - f_i) * (1.0 - f_o) / (eta * eta * p_diff));
+        return BsdfSample(wo, weight, p_diff * wo.z * INV_PI, false, 1.0, true);
     }
-    // Smooth dielectric.
-    let eta = shapes[3u * shape + 2u].x;
-    let f = fresnel_dielectric(wi.z, eta);
-    if (u_lobe < f.x) {
-        return BsdfSample(vec3<f32>(-wi.x, -wi.y, wi.z), vec3<f32>(1.0), f.x, true, 1.0, true);
+    if (kind == MAT_ROUGH_CONDUCTOR) {
+        return sample_rough(shape, wi, u, true);
     }
-    let eta_ti = f.z;
-    let wo = vec3<f32>(-wi.x / eta_ti, -wi.y / eta_ti, select(f.y, -f.y, wi.z >= 0.0));
-    let scale = 1.0 / (eta_ti * eta_ti);
-    return BsdfSample(normalize(wo), vec3<f32>(scale), 1.0 - f.x, true, eta_ti, true);
+    // Rough plastic.
+    return sample_rough(shape, wi, u, u_lobe < rough_plastic_glossy_prob(shape, wi));
 }

@@ -1,31 +1,41 @@
 // Emitter sampling (next-event estimation) and the densities MIS weighs
-// against: area lights (triangles and spheres, by area, one-sided) chosen
-// in proportion to power, and a constant environment (uniform sphere).
-// A light's record: lights[4 i] = (p0 or centre, kind), [4 i + 1] = (p1 or
-// (radius, 0, 0), area), [4 i + 2] = (p2, CDF), [4 i + 3] = (radiance, shape).
+// against: area lights (triangles and spheres, by area, one-sided) and
+// point, spot and directional lights, chosen in proportion to power, and
+// the environment: constant (uniform sphere) or a lat-long map.
+// A light's record (flatten.rs, LIGHT_WORDS vec4s): [0] = (p0, centre,
+// position or direction to the light; kind), [1] = (p1, (radius, 0, 0) or
+// the spot's world-to-local row 0; area or cos cutoff), [2] = (p2 or row
+// 1; CDF), [3] = (radiance, intensity or irradiance; shape), [4] = (row 2;
+// cos beam).
 
+const LIGHT_WORDS: u32 = 5u;
 const LIGHT_SPHERE: u32 = 1u;
+const LIGHT_POINT: u32 = 2u;
+const LIGHT_SPOT: u32 = 3u;
+const LIGHT_DIRECTIONAL: u32 = 4u;
 
 struct LightSample {
     wi: vec3<f32>,
     dist: f32,
     le: vec3<f32>,
-    // Solid-angle density, the choice included.
+    // Solid-angle density, the choice included; for delta lights the
+    // probability of the choice.
     pdf: f32,
+    delta: bool,
     ok: bool,
 }
 
 fn no_light() -> LightSample {
-    return LightSample(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, false);
+    return LightSample(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, false, false);
 }
 
 // Probability that emitter sampling picks area light `i`.
 fn light_choice_pdf(i: u32) -> f32 {
     var below = 0.0;
     if (i > 0u) {
-        below = lights[4u * (i - 1u) + 2u].w;
+        below = lights[LIGHT_WORDS * (i - 1u) + 2u].w;
     }
-    return (1.0 - P.env_prob) * (lights[4u * i + 2u].w - below);
+    return (1.0 - P.env_prob) * (lights[LIGHT_WORDS * i + 2u].w - below);
 }
 
 // Cosine of the half-angle of the cone a sphere (centre `c`, radius `r`)
@@ -41,9 +51,9 @@ fn sphere_cone_cos(p: vec3<f32>, c: vec3<f32>, r: f32) -> f32 {
 // Solid-angle density of sampling area light `i` at the point `q` with
 // normal `n`, seen from `p`.
 fn area_pdf(i: u32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
-    let r0 = lights[4u * i];
+    let r0 = lights[LIGHT_WORDS * i];
     if (bitcast<u32>(r0.w) == LIGHT_SPHERE) {
-        let cos_max = sphere_cone_cos(p, r0.xyz, lights[4u * i + 1u].x);
+        let cos_max = sphere_cone_cos(p, r0.xyz, lights[LIGHT_WORDS * i + 1u].x);
         if (cos_max < 1.0) {
             return light_choice_pdf(i) / (2.0 * PI * (1.0 - cos_max));
         }
@@ -54,7 +64,7 @@ fn area_pdf(i: u32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
     if (cos_l <= 0.0) {
         return 0.0;
     }
-    return light_choice_pdf(i) * dist2 / (cos_l * lights[4u * i + 1u].w);
+    return light_choice_pdf(i) * dist2 / (cos_l * lights[LIGHT_WORDS * i + 1u].w);
 }
 
 // --- The environment: constant (uniform sphere) or a lat-long map
@@ -174,7 +184,7 @@ fn env_search(base: u32, n: u32, x: f32) -> u32 {
 fn sample_env(u: vec2<f32>) -> LightSample {
     if (P.env_kind == ENV_CONSTANT) {
         let wi = square_to_uniform_sphere(u);
-        return LightSample(wi, INF, P.env.xyz, P.env_prob * 0.25 * INV_PI, true);
+        return LightSample(wi, INF, P.env.xyz, P.env_prob * 0.25 * INV_PI, false, true);
     }
     // A band, then a column in it; what is left of each number places the
     // point inside the cell.
@@ -208,7 +218,51 @@ fn sample_env(u: vec2<f32>) -> LightSample {
     if (e.w <= 0.0) {
         return no_light();
     }
-    return LightSample(wi, INF, e.xyz, e.w, true);
+    return LightSample(wi, INF, e.xyz, e.w, false, true);
+}
+
+// Spot falloff (emitter/spot.rs's intensity_towards, untextured) towards
+// world direction `d` from spot light `i`: 1 inside the beam, linear in
+// angle to 0 at the cutoff.
+fn spot_falloff(i: u32, d: vec3<f32>) -> f32 {
+    let r1 = lights[LIGHT_WORDS * i + 1u];
+    let r4 = lights[LIGHT_WORDS * i + 4u];
+    let local = vec3<f32>(dot(r1.xyz, d), dot(lights[LIGHT_WORDS * i + 2u].xyz, d), dot(r4.xyz, d));
+    let cos_t = local.z / length(local);
+    let cos_cutoff = r1.w;
+    let cos_beam = r4.w;
+    if (!(cos_t > cos_cutoff)) {
+        return 0.0;
+    }
+    if (cos_t >= cos_beam) {
+        return 1.0;
+    }
+    let cutoff = acos(cos_cutoff);
+    return (cutoff - acos(clamp(cos_t, -1.0, 1.0))) / (cutoff - acos(cos_beam));
+}
+
+// Point, spot and directional light `i` seen from `p` (emitter/point.rs,
+// spot.rs, directional.rs): intensity / dist^2 or the irradiance, with the
+// probability of the choice as its pdf.
+fn sample_delta_light(i: u32, p: vec3<f32>) -> LightSample {
+    let r0 = lights[LIGHT_WORDS * i];
+    let power = lights[LIGHT_WORDS * i + 3u].xyz;
+    let pdf = light_choice_pdf(i);
+    if (bitcast<u32>(r0.w) == LIGHT_DIRECTIONAL) {
+        return LightSample(r0.xyz, INF, power, pdf, true, true);
+    }
+    let to = r0.xyz - p;
+    let d2 = dot(to, to);
+    if (d2 <= 0.0) {
+        return no_light();
+    }
+    let dist = sqrt(d2);
+    let wi = to / dist;
+    var le = power / d2;
+    if (bitcast<u32>(r0.w) == LIGHT_SPOT) {
+        le *= spot_falloff(i, -wi);
+    }
+    return LightSample(wi, dist, le, pdf, true, max(le.x, max(le.y, le.z)) > 0.0);
 }
 
 fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
@@ -224,18 +278,22 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     var hi = P.light_count - 1u;
     while (lo < hi) {
         let mid = (lo + hi) / 2u;
-        if (lights[4u * mid + 2u].w > uc) {
+        if (lights[LIGHT_WORDS * mid + 2u].w > uc) {
             hi = mid;
         } else {
             lo = mid + 1u;
         }
     }
     let i = lo;
-    let r0 = lights[4u * i];
-    let r1 = lights[4u * i + 1u];
+    let r0 = lights[LIGHT_WORDS * i];
+    let r1 = lights[LIGHT_WORDS * i + 1u];
+    let kind = bitcast<u32>(r0.w);
+    if (kind >= LIGHT_POINT) {
+        return sample_delta_light(i, p);
+    }
     var q: vec3<f32>;
     var n: vec3<f32>;
-    if (bitcast<u32>(r0.w) == LIGHT_SPHERE) {
+    if (kind == LIGHT_SPHERE) {
         // A sphere seen from outside: uniformly in the cone it fills
         // (geometry/sphere.rs's sample_cone), else by area.
         let cos_max = sphere_cone_cos(p, r0.xyz, r1.x);
@@ -253,13 +311,13 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
             let disc = max(b * b - (dot(oc, oc) - r1.x * r1.x), 0.0);
             let t = -b - sqrt(disc);
             let pdf = light_choice_pdf(i) / (2.0 * PI * (1.0 - cos_max));
-            return LightSample(wi, t, lights[4u * i + 3u].xyz, pdf, t > 0.0);
+            return LightSample(wi, t, lights[LIGHT_WORDS * i + 3u].xyz, pdf, false, t > 0.0);
         }
         n = square_to_uniform_sphere(u);
         q = r0.xyz + r1.x * n;
     } else {
         let b = square_to_uniform_triangle(u);
-        let p2 = lights[4u * i + 2u].xyz;
+        let p2 = lights[LIGHT_WORDS * i + 2u].xyz;
         q = (1.0 - b.x - b.y) * r0.xyz + b.x * r1.xyz + b.y * p2;
         n = normalize(cross(r1.xyz - r0.xyz, p2 - r0.xyz));
     }
@@ -274,5 +332,5 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
         return no_light();
     }
     let pdf = light_choice_pdf(i) * dist * dist / (cos_l * r1.w);
-    return LightSample(wi, dist, lights[4u * i + 3u].xyz, pdf, true);
+    return LightSample(wi, dist, lights[LIGHT_WORDS * i + 3u].xyz, pdf, false, true);
 }

@@ -19,6 +19,13 @@ fn filter_weight(x: f32) -> f32 {
     return mix(filter_table[i], filter_table[i + 1u], f - f32(i));
 }
 
+// A sample's position in its pixel (path.wgsl packs it in 16-bit fixed
+// point): the middle of its 1/65536 bin, never on the pixel's edge, where
+// a box filter would count it in two pixels.
+fn unpack_offset(bits: u32) -> vec2<f32> {
+    return (vec2<f32>(f32(bits & 0xffffu), f32(bits >> 16u)) + 0.5) / 65536.0;
+}
+
 @compute @workgroup_size(8, 8)
 fn gather(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= P.width || gid.y >= P.height) {
@@ -37,7 +44,7 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>) {
                 if (not_finite(rec.x) || not_finite(rec.y) || not_finite(rec.z)) {
                     continue;
                 }
-                let pos = vec2<f32>(f32(qx), f32(qy)) + unpack2x16unorm(bitcast<u32>(rec.w));
+                let pos = vec2<f32>(f32(qx), f32(qy)) + unpack_offset(bitcast<u32>(rec.w));
                 let w = filter_weight(f32(x) - pos.x + 0.5) * filter_weight(f32(y) - pos.y + 0.5);
                 if (w != 0.0) {
                     acc += vec4<f32>(rec.xyz * w, w);

@@ -82,7 +82,7 @@ fn li(camera: Ray) -> vec3<f32> {
             if (!specular) {
                 w = power_heuristic(prev_pdf, area_pdf(s.light, prev_p, s.p, s.ng));
             }
-            l += beta * lights[4u * s.light + 3u].xyz * w;
+            l += beta * lights[LIGHT_WORDS * s.light + 3u].xyz * w;
         }
         depth++;
         if (depth >= P.max_depth) {
@@ -115,7 +115,10 @@ fn li(camera: Ray) -> vec3<f32> {
                         tmax *= 1.0 - 1e-3;
                     }
                     if (!occluded(o, d, tmax)) {
-                        let w = power_heuristic(ls.pdf, bsdf_pdf(s.shape, wi, wo));
+                        var w = 1.0;
+                        if (!ls.delta) {
+                            w = power_heuristic(ls.pdf, bsdf_pdf(s.shape, wi, wo));
+                        }
                         l += beta * f * abs(wo.z) * ls.le * (w / ls.pdf);
                     }
                 }
@@ -169,5 +172,8 @@ fn trace_samples(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     let aperture = next_2d();
     let l = li(camera_ray(film, aperture));
     let offset = film - floor(film);
-    samples[idx] = vec4<f32>(l, bitcast<f32>(pack2x16unorm(offset)));
+    // The position in the pixel in 16-bit fixed point: its bin of 1/65536
+    // (film.wgsl's unpack_offset).
+    let q = min(vec2<u32>(offset * 65536.0), vec2<u32>(65535u));
+    samples[idx] = vec4<f32>(l, bitcast<f32>(q.x | (q.y << 16u)));
 }
