@@ -7,7 +7,7 @@
 //! Beckmann), plastic and rough plastic; rectangle, sphere and mesh area
 //! lights, point, spot and directional lights, a constant sky and
 //! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
-//! sun); perspective and thin-lens cameras.
+//! sun); perspective and thin-lens cameras; and the showcase.
 //!
 //! Runs where wgpu finds an adapter (CI: Mesa's lavapipe, installed by
 //! `.ci/run`, which sets LENTE_REQUIRE_GPU so that a missing adapter fails
@@ -96,6 +96,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/env_rows.xml",
         "tests/gpu/env_sunset_nori.xml",
         "tests/gpu/glossy_delta_lights.xml",
+        "scenes/showcase/showcase-mirror.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();
