@@ -89,6 +89,11 @@ impl PlaneFrame {
         self.n = -self.n;
     }
 
+    /// The dual basis of (ex, ey) ([`Self::local`]'s projections).
+    pub fn dual_basis(&self) -> (Vec3, Vec3) {
+        (self.dx, self.dy)
+    }
+
     /// World area per unit of object area.
     pub fn area_scale(&self) -> f32 {
         self.area_scale

@@ -23,6 +23,10 @@ pub const NONE: u32 = u32::MAX;
 
 /// Marks a sphere where a triangle has its normal slot.
 pub const SPHERE: u32 = u32::MAX - 1;
+/// Marks a disk whose front is along cross(dx, dy) (`DISK`) or against it
+/// (`DISK_FLIPPED`).
+pub const DISK: u32 = u32::MAX - 2;
+pub const DISK_FLIPPED: u32 = u32::MAX - 3;
 
 /// Vec4 words per area or delta light in `lights`.
 pub const LIGHT_WORDS: usize = 5;
@@ -33,6 +37,7 @@ pub const LIGHT_SPHERE: u32 = 1;
 pub const LIGHT_POINT: u32 = 2;
 pub const LIGHT_SPOT: u32 = 3;
 pub const LIGHT_DIRECTIONAL: u32 = 4;
+pub const LIGHT_DISK: u32 = 5;
 
 /// Vec4 words per shape's material record in `shapes`.
 pub const SHAPE_WORDS: usize = 3;
@@ -44,6 +49,7 @@ pub const MAT_TWO_SIDED_DIFFUSE: u32 = 1;
 pub const MAT_ROUGH_CONDUCTOR: u32 = 2;
 pub const MAT_PLASTIC: u32 = 3;
 pub const MAT_ROUGH_PLASTIC: u32 = 4;
+pub const MAT_ROUGH_DIELECTRIC: u32 = 5;
 pub const MAT_MIRROR: u32 = 8;
 pub const MAT_DIELECTRIC: u32 = 9;
 pub const MAT_CONDUCTOR: u32 = 10;
@@ -116,7 +122,8 @@ pub struct GpuScene {
     pub nodes: Vec<[f32; 4]>,
     /// Three per primitive in leaf order. Triangle: (v0, shape), (v1,
     /// normal slot or NONE), (v2, light or NONE). Sphere: (centre, shape),
-    /// (radius, 0, 0, SPHERE), (0, 0, 0, light or NONE).
+    /// (radius, 0, 0, SPHERE), (0, 0, 0, light or NONE). Disk: (centre,
+    /// shape), (dual basis dx, DISK or DISK_FLIPPED), (dy, light or NONE).
     pub prims: Vec<[f32; 4]>,
     /// Three per normal slot: a triangle's vertex normals.
     pub normals: Vec<[f32; 4]>,
@@ -127,7 +134,8 @@ pub struct GpuScene {
     /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
     /// 0; area or the spot's cos cutoff), (p2 or row 1; CDF up to and
     /// including it), (radiance, intensity or irradiance; shape or NONE),
-    /// (row 2; the spot's cos beam).
+    /// (row 2 or a disk's front normal; the spot's cos beam). A disk's
+    /// (p0, p1, p2) are its centre and axes ex, ey.
     pub lights: Vec<[f32; 4]>,
     /// The filter's weight at `radius * i / (FILTER_TABLE - 1)`.
     pub filter_table: Vec<f32>,
@@ -139,7 +147,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles and spheres, diffuse, two-sided diffuse, mirror, conductor, rough conductor, plastic, rough plastic and smooth dielectric BSDFs, area, point, spot and directional lights, a constant environment and environment maps, with the path tracer using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, diffuse, two-sided diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth and rough dielectric BSDFs, area, point, spot and directional lights, a constant environment and environment maps, with the path tracer using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -171,6 +179,10 @@ enum Prim {
         center: Vec3,
         radius: f32,
     },
+    Disk {
+        shape: u32,
+        disk: crate::geometry::Disk,
+    },
 }
 
 impl Prim {
@@ -184,6 +196,10 @@ impl Prim {
             Prim::Sphere { center, radius, .. } => {
                 let r = Vec3::splat(radius);
                 OAabb::new((center - r).into(), (center + r).into())
+            }
+            Prim::Disk { disk, .. } => {
+                let b = disk.bounds();
+                OAabb::new(b.min.into(), b.max.into())
             }
         }
     }
@@ -230,10 +246,12 @@ fn plastic_diffuse(kd: Rgb, internal: f32, nonlinear: bool) -> Rgb {
 
 /// A shape's `SHAPE_WORDS` material words, as `bsdf.wgsl` reads them:
 /// (A, kind), (B, alpha), (C, distribution) with, per kind, A the
-/// diffuse reflectance (diffuse), the specular reflectance (conductors)
-/// or the diffuse term (plastics); B (eta, 0, 0) (dielectric), eta
-/// (conductors) or the specular reflectance (plastics); C k (conductors)
-/// or (eta, specular sampling weight, transmittance table) (plastics).
+/// diffuse reflectance (diffuse), the specular reflectance (conductors,
+/// rough dielectric) or the diffuse term (plastics); B (eta, 0, 0)
+/// (dielectric), eta (conductors), the specular transmittance (rough
+/// dielectric) or the specular reflectance (plastics); C k (conductors),
+/// (eta, 0, 0) (rough dielectric) or (eta, specular sampling weight,
+/// transmittance table) (plastics).
 /// Rough plastics append their table to `tables`, whose words follow the
 /// records (`table_base` is where they start).
 fn material(
@@ -267,6 +285,14 @@ fn material(
                 v4(c.specular_reflectance, bits(MAT_ROUGH_CONDUCTOR)),
                 v4(c.eta, alpha),
                 v4(c.k, distr),
+            ]
+        }
+        Bsdf::RoughDielectric(d) => {
+            let (alpha, distr) = roughness(&d.distr)?;
+            [
+                v4(d.specular_reflectance, bits(MAT_ROUGH_DIELECTRIC)),
+                v4(d.specular_transmittance, alpha),
+                [d.eta, 0.0, 0.0, distr],
             ]
         }
         Bsdf::Plastic(p) => [
@@ -384,7 +410,7 @@ impl GpuScene {
                     center: sp.center,
                     radius: sp.radius,
                 }),
-                Geometry::Disk(_) => return unsupported("disks"),
+                Geometry::Disk(d) => prims.push(Prim::Disk { shape, disk: *d }),
                 Geometry::Curve(_) => return unsupported("curves"),
             }
         }
@@ -512,6 +538,19 @@ impl GpuScene {
                         area,
                     )
                 }
+                Prim::Disk { shape, disk } => {
+                    let f = &disk.frame;
+                    let area = disk.area();
+                    (
+                        shape,
+                        [
+                            v4(f.center, bits(LIGHT_DISK)),
+                            v4(f.ex, area),
+                            v4(f.ey, 0.0),
+                        ],
+                        area,
+                    )
+                }
             };
             let radiance = emissions[shape as usize];
             let power = area * luminance(radiance);
@@ -519,7 +558,11 @@ impl GpuScene {
                 prim_light[pi] = weights.len() as u32;
                 lights.extend(rec);
                 lights.push(v4(radiance, bits(shape)));
-                lights.push([0.0; 4]);
+                let front = match p {
+                    Prim::Disk { disk, .. } => disk.frame.n,
+                    _ => Vec3::ZERO,
+                };
+                lights.push(v4(front, 0.0));
                 weights.push(power);
             }
         }
@@ -585,6 +628,18 @@ impl GpuScene {
                     flat.push(v4(center, bits(shape)));
                     flat.push([radius, 0.0, 0.0, bits(SPHERE)]);
                     flat.push([0.0, 0.0, 0.0, light]);
+                }
+                Prim::Disk { shape, disk } => {
+                    let f = &disk.frame;
+                    let (dx, dy) = f.dual_basis();
+                    let marker = if dx.cross(dy).dot(f.n) >= 0.0 {
+                        DISK
+                    } else {
+                        DISK_FLIPPED
+                    };
+                    flat.push(v4(f.center, bits(shape)));
+                    flat.push(v4(dx, bits(marker)));
+                    flat.push(v4(dy, light));
                 }
             }
         }

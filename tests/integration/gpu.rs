@@ -2,10 +2,10 @@
 //! scenes, K renders each with independent seeds, compared with the Mitsuba
 //! conformance check's block z-test (box filter, 8 x 8 blocks, Sidak
 //! threshold at 1% for all blocks together). The scenes cover what the GPU
-//! renders: rectangles, spheres, a cube and OBJ meshes; diffuse, two-sided
-//! diffuse, mirror, smooth dielectric, conductor, rough conductor (GGX and
-//! Beckmann), plastic and rough plastic; rectangle, sphere and mesh area
-//! lights, point, spot and directional lights, a constant sky and
+//! renders: rectangles, disks, spheres, cubes and OBJ meshes; diffuse,
+//! two-sided diffuse, mirror, smooth and rough dielectric, conductor,
+//! rough conductor (GGX and Beckmann), plastic and rough plastic;
+//! rectangle, disk, sphere and mesh area lights, point, spot and directional lights, a constant sky and
 //! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
 //! sun); perspective and thin-lens cameras; and the showcase.
 //!

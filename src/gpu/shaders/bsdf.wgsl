@@ -1,12 +1,14 @@
 // The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, mirror.rs,
 // dielectric.rs, conductor.rs, rough_conductor.rs, plastic.rs,
-// rough_plastic.rs), in the shading frame (z along the shading normal).
+// rough_plastic.rs, rough_dielectric.rs), in the shading frame (z along
+// the shading normal).
 // A shape's record (flatten.rs's `material`, SHAPE_WORDS vec4s):
 // [0] = (A, kind), [1] = (B, alpha), [2] = (C, distribution), with A the
 // diffuse reflectance, the specular reflectance (conductors) or the
-// diffuse term (plastics); B (eta, 0, 0), eta (conductors) or the specular
-// reflectance (plastics); C k (conductors) or (eta, specular sampling
-// weight, transmittance table) (plastics).
+// diffuse term (plastics); B (eta, 0, 0), eta (conductors), the specular
+// transmittance (rough dielectric) or the specular reflectance (plastics);
+// C k (conductors), (eta, 0, 0) (rough dielectric) or (eta, specular
+// sampling weight, transmittance table) (plastics).
 //
 // Rough lobes are isotropic. Their microfacet normals are drawn from the
 // visible normals for GGX (Heitz 2018) and from D(m) cos(theta_m) for
@@ -21,6 +23,7 @@ const MAT_TWO_SIDED_DIFFUSE: u32 = 1u;
 const MAT_ROUGH_CONDUCTOR: u32 = 2u;
 const MAT_PLASTIC: u32 = 3u;
 const MAT_ROUGH_PLASTIC: u32 = 4u;
+const MAT_ROUGH_DIELECTRIC: u32 = 5u;
 const MAT_MIRROR: u32 = 8u;
 const MAT_DIELECTRIC: u32 = 9u;
 const MAT_CONDUCTOR: u32 = 10u;
@@ -179,6 +182,15 @@ fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     return normalize(vec3<f32>(-sx, -sy, 1.0));
 }
 
+// Solid-angle density over `m` of sample_microfacet seen from `wi` (upper
+// hemisphere).
+fn microfacet_normal_pdf(md: Microfacet, wi: vec3<f32>, m: vec3<f32>) -> f32 {
+    if (md.ggx) {
+        return microfacet_d(md, m) * smith_g1(md, wi, m) * abs(dot(wi, m)) / wi.z;
+    }
+    return microfacet_d(md, m) * m.z;
+}
+
 // Solid-angle density over `wo` of reflecting `wi` about a normal from
 // sample_microfacet.
 fn microfacet_reflection_pdf(md: Microfacet, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
@@ -186,10 +198,116 @@ fn microfacet_reflection_pdf(md: Microfacet, wi: vec3<f32>, wo: vec3<f32>) -> f3
     if (dot(wi, m) <= 0.0 || dot(wo, m) <= 0.0) {
         return 0.0;
     }
-    if (md.ggx) {
-        return microfacet_d(md, m) * smith_g1(md, wi, m) / (4.0 * wi.z);
+    return microfacet_normal_pdf(md, wi, m) / (4.0 * dot(wo, m));
+}
+
+// --- The rough dielectric (rough_dielectric.rs): reflection and
+// refraction through microfacets, from either side.
+
+// The microfacet normal between `wi` and `wo` (on wi's side of the
+// surface), whether it is a reflection, and the relative IOR across from
+// wi's side; m.z = 2 when there is none.
+struct HalfVector {
+    m: vec3<f32>,
+    reflect: bool,
+    eta: f32,
+}
+
+fn half_vector(wi: vec3<f32>, wo: vec3<f32>, eta_in: f32) -> HalfVector {
+    let none = HalfVector(vec3<f32>(0.0, 0.0, 2.0), false, 1.0);
+    if (wi.z == 0.0) {
+        return none;
     }
-    return microfacet_d(md, m) * m.z / (4.0 * dot(wo, m));
+    let reflect = wi.z * wo.z > 0.0;
+    let eta = select(1.0 / eta_in, eta_in, wi.z > 0.0);
+    let m = normalize(wi + wo * select(eta, 1.0, reflect));
+    if (not_finite(m.x + m.y + m.z)) {
+        return none;
+    }
+    return HalfVector(select(-m, m, m.z >= 0.0), reflect, eta);
+}
+
+fn rough_dielectric_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let eta_ext = material_word(shape, 2u).x;
+    let h = half_vector(wi, wo, eta_ext);
+    if (h.m.z > 1.0 || wo.z == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let md = microfacet(shape);
+    let dg = microfacet_d(md, h.m) * smith_g1(md, wi, h.m) * smith_g1(md, wo, h.m);
+    if (dg == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let dim = dot(wi, h.m);
+    let dom = dot(wo, h.m);
+    let f = fresnel_dielectric(dim, eta_ext).x;
+    let cos_i = abs(wi.z);
+    let cos_o = abs(wo.z);
+    if (h.reflect) {
+        return material_word(shape, 0u).xyz * (f * dg / (4.0 * cos_i * cos_o));
+    }
+    let denom = dim + h.eta * dom;
+    let value = abs((1.0 - f) * dg * dim * dom / (cos_i * denom * denom));
+    return material_word(shape, 1u).xyz * (value / cos_o);
+}
+
+fn rough_dielectric_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let eta_ext = material_word(shape, 2u).x;
+    let h = half_vector(wi, wo, eta_ext);
+    if (h.m.z > 1.0) {
+        return 0.0;
+    }
+    let dim = dot(wi, h.m);
+    let dom = dot(wo, h.m);
+    if (dim * wi.z <= 0.0 || dom * wo.z <= 0.0) {
+        return 0.0;
+    }
+    var dwh_dwo: f32;
+    if (h.reflect) {
+        dwh_dwo = 1.0 / (4.0 * dom);
+    } else {
+        let denom = dim + h.eta * dom;
+        dwh_dwo = h.eta * h.eta * dom / (denom * denom);
+    }
+    let f = fresnel_dielectric(dim, eta_ext).x;
+    let lobe = select(1.0 - f, f, h.reflect);
+    return abs(microfacet_normal_pdf(microfacet(shape), select(-wi, wi, wi.z >= 0.0), h.m) * lobe * dwh_dwo);
+}
+
+fn rough_dielectric_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+    if (wi.z == 0.0) {
+        return no_sample();
+    }
+    let up = select(-wi, wi, wi.z >= 0.0);
+    let m = sample_microfacet(microfacet(shape), up, u);
+    // A normal facing away from wi (Beckmann's D cos sampling draws them)
+    // is not one the pdf counts: the direction it would give may also come
+    // from a facing normal, and counting it would add light.
+    if (not_finite(m.x + m.y + m.z) || dot(up, m) <= 0.0) {
+        return no_sample();
+    }
+    let dim = dot(wi, m);
+    let fr = fresnel_dielectric(dim, material_word(shape, 2u).x);
+    let reflection = u_lobe <= fr.x;
+    var wo: vec3<f32>;
+    var eta = 1.0;
+    if (reflection) {
+        wo = reflect_about(wi, m);
+    } else {
+        let inv = 1.0 / fr.z;
+        let ct = select(fr.y, -fr.y, dim >= 0.0);
+        wo = normalize(m * (dim * inv + ct) - wi * inv);
+        eta = fr.z;
+    }
+    if ((wo.z * wi.z > 0.0) != reflection || wo.z == 0.0 || not_finite(wo.x + wo.y + wo.z)) {
+        return no_sample();
+    }
+    let pdf = rough_dielectric_pdf(shape, wi, wo);
+    if (pdf <= 0.0) {
+        return no_sample();
+    }
+    let weight = rough_dielectric_eval(shape, wi, wo) * (abs(wo.z) / pdf);
+    return BsdfSample(wo, weight, pdf, false, eta, true);
 }
 
 // --- Plastics.
@@ -225,6 +343,9 @@ fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let kind = material_kind(shape);
     if (kind >= MAT_MIRROR) {
         return vec3<f32>(0.0);
+    }
+    if (kind == MAT_ROUGH_DIELECTRIC) {
+        return rough_dielectric_eval(shape, wi, wo);
     }
     var zi = wi.z;
     var zo = wo.z;
@@ -266,6 +387,9 @@ fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let kind = material_kind(shape);
     if (kind >= MAT_MIRROR) {
         return 0.0;
+    }
+    if (kind == MAT_ROUGH_DIELECTRIC) {
+        return rough_dielectric_pdf(shape, wi, wo);
     }
     var zi = wi.z;
     var zo = wo.z;
@@ -331,6 +455,9 @@ fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
             wo.z = -wo.z;
         }
         return BsdfSample(wo, a, pdf, false, 1.0, true);
+    }
+    if (kind == MAT_ROUGH_DIELECTRIC) {
+        return rough_dielectric_sample(shape, wi, u, u_lobe);
     }
     if (kind == MAT_DIELECTRIC) {
         let eta = material_word(shape, 1u).x;

@@ -1,18 +1,20 @@
 // Emitter sampling (next-event estimation) and the densities MIS weighs
-// against: area lights (triangles and spheres, by area, one-sided) and
+// against: area lights (triangles, spheres and disks, by area, one-sided) and
 // point, spot and directional lights, chosen in proportion to power, and
 // the environment: constant (uniform sphere) or a lat-long map.
 // A light's record (flatten.rs, LIGHT_WORDS vec4s): [0] = (p0, centre,
 // position or direction to the light; kind), [1] = (p1, (radius, 0, 0) or
 // the spot's world-to-local row 0; area or cos cutoff), [2] = (p2 or row
-// 1; CDF), [3] = (radiance, intensity or irradiance; shape), [4] = (row 2;
-// cos beam).
+// 1; CDF), [3] = (radiance, intensity or irradiance; shape), [4] = (row 2
+// or a disk's front normal; cos beam). A disk's p0, p1, p2 are its centre
+// and axes.
 
 const LIGHT_WORDS: u32 = 5u;
 const LIGHT_SPHERE: u32 = 1u;
 const LIGHT_POINT: u32 = 2u;
 const LIGHT_SPOT: u32 = 3u;
 const LIGHT_DIRECTIONAL: u32 = 4u;
+const LIGHT_DISK: u32 = 5u;
 
 struct LightSample {
     wi: vec3<f32>,
@@ -288,7 +290,7 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let r1 = lights[LIGHT_WORDS * i + 1u];
     let kind = bitcast<u32>(r0.w);
-    if (kind >= LIGHT_POINT) {
+    if (kind >= LIGHT_POINT && kind <= LIGHT_DIRECTIONAL) {
         return sample_delta_light(i, p);
     }
     var q: vec3<f32>;
@@ -315,6 +317,10 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
         }
         n = square_to_uniform_sphere(u);
         q = r0.xyz + r1.x * n;
+    } else if (kind == LIGHT_DISK) {
+        let l = square_to_uniform_disk(u);
+        q = r0.xyz + l.x * r1.xyz + l.y * lights[LIGHT_WORDS * i + 2u].xyz;
+        n = lights[LIGHT_WORDS * i + 4u].xyz;
     } else {
         let b = square_to_uniform_triangle(u);
         let p2 = lights[LIGHT_WORDS * i + 2u].xyz;

@@ -26,6 +26,11 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     return select(1.0 / d, select(vec3<f32>(1e30), vec3<f32>(-1e30), d < vec3<f32>(0.0)), tiny);
 }
 
+// Whether a primitive's second word marks a disk.
+fn is_disk(marker: u32) -> bool {
+    return marker == DISK || marker == DISK_FLIPPED;
+}
+
 // Whether primitive `i` is hit in (tmin, tmax); the hit's distance and
 // barycentrics go to `hit`.
 fn intersect_prim(i: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, hit: ptr<function, Hit>) -> bool {
@@ -49,6 +54,27 @@ fn intersect_prim(i: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, hit:
             return false;
         }
         *hit = Hit(t, i, 0.0, 0.0);
+        return true;
+    }
+    if (is_disk(bitcast<u32>(r1.w))) {
+        // The plane through the centre, then the unit disk in the dual
+        // basis's coordinates (geometry/disk.rs).
+        let dy = prims[3u * i + 2u].xyz;
+        let n = cross(r1.xyz, dy);
+        let dn = dot(d, n);
+        if (dn == 0.0) {
+            return false;
+        }
+        let t = dot(r0.xyz - o, n) / dn;
+        if (t <= tmin || t >= tmax) {
+            return false;
+        }
+        let q = o + t * d - r0.xyz;
+        let l = vec2<f32>(dot(q, r1.xyz), dot(q, dy));
+        if (dot(l, l) > 1.0) {
+            return false;
+        }
+        *hit = Hit(t, i, l.x, l.y);
         return true;
     }
     // Moeller and Trumbore.
@@ -178,6 +204,13 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     if (slot == SPHERE) {
         let n = normalize(o + h.t * d - r0.xyz);
         return Surface(r0.xyz + r1.x * n, n, n, shape, light);
+    }
+    if (is_disk(slot)) {
+        var n = normalize(cross(r1.xyz, r2.xyz));
+        if (slot == DISK_FLIPPED) {
+            n = -n;
+        }
+        return Surface(o + h.t * d, n, n, shape, light);
     }
     let b0 = 1.0 - h.b1 - h.b2;
     let p = b0 * r0.xyz + h.b1 * r1.xyz + h.b2 * r2.xyz;

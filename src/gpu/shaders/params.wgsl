@@ -44,6 +44,8 @@ const ENV_MAP: u32 = 2u;
 
 const NONE: u32 = 0xffffffffu;
 const SPHERE: u32 = 0xfffffffeu;
+const DISK: u32 = 0xfffffffdu;
+const DISK_FLIPPED: u32 = 0xfffffffcu;
 const PI: f32 = 3.14159265358979;
 const INV_PI: f32 = 0.318309886183791;
 const INF: f32 = 3.0e38;
