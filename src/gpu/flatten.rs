@@ -147,7 +147,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, diffuse, two-sided diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth and rough dielectric BSDFs, area, point, spot and directional lights, a constant environment and environment maps, with the path tracer using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, diffuse, two-sided diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth and rough dielectric BSDFs, area, point, spot and directional lights, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -337,8 +337,15 @@ impl GpuScene {
                 }
                 (params.max_depth.unwrap_or(NONE), params.rr_depth)
             }
-            Integrator::Path { .. } => {
-                return unsupported("path tracing without MIS (path_mats, path_ems)")
+            // Direct illumination is the path tracer's first two segments
+            // (integrator/mod.rs).
+            Integrator::Direct {
+                strategy: Strategy::Mis,
+            } => (2, NONE),
+            Integrator::Path { .. } | Integrator::Direct { .. } => {
+                return unsupported(
+                    "a single sampling strategy (path_mats, path_ems, direct_mats, direct_ems)",
+                )
             }
             other => return unsupported(format!("the {} integrator", variant_name(other))),
         };
@@ -710,5 +717,63 @@ impl GpuScene {
             filter_table,
             env_data,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrator::PathParams;
+
+    fn veach() -> (Scene, RenderJob) {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("bench/lights/veach_mis.xml");
+        let (desc, _) = crate::load::load_scene_with(&path, &[]).unwrap();
+        (Scene::new(desc.scene).unwrap(), desc.job)
+    }
+
+    /// Direct illumination is the path tracer cut after two segments, as
+    /// on the CPU; a single strategy is named as unsupported.
+    #[test]
+    fn direct_illumination_is_two_path_segments() {
+        let (scene, mut job) = veach();
+        assert!(matches!(
+            job.integrator,
+            Integrator::Direct {
+                strategy: Strategy::Mis
+            }
+        ));
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        assert_eq!((flat.params.max_depth, flat.params.rr_depth), (2, NONE));
+        job.integrator = Integrator::Direct {
+            strategy: Strategy::Ems,
+        };
+        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
+        assert!(
+            err.to_string().contains("a single sampling strategy"),
+            "{err}"
+        );
+        job.integrator = Integrator::Path {
+            strategy: Strategy::Mis,
+            params: PathParams {
+                max_depth: Some(7),
+                rr_depth: 4,
+                hide_emitters: false,
+            },
+        };
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        assert_eq!((flat.params.max_depth, flat.params.rr_depth), (7, 4));
+    }
+
+    /// Every light is one record, and the choice CDF ends at one.
+    #[test]
+    fn lights_are_records_with_a_choice_cdf() {
+        let (scene, job) = veach();
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let n = flat.params.light_count as usize;
+        assert!(n >= 4, "{n} lights");
+        assert_eq!(flat.lights.len(), n * LIGHT_WORDS);
+        let last = flat.lights[LIGHT_WORDS * (n - 1) + 2][3];
+        assert!((last - 1.0).abs() < 1e-6, "{last}");
     }
 }
