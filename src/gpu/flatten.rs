@@ -54,6 +54,10 @@ pub const MAT_MIRROR: u32 = 8;
 pub const MAT_DIELECTRIC: u32 = 9;
 pub const MAT_CONDUCTOR: u32 = 10;
 
+/// Set in a material's kind word on shapes that have an area emitter
+/// (camera rays pass through them under `hide_emitters`).
+pub const MAT_EMITS: u32 = 0x100;
+
 /// Microfacet distributions (`shapes[SHAPE_WORDS s + 2].w`).
 pub const DISTR_BECKMANN: u32 = 0;
 pub const DISTR_GGX: u32 = 1;
@@ -106,7 +110,9 @@ pub struct Params {
     pub off_rows: u32,
     pub off_band_cdf: u32,
     pub off_col_cdf: u32,
-    pub _pad: u32,
+    /// Mitsuba's `hide_emitters` (1): camera rays pass through emitting
+    /// shapes and see no environment.
+    pub hide_emitters: u32,
 }
 
 /// `Params::env_kind`.
@@ -327,21 +333,20 @@ fn material(
 impl GpuScene {
     /// Flattens `scene` for `job`, or says what the GPU cannot render.
     pub fn new(scene: &Scene, job: &RenderJob, seed: u64) -> Result<GpuScene, Unsupported> {
-        let (max_depth, rr_depth) = match &job.integrator {
+        let (max_depth, rr_depth, hide_emitters) = match &job.integrator {
             Integrator::Path {
                 strategy: Strategy::Mis,
                 params,
-            } => {
-                if params.hide_emitters {
-                    return unsupported("hide_emitters");
-                }
-                (params.max_depth.unwrap_or(NONE), params.rr_depth)
-            }
+            } => (
+                params.max_depth.unwrap_or(NONE),
+                params.rr_depth,
+                params.hide_emitters,
+            ),
             // Direct illumination is the path tracer's first two segments
             // (integrator/mod.rs).
             Integrator::Direct {
                 strategy: Strategy::Mis,
-            } => (2, NONE),
+            } => (2, NONE, false),
             Integrator::Path { .. } | Integrator::Direct { .. } => {
                 return unsupported(
                     "a single sampling strategy (path_mats, path_ems, direct_mats, direct_ems)",
@@ -371,7 +376,11 @@ impl GpuScene {
         let mut emissions = Vec::with_capacity(scene.geometry.len());
         for (s, geometry) in scene.geometry.iter().enumerate() {
             let shape = s as u32;
-            shapes.extend(material(&scene.bsdfs[s], table_base, &mut tables)?);
+            let mut words = material(&scene.bsdfs[s], table_base, &mut tables)?;
+            if scene.shape_emitter[s].is_some() {
+                words[0][3] = bits(words[0][3].to_bits() | MAT_EMITS);
+            }
+            shapes.extend(words);
             let emission = match scene.shape_emitter[s] {
                 Some(e) => match &scene.emitters[e as usize] {
                     Emitter::Area(a) if a.texture.is_none() => a.radiance,
@@ -686,6 +695,7 @@ impl GpuScene {
             node_count: bvh.nodes.len() as u32,
             env_kind,
             env_visible: 1,
+            hide_emitters: hide_emitters as u32,
             ..Params::zeroed()
         };
         if let Some(t) = &tables {

@@ -7,7 +7,8 @@
 //! rough conductor (GGX and Beckmann), plastic and rough plastic;
 //! rectangle, disk, sphere and mesh area lights, point, spot and directional lights, a constant sky and
 //! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
-//! sun); perspective and thin-lens cameras; and the showcase.
+//! sun); perspective and thin-lens cameras; hide_emitters; and the
+//! showcase.
 //!
 //! Runs where wgpu finds an adapter (CI: Mesa's lavapipe, installed by
 //! `.ci/run`, which sets LENTE_REQUIRE_GPU so that a missing adapter fails
@@ -97,6 +98,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/env_sunset_nori.xml",
         "tests/gpu/glossy_delta_lights.xml",
         "scenes/showcase/showcase-mirror.xml",
+        "tests/gpu/hidden_emitters.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

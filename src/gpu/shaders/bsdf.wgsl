@@ -47,8 +47,15 @@ fn material_word(shape: u32, k: u32) -> vec4<f32> {
     return shapes[SHAPE_WORDS * shape + k];
 }
 
+// Set in the kind word of shapes with an area emitter (flatten.rs).
+const MAT_EMITS: u32 = 0x100u;
+
 fn material_kind(shape: u32) -> u32 {
-    return bitcast<u32>(material_word(shape, 0u).w);
+    return bitcast<u32>(material_word(shape, 0u).w) & ~MAT_EMITS;
+}
+
+fn shape_emits(shape: u32) -> bool {
+    return (bitcast<u32>(material_word(shape, 0u).w) & MAT_EMITS) != 0u;
 }
 
 // Purely specular materials: no light sampling at their surfaces.

@@ -35,7 +35,7 @@ struct Params {
     off_rows: u32,
     off_band_cdf: u32,
     off_col_cdf: u32,
-    pad0: u32,
+    hide_emitters: u32,
 }
 
 const ENV_NONE: u32 = 0u;

@@ -62,9 +62,26 @@ fn li(camera: Ray) -> vec3<f32> {
     var prev_p = ray.o;
     var eta_scale = 1.0;
     var depth = 0u;
+    // Mitsuba's hide_emitters: the camera ray passes through up to 64
+    // emitting shapes (path.rs's skip_area_emitters) and sees no sky.
+    let hide = P.hide_emitters != 0u;
     loop {
         var h: Hit;
-        if (!closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h)) {
+        var found = closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h);
+        if (depth == 0u && hide) {
+            for (var skips = 0u; skips < 64u && found; skips++) {
+                let s = surface_at(h, ray.o, ray.d);
+                if (!shape_emits(s.shape)) {
+                    break;
+                }
+                ray = Ray(spawn_origin(s.p, s.ng, ray.d), ray.d, 0.0, INF);
+                found = closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h);
+            }
+        }
+        if (!found) {
+            if (depth == 0u && hide) {
+                break;
+            }
             if (P.env_kind != ENV_NONE && (depth > 0u || P.env_visible != 0u)) {
                 let e = env_eval_pdf(ray.d);
                 var w = 1.0;
@@ -77,7 +94,7 @@ fn li(camera: Ray) -> vec3<f32> {
         }
         let s = surface_at(h, ray.o, ray.d);
         // Emission found by following the path (front side only).
-        if (s.light != NONE && dot(s.ng, ray.d) < 0.0) {
+        if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide)) {
             var w = 1.0;
             if (!specular) {
                 w = power_heuristic(prev_pdf, area_pdf(s.light, prev_p, s.p, s.ng));
