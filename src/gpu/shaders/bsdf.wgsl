@@ -345,6 +345,18 @@ fn rough_plastic_glossy_prob(shape: u32, wi: vec3<f32>) -> f32 {
 
 // --- The BSDF interface the path tracer calls.
 
+// Whether wi and wo both lie on the side a one-sided BSDF of this kind
+// reflects on (two-sided diffuse: the back seen as the front).
+fn both_in_front(kind: u32, wi: vec3<f32>, wo: vec3<f32>) -> bool {
+    var zi = wi.z;
+    var zo = wo.z;
+    if (kind == MAT_TWO_SIDED_DIFFUSE && wi.z < 0.0) {
+        zi = -zi;
+        zo = -zo;
+    }
+    return zi > 0.0 && zo > 0.0;
+}
+
 // f(wi, wo) of the non-specular part.
 fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let kind = material_kind(shape);
@@ -354,14 +366,7 @@ fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_eval(shape, wi, wo);
     }
-    var zi = wi.z;
-    var zo = wo.z;
-    if (kind == MAT_TWO_SIDED_DIFFUSE && wi.z < 0.0) {
-        // The back seen as the front.
-        zi = -zi;
-        zo = -zo;
-    }
-    if (zi <= 0.0 || zo <= 0.0) {
+    if (!both_in_front(kind, wi, wo)) {
         return vec3<f32>(0.0);
     }
     let a = material_word(shape, 0u).xyz;
@@ -398,17 +403,12 @@ fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_pdf(shape, wi, wo);
     }
-    var zi = wi.z;
-    var zo = wo.z;
-    if (kind == MAT_TWO_SIDED_DIFFUSE && wi.z < 0.0) {
-        zi = -zi;
-        zo = -zo;
-    }
-    if (zi <= 0.0 || zo <= 0.0) {
+    if (!both_in_front(kind, wi, wo)) {
         return 0.0;
     }
     if (kind <= MAT_TWO_SIDED_DIFFUSE) {
-        return zo * INV_PI;
+        // wo is on the side the lobe is on: its cosine is |wo.z|.
+        return abs(wo.z) * INV_PI;
     }
     if (kind == MAT_PLASTIC) {
         let c = material_word(shape, 2u);
