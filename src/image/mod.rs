@@ -12,7 +12,7 @@ pub mod tonemap;
 pub use bitmap::Bitmap;
 pub use compare::{compare, difference_image, CompareError, Comparison};
 pub use film::{Film, FilmBlock};
-pub use filter::{Filter, FilterError, FilterParam, MAX_FILTER_RADIUS};
+pub use filter::{Filter, FilterError, FilterEval, FilterParam, MAX_FILTER_RADIUS};
 pub use io::{
     load_exr_channels, load_image, prepare_output, save_exr_channels, save_image, ExrChannels,
     ImageError, OutChannel, OutChannels,
