@@ -96,6 +96,23 @@ def mse(a, b):
     return sum((x - y) ** 2 for x, y in zip(a, b)) / len(a)
 
 
+def ratio_interval(a, b, resamples=4000):
+    """90% bootstrap interval of mean(a) / mean(b), a and b per-seed MSEs of
+    two renderers (independent renders: each resampled on its own). On
+    scenes whose error sits in a few pixels (a directly seen sun, a
+    defocused highlight) the per-seed MSE is heavy-tailed, and a ratio
+    from a few seeds can be off by half: the interval says how far."""
+    import random
+    rng = random.Random(12345)
+    ratios = []
+    for _ in range(resamples):
+        ra = sum(rng.choice(a) for _ in a) / len(a)
+        rb = sum(rng.choice(b) for _ in b) / len(b)
+        ratios.append(ra / rb if rb > 0 else float("inf"))
+    ratios.sort()
+    return ratios[int(0.05 * resamples)], ratios[int(0.95 * resamples) - 1]
+
+
 def lente_runs(binary, scene, params, spp, seeds, threads):
     """(list of MSE-ready images, total render seconds)."""
     images, seconds = [], 0.0
@@ -200,39 +217,44 @@ def main():
         for label, binary in builds:
             log("%s: %s" % (name, label))
             files, secs = lente_runs(binary, scene_path, params, args.spp, seeds, args.threads)
-            row[label] = (sum(mse(image_values(mi, f), ref) for f in files) / len(files), samples / secs)
+            row[label] = ([mse(image_values(mi, f), ref) for f in files], samples / secs)
         for v in variants:
             log("%s: mitsuba %s" % (name, v))
             mi.set_variant(v)
             if v != "scalar_rgb":
                 dr.set_thread_count(args.threads)
             imgs, secs = mitsuba_runs(mi, dr, scene_path, dict(params, spp=args.spp), args.spp, seeds)
-            row[v] = (sum(mse(i, ref) for i in imgs) / len(imgs), samples / secs)
+            row[v] = ([mse(i, ref) for i in imgs], samples / secs)
         rows.append(row)
 
     labels = [b[0] for b in builds] + variants
     print("\n%d x %d spp per renderer and scene (seeds 1..%d), %d threads; reference: Mitsuba %s at %d spp"
           % (len(seeds), args.spp, len(seeds), args.threads, variants[-1], args.ref_spp))
     print("MSE: mean over seeds of the per-render MSE against the reference; efficiency: 1 / (MSE x time),"
-          " as a ratio lente / other (> 1: lente reaches the same error sooner)\n")
+          " as a ratio lente / other (> 1: lente reaches the same error sooner); in brackets, 90%"
+          " bootstrap intervals over the seeds\n")
     head = ["scene"] + ["%s MSE" % l for l in labels] + ["%s Msamples/s" % l for l in labels]
     others = labels[1:]
     head += ["MSE lente/%s" % o for o in others] + ["efficiency lente/%s" % o for o in others]
     print("| " + " | ".join(head) + " |")
     print("|" + " --- |" * len(head))
     geo = {o: [1.0, 1.0, 0] for o in others}
+    mean = lambda xs: sum(xs) / len(xs)
     for r in rows:
         cells = [r["scene"]]
-        cells += ["%.3e" % r[l][0] for l in labels]
+        cells += ["%.3e" % mean(r[l][0]) for l in labels]
         cells += ["%.2f" % (r[l][1] / 1e6) for l in labels]
-        ml, sl = r["lente"]
+        ml, sl = mean(r["lente"][0]), r["lente"][1]
+        intervals = {o: ratio_interval(r["lente"][0], r[o][0]) for o in others}
         for o in others:
-            mo, so = r[o]
-            cells.append("%.2f" % (ml / mo))
+            lo, hi = intervals[o]
+            cells.append("%.2f [%.2f, %.2f]" % (ml / mean(r[o][0]), lo, hi))
         for o in others:
-            mo, so = r[o]
+            mo, so = mean(r[o][0]), r[o][1]
             eff = (mo / so) / (ml / sl)  # (MSE x time per sample) ratio
-            cells.append("%.2f" % eff)
+            lo, hi = intervals[o]
+            speed = sl / so
+            cells.append("%.2f [%.2f, %.2f]" % (eff, speed / hi, speed / lo))
             geo[o][0] *= ml / mo
             geo[o][1] *= eff
             geo[o][2] += 1
