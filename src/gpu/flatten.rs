@@ -8,15 +8,16 @@ use bytemuck::{Pod, Zeroable};
 use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, Boundable, BvhBuildParams};
 
 use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfParam};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
 use crate::geometry::Geometry;
 use crate::integrator::{Integrator, Strategy};
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
 use crate::render::RenderJob;
 use crate::sampling::Distribution1D;
 use crate::scene::Scene;
+use crate::texture::{BitmapTexture, FilterType, Texture, WrapMode};
 
 /// "No index" in the GPU's records.
 pub const NONE: u32 = u32::MAX;
@@ -57,6 +58,26 @@ pub const MAT_CONDUCTOR: u32 = 10;
 /// Set in a material's kind word on shapes that have an area emitter
 /// (camera rays pass through them under `hide_emitters`).
 pub const MAT_EMITS: u32 = 0x100;
+
+/// Set in a diffuse material's kind word when its reflectance is a bitmap
+/// texture, whose record starts at `shapes[SHAPE_WORDS s + 1].x` (as
+/// bits): see [`texture_record`].
+pub const MAT_TEXTURED: u32 = 0x200;
+
+/// Vec4 words per vertex-data slot in `normals`: the three vertex normals
+/// (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2, 0, 0).
+pub const SLOT_WORDS: usize = 5;
+
+/// Texture filter and wrap codes in a texture record.
+pub const TEX_NEAREST: u32 = 0;
+pub const TEX_BILINEAR: u32 = 1;
+pub const WRAP_REPEAT: u32 = 0;
+pub const WRAP_MIRROR: u32 = 1;
+pub const WRAP_CLAMP: u32 = 2;
+
+/// The most texels the GPU backend takes from a scene's textures (each
+/// texel is a vec4 in the shapes buffer, which must fit one binding).
+pub const MAX_TEXELS: usize = 1 << 22;
 
 /// Microfacet distributions (`shapes[SHAPE_WORDS s + 2].w`).
 pub const DISTR_BECKMANN: u32 = 0;
@@ -131,10 +152,13 @@ pub struct GpuScene {
     /// (radius, 0, 0, SPHERE), (0, 0, 0, light or NONE). Disk: (centre,
     /// shape), (dual basis dx, DISK or DISK_FLIPPED), (dy, light or NONE).
     pub prims: Vec<[f32; 4]>,
-    /// Three per normal slot: a triangle's vertex normals.
+    /// `SLOT_WORDS` per vertex-data slot: a triangle's vertex normals and
+    /// uvs (slots are given to triangles with normals, and to those of
+    /// textured shapes).
     pub normals: Vec<[f32; 4]>,
     /// `SHAPE_WORDS` per shape ([`material`] says what they hold), then
-    /// the rough plastics' coating transmittance tables (16 words each).
+    /// the rough plastics' coating transmittance tables (16 words each)
+    /// and the bitmap textures' records ([`texture_record`]).
     pub shapes: Vec<[f32; 4]>,
     /// `LIGHT_WORDS` per light: (p0, centre, position or direction to the
     /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
@@ -179,6 +203,8 @@ enum Prim {
         shape: u32,
         v: [Vec3; 3],
         normals: Option<[Vec3; 3]>,
+        /// Vertex uvs, for shapes whose material is textured.
+        uvs: Option<[Vec2; 3]>,
     },
     Sphere {
         shape: u32,
@@ -268,6 +294,20 @@ fn material(
     let zero = [0.0; 4];
     Ok(match bsdf {
         Bsdf::Diffuse(d) => [v4(d.albedo, bits(MAT_DIFFUSE)), zero, zero],
+        Bsdf::Textured(t) => match (t.base(), t.textures()) {
+            (Bsdf::Diffuse(d), [(BsdfParam::Diffuse, Texture::Bitmap(b))]) => {
+                let record = (table_base + tables.len()) as u32;
+                texture_record(b, table_base, tables)?;
+                [
+                    v4(d.albedo, bits(MAT_DIFFUSE | MAT_TEXTURED)),
+                    [bits(record), 0.0, 0.0, 0.0],
+                    zero,
+                ]
+            }
+            _ => {
+                return unsupported("a textured BSDF other than diffuse with a bitmap reflectance")
+            }
+        },
         Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
             (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) if f == b => {
                 [v4(f.albedo, bits(MAT_TWO_SIDED_DIFFUSE)), zero, zero]
@@ -330,6 +370,43 @@ fn material(
     })
 }
 
+/// Appends a bitmap texture's record to `words` (which start at index
+/// `base` of the shapes buffer): (to_uv row 0, index of its first texel as
+/// bits), (to_uv row 1, width as bits), (height, filter,
+/// wrap, 0 as bits), then its texels (RGB, 0), row by row from the top,
+/// looked up as `texture/bitmap.rs` does.
+fn texture_record(
+    t: &BitmapTexture,
+    base: usize,
+    words: &mut Vec<[f32; 4]>,
+) -> Result<(), Unsupported> {
+    let img = t.image();
+    let texels = img.width() * img.height();
+    if words.len() + texels > MAX_TEXELS {
+        return unsupported(format!(
+            "textures of more than {MAX_TEXELS} texels in all (this one has {} x {})",
+            img.width(),
+            img.height()
+        ));
+    }
+    let first = (base + words.len() + 3) as u32;
+    let (r0, r1) = (t.to_uv.row0, t.to_uv.row1);
+    let filter = match t.filter {
+        FilterType::Nearest => TEX_NEAREST,
+        FilterType::Bilinear => TEX_BILINEAR,
+    };
+    let wrap = match t.wrap {
+        WrapMode::Repeat => WRAP_REPEAT,
+        WrapMode::Mirror => WRAP_MIRROR,
+        WrapMode::Clamp => WRAP_CLAMP,
+    };
+    words.push([r0[0], r0[1], r0[2], bits(first)]);
+    words.push([r1[0], r1[1], r1[2], bits(img.width() as u32)]);
+    words.push([bits(img.height() as u32), bits(filter), bits(wrap), 0.0]);
+    words.extend(img.texels().iter().map(|&c| v4(c, 0.0)));
+    Ok(())
+}
+
 impl GpuScene {
     /// Flattens `scene` for `job`, or says what the GPU cannot render.
     pub fn new(scene: &Scene, job: &RenderJob, seed: u64) -> Result<GpuScene, Unsupported> {
@@ -389,15 +466,23 @@ impl GpuScene {
                 None => Rgb::ZERO,
             };
             emissions.push(emission);
+            let textured = words[0][3].to_bits() & MAT_TEXTURED != 0;
             match geometry {
                 Geometry::Mesh(m) => {
                     let has_normals = !m.normals().is_empty();
                     for (t, idx) in m.indices().iter().enumerate() {
                         let normals = has_normals.then(|| idx.map(|i| m.normals()[i as usize]));
+                        // Without uvs a triangle's uv is its (b1, b2), as
+                        // on the CPU (mesh.rs's `shading_with`).
+                        let uvs = textured.then(|| match m.uvs() {
+                            [] => [Vec2::ZERO, Vec2::X, Vec2::Y],
+                            uvs => idx.map(|i| uvs[i as usize]),
+                        });
                         prims.push(Prim::Triangle {
                             shape,
                             v: m.vertices(t),
                             normals,
+                            uvs,
                         });
                     }
                 }
@@ -412,14 +497,20 @@ impl GpuScene {
                     // Wound so that the triangles' normal is the
                     // rectangle's front.
                     let flip = (c[1] - c[0]).cross(c[2] - c[0]).dot(f.n) < 0.0;
-                    for tri in [[c[0], c[1], c[2]], [c[0], c[2], c[3]]] {
-                        let v = if flip { [tri[0], tri[2], tri[1]] } else { tri };
+                    // Mitsuba's rectangle uv: ((x + 1) / 2, (y + 1) / 2).
+                    let uv = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
+                    for k in [[0, 1, 2], [0, 2, 3]] {
+                        let k = if flip { [k[0], k[2], k[1]] } else { k };
                         prims.push(Prim::Triangle {
                             shape,
-                            v,
+                            v: k.map(|i| c[i]),
                             normals: None,
+                            uvs: textured.then(|| k.map(|i| uv[i])),
                         });
                     }
+                }
+                Geometry::Sphere(_) | Geometry::Disk(_) if textured => {
+                    return unsupported("a textured BSDF on a sphere or disk")
                 }
                 Geometry::Sphere(sp) => prims.push(Prim::Sphere {
                     shape,
@@ -623,14 +714,17 @@ impl GpuScene {
                     shape,
                     v,
                     normals: n,
+                    uvs,
                 } => {
-                    let slot = match n {
-                        Some(n) => {
-                            let slot = (normals.len() / 3) as u32;
-                            normals.extend(n.map(|n| v4(n, 0.0)));
-                            slot
-                        }
-                        None => NONE,
+                    let slot = if n.is_some() || uvs.is_some() {
+                        let slot = (normals.len() / SLOT_WORDS) as u32;
+                        normals.extend(n.unwrap_or([Vec3::ZERO; 3]).map(|n| v4(n, 0.0)));
+                        let t = uvs.unwrap_or([Vec2::ZERO; 3]);
+                        normals.push([t[0].x, t[0].y, t[1].x, t[1].y]);
+                        normals.push([t[2].x, t[2].y, 0.0, 0.0]);
+                        slot
+                    } else {
+                        NONE
                     };
                     flat.push(v4(v[0], bits(shape)));
                     flat.push(v4(v[1], bits(slot)));
@@ -785,5 +879,53 @@ mod tests {
         assert_eq!(flat.lights.len(), n * LIGHT_WORDS);
         let last = flat.lights[LIGHT_WORDS * (n - 1) + 2][3];
         assert!((last - 1.0).abs() < 1e-6, "{last}");
+    }
+
+    fn load(file: &str) -> (Scene, RenderJob) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+        let (desc, _) = crate::load::load_scene_with(&path, &[]).unwrap();
+        (Scene::new(desc.scene).unwrap(), desc.job)
+    }
+
+    /// A textured diffuse shape points at its texture's record, whose
+    /// header and texels are the image's; its triangles get vertex-data
+    /// slots with uvs. A textured sphere is named as unsupported.
+    #[test]
+    fn bitmap_textures_are_records_and_triangles_get_uvs() {
+        let (scene, job) = load("tests/gpu/textured.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let Bsdf::Textured(t) = &scene.bsdfs[0] else {
+            panic!("the floor is textured");
+        };
+        let Texture::Bitmap(b) = &t.textures()[0].1 else {
+            panic!("with a bitmap");
+        };
+        let words = &flat.shapes[0..SHAPE_WORDS];
+        assert_eq!(words[0][3].to_bits(), MAT_DIFFUSE | MAT_TEXTURED);
+        let record = words[1][0].to_bits() as usize;
+        let header = &flat.shapes[record..record + 3];
+        let img = b.image();
+        assert_eq!(header[1][3].to_bits() as usize, img.width());
+        assert_eq!(header[2][0].to_bits() as usize, img.height());
+        assert_eq!(header[0][..3], b.to_uv.row0);
+        assert_eq!(
+            (header[2][1].to_bits(), header[2][2].to_bits()),
+            (TEX_BILINEAR, WRAP_REPEAT)
+        );
+        let first = header[0][3].to_bits() as usize;
+        let last = img.texels().len() - 1;
+        assert_eq!(flat.shapes[first][..3], img.texels()[0].to_array());
+        assert_eq!(
+            flat.shapes[first + last][..3],
+            img.texels()[last].to_array()
+        );
+        // Every triangle is of a textured shape here: each has a slot.
+        let slots = flat.prims.chunks(3).filter(|p| p[1][3].to_bits() != SPHERE);
+        assert!(slots.clone().all(|p| p[1][3].to_bits() != NONE));
+        assert_eq!(flat.normals.len(), slots.count() * SLOT_WORDS);
+
+        let (scene, job) = load("tests/conformance/textures.xml");
+        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
+        assert!(err.to_string().contains("textured BSDF"), "{err}");
     }
 }

@@ -32,6 +32,7 @@ const PATH_SHADER: &str = concat!(
     include_str!("shaders/params.wgsl"),
     include_str!("shaders/sampling.wgsl"),
     include_str!("shaders/intersect.wgsl"),
+    include_str!("shaders/texture.wgsl"),
     include_str!("shaders/bsdf.wgsl"),
     include_str!("shaders/emitter.wgsl"),
     include_str!("shaders/path.wgsl"),

@@ -74,6 +74,11 @@ impl TextureImage {
         self.max
     }
 
+    /// The texels, row by row from the top.
+    pub fn texels(&self) -> &[Rgb] {
+        &self.texels
+    }
+
     #[inline]
     fn texel(&self, x: usize, y: usize) -> Rgb {
         self.texels[y * self.width + x]

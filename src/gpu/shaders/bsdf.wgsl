@@ -1,4 +1,5 @@
-// The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, mirror.rs,
+// The BSDFs the GPU renders (bsdf/diffuse.rs (with a bitmap reflectance:
+// textured.rs, texture.wgsl), two_sided.rs, mirror.rs,
 // dielectric.rs, conductor.rs, rough_conductor.rs, plastic.rs,
 // rough_plastic.rs, rough_dielectric.rs), in the shading frame (z along
 // the shading normal).
@@ -50,8 +51,26 @@ fn material_word(shape: u32, k: u32) -> vec4<f32> {
 // Set in the kind word of shapes with an area emitter (flatten.rs).
 const MAT_EMITS: u32 = 0x100u;
 
+// Set in the kind word of diffuse materials whose reflectance is a bitmap
+// texture; its record's index is word 1's x (flatten.rs).
+const MAT_TEXTURED: u32 = 0x200u;
+
 fn material_kind(shape: u32) -> u32 {
-    return bitcast<u32>(material_word(shape, 0u).w) & ~MAT_EMITS;
+    return bitcast<u32>(material_word(shape, 0u).w) & ~(MAT_EMITS | MAT_TEXTURED);
+}
+
+// The texture coordinates of the surface point being shaded (path.wgsl
+// sets them after each hit).
+var<private> shading_uv: vec2<f32>;
+
+// A: the diffuse reflectance (read from its texture at `shading_uv` where
+// it has one), the specular reflectance or the plastics' diffuse term.
+fn material_a(shape: u32) -> vec3<f32> {
+    let w = material_word(shape, 0u);
+    if ((bitcast<u32>(w.w) & MAT_TEXTURED) != 0u) {
+        return bitmap_eval(bitcast<u32>(material_word(shape, 1u).x), shading_uv);
+    }
+    return w.xyz;
 }
 
 fn shape_emits(shape: u32) -> bool {
@@ -369,7 +388,7 @@ fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (!both_in_front(kind, wi, wo)) {
         return vec3<f32>(0.0);
     }
-    let a = material_word(shape, 0u).xyz;
+    let a = material_a(shape);
     if (kind <= MAT_TWO_SIDED_DIFFUSE) {
         return a * INV_PI;
     }
@@ -444,7 +463,7 @@ fn sample_rough(shape: u32, wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSa
 
 fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let kind = material_kind(shape);
-    let a = material_word(shape, 0u).xyz;
+    let a = material_a(shape);
     if (kind <= MAT_TWO_SIDED_DIFFUSE) {
         var flip = false;
         if (wi.z <= 0.0) {

@@ -192,7 +192,14 @@ struct Surface {
     ns: vec3<f32>,
     shape: u32,
     light: u32,
+    // The texture coordinates: triangles with a vertex-data slot only
+    // (flatten.rs gives one to every triangle of a textured shape).
+    uv: vec2<f32>,
 }
+
+// Vec4 words per vertex-data slot (flatten.rs's SLOT_WORDS): three
+// normals, then (u0, v0, u1, v1), (u2, v2, 0, 0).
+const SLOT_WORDS: u32 = 5u;
 
 fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let r0 = prims[3u * h.prim];
@@ -203,28 +210,31 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let light = bitcast<u32>(r2.w);
     if (slot == SPHERE) {
         let n = normalize(o + h.t * d - r0.xyz);
-        return Surface(r0.xyz + r1.x * n, n, n, shape, light);
+        return Surface(r0.xyz + r1.x * n, n, n, shape, light, vec2<f32>(0.0));
     }
     if (is_disk(slot)) {
         var n = normalize(cross(r1.xyz, r2.xyz));
         if (slot == DISK_FLIPPED) {
             n = -n;
         }
-        return Surface(o + h.t * d, n, n, shape, light);
+        return Surface(o + h.t * d, n, n, shape, light, vec2<f32>(0.0));
     }
     let b0 = 1.0 - h.b1 - h.b2;
     let p = b0 * r0.xyz + h.b1 * r1.xyz + h.b2 * r2.xyz;
     let ng = normalize(cross(r1.xyz - r0.xyz, r2.xyz - r0.xyz));
     var ns = ng;
+    var uv = vec2<f32>(0.0);
     if (slot != NONE) {
-        let n = b0 * normals[3u * slot].xyz + h.b1 * normals[3u * slot + 1u].xyz
-            + h.b2 * normals[3u * slot + 2u].xyz;
+        let k = SLOT_WORDS * slot;
+        let n = b0 * normals[k].xyz + h.b1 * normals[k + 1u].xyz + h.b2 * normals[k + 2u].xyz;
         let len = length(n);
         if (len > 0.0) {
             ns = n / len;
         }
+        let t01 = normals[k + 3u];
+        uv = b0 * t01.xy + h.b1 * t01.zw + h.b2 * normals[k + 4u].xy;
     }
-    return Surface(p, ng, ns, shape, light);
+    return Surface(p, ng, ns, shape, light, uv);
 }
 
 // A ray's origin off the surface at `p` on the side `d` leaves to.

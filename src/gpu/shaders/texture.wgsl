@@ -1,0 +1,68 @@
+// Bitmap textures (texture/bitmap.rs): Dr.Jit's conventions (uv (0, 0)
+// is the top-left corner of the first row; bilinear filtering between
+// texel centres at (i + 1/2) / res; nearest takes the texel containing
+// uv), wrapped by repeat, mirror or clamp. A record in `shapes`
+// (flatten.rs's texture_record): (to_uv row 0, first texel), (to_uv row 1,
+// width), (height, filter, wrap, 0), then the texels (RGB, 0).
+
+const TEX_NEAREST: u32 = 0u;
+const WRAP_REPEAT: u32 = 0u;
+const WRAP_MIRROR: u32 = 1u;
+
+// texture/mod.rs's `bounded`: finite values clamped to +-2^30, others 0.
+fn tex_bounded(x: f32) -> f32 {
+    if (not_finite(x)) {
+        return 0.0;
+    }
+    return clamp(x, -1073741824.0, 1073741824.0);
+}
+
+// WrapMode::wrap: the texel index in [0, n) that integer coordinate `i`
+// reads.
+fn tex_wrap(i: i32, n: i32, mode: u32) -> i32 {
+    if (mode == WRAP_REPEAT) {
+        return ((i % n) + n) % n;
+    }
+    if (mode == WRAP_MIRROR) {
+        let k = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return select(k, 2 * n - 1 - k, k >= n);
+    }
+    return clamp(i, 0, n - 1);
+}
+
+fn tex_texel(first: u32, w: i32, x: i32, y: i32) -> vec3<f32> {
+    return shapes[first + u32(y * w + x)].xyz;
+}
+
+// BitmapTexture::eval at `uv`, for the record at `record`.
+fn bitmap_eval(record: u32, uv: vec2<f32>) -> vec3<f32> {
+    let h0 = shapes[record];
+    let h1 = shapes[record + 1u];
+    let h2 = shapes[record + 2u];
+    let st = vec2<f32>(h0.x * uv.x + h0.y * uv.y + h0.z, h1.x * uv.x + h1.y * uv.y + h1.z);
+    let first = bitcast<u32>(h0.w);
+    let w = i32(bitcast<u32>(h1.w));
+    let h = i32(bitcast<u32>(h2.x));
+    let filter_type = bitcast<u32>(h2.y);
+    let wrap = bitcast<u32>(h2.z);
+    if (filter_type == TEX_NEAREST) {
+        let x = tex_wrap(i32(floor(tex_bounded(st.x * f32(w)))), w, wrap);
+        let y = tex_wrap(i32(floor(tex_bounded(st.y * f32(h)))), h, wrap);
+        return tex_texel(first, w, x, y);
+    }
+    let px = tex_bounded(st.x * f32(w) - 0.5);
+    let py = tex_bounded(st.y * f32(h) - 0.5);
+    let fx = floor(px);
+    let fy = floor(py);
+    let ix = i32(fx);
+    let iy = i32(fy);
+    let x0 = tex_wrap(ix, w, wrap);
+    let x1 = tex_wrap(ix + 1, w, wrap);
+    let y0 = tex_wrap(iy, h, wrap);
+    let y1 = tex_wrap(iy + 1, h, wrap);
+    let tx = px - fx;
+    let ty = py - fy;
+    let top = tex_texel(first, w, x0, y0) * (1.0 - tx) + tex_texel(first, w, x1, y0) * tx;
+    let bottom = tex_texel(first, w, x0, y1) * (1.0 - tx) + tex_texel(first, w, x1, y1) * tx;
+    return top * (1.0 - ty) + bottom * ty;
+}
