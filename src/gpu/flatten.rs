@@ -17,7 +17,7 @@ use crate::math::{Vec2, Vec3};
 use crate::render::RenderJob;
 use crate::sampling::Distribution1D;
 use crate::scene::Scene;
-use crate::texture::{BitmapTexture, FilterType, Texture, WrapMode};
+use crate::texture::{FilterType, Texture, WrapMode};
 
 /// "No index" in the GPU's records.
 pub const NONE: u32 = u32::MAX;
@@ -60,7 +60,7 @@ pub const MAT_CONDUCTOR: u32 = 10;
 pub const MAT_EMITS: u32 = 0x100;
 
 /// Set in a diffuse material's kind word when its reflectance is a bitmap
-/// texture, whose record starts at `shapes[SHAPE_WORDS s + 1].x` (as
+/// or checkerboard texture, whose record starts at `shapes[SHAPE_WORDS s + 1].x` (as
 /// bits): see [`texture_record`].
 pub const MAT_TEXTURED: u32 = 0x200;
 
@@ -71,6 +71,8 @@ pub const SLOT_WORDS: usize = 5;
 /// Texture filter and wrap codes in a texture record.
 pub const TEX_NEAREST: u32 = 0;
 pub const TEX_BILINEAR: u32 = 1;
+/// A checkerboard: its two colours stand where a bitmap's texels do.
+pub const TEX_CHECKERBOARD: u32 = 2;
 pub const WRAP_REPEAT: u32 = 0;
 pub const WRAP_MIRROR: u32 = 1;
 pub const WRAP_CLAMP: u32 = 2;
@@ -158,7 +160,7 @@ pub struct GpuScene {
     pub normals: Vec<[f32; 4]>,
     /// `SHAPE_WORDS` per shape ([`material`] says what they hold), then
     /// the rough plastics' coating transmittance tables (16 words each)
-    /// and the bitmap textures' records ([`texture_record`]).
+    /// and the textures' records ([`texture_record`]).
     pub shapes: Vec<[f32; 4]>,
     /// `LIGHT_WORDS` per light: (p0, centre, position or direction to the
     /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
@@ -295,18 +297,16 @@ fn material(
     Ok(match bsdf {
         Bsdf::Diffuse(d) => [v4(d.albedo, bits(MAT_DIFFUSE)), zero, zero],
         Bsdf::Textured(t) => match (t.base(), t.textures()) {
-            (Bsdf::Diffuse(d), [(BsdfParam::Diffuse, Texture::Bitmap(b))]) => {
+            (Bsdf::Diffuse(d), [(BsdfParam::Diffuse, texture)]) => {
                 let record = (table_base + tables.len()) as u32;
-                texture_record(b, table_base, tables)?;
+                texture_record(texture, table_base, tables)?;
                 [
                     v4(d.albedo, bits(MAT_DIFFUSE | MAT_TEXTURED)),
                     [bits(record), 0.0, 0.0, 0.0],
                     zero,
                 ]
             }
-            _ => {
-                return unsupported("a textured BSDF other than diffuse with a bitmap reflectance")
-            }
+            _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
         },
         Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
             (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) if f == b => {
@@ -370,16 +370,30 @@ fn material(
     })
 }
 
-/// Appends a bitmap texture's record to `words` (which start at index
-/// `base` of the shapes buffer): (to_uv row 0, index of its first texel as
-/// bits), (to_uv row 1, width as bits), (height, filter,
-/// wrap, 0 as bits), then its texels (RGB, 0), row by row from the top,
-/// looked up as `texture/bitmap.rs` does.
+/// Appends a texture's record to `words` (which start at index `base` of
+/// the shapes buffer): (to_uv row 0, index of its first texel as bits),
+/// (to_uv row 1, width as bits), (height, filter, wrap, 0 as bits), then
+/// its texels (RGB, 0), row by row from the top, looked up as
+/// `texture/bitmap.rs` does; a checkerboard has `TEX_CHECKERBOARD` for its
+/// filter and its two colours for texels.
 fn texture_record(
-    t: &BitmapTexture,
+    texture: &Texture,
     base: usize,
     words: &mut Vec<[f32; 4]>,
 ) -> Result<(), Unsupported> {
+    let first = (base + words.len() + 3) as u32;
+    let t = match texture {
+        Texture::Bitmap(b) => b,
+        Texture::Checkerboard(c) => {
+            let (r0, r1) = (c.to_uv.row0, c.to_uv.row1);
+            words.push([r0[0], r0[1], r0[2], bits(first)]);
+            words.push([r1[0], r1[1], r1[2], bits(2)]);
+            words.push([bits(1), bits(TEX_CHECKERBOARD), bits(WRAP_REPEAT), 0.0]);
+            words.extend([v4(c.color0, 0.0), v4(c.color1, 0.0)]);
+            return Ok(());
+        }
+        other => return unsupported(format!("a {} texture", variant_name(other))),
+    };
     let img = t.image();
     let texels = img.width() * img.height();
     if words.len() + texels > MAX_TEXELS {
@@ -389,7 +403,6 @@ fn texture_record(
             img.height()
         ));
     }
-    let first = (base + words.len() + 3) as u32;
     let (r0, r1) = (t.to_uv.row0, t.to_uv.row1);
     let filter = match t.filter {
         FilterType::Nearest => TEX_NEAREST,
@@ -888,10 +901,10 @@ mod tests {
     }
 
     /// A textured diffuse shape points at its texture's record, whose
-    /// header and texels are the image's; its triangles get vertex-data
+    /// header and texels are the image's (a checkerboard's: its colours); its triangles get vertex-data
     /// slots with uvs. A textured sphere is named as unsupported.
     #[test]
-    fn bitmap_textures_are_records_and_triangles_get_uvs() {
+    fn textures_are_records_and_triangles_get_uvs() {
         let (scene, job) = load("tests/gpu/textured.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         let Bsdf::Textured(t) = &scene.bsdfs[0] else {
@@ -919,6 +932,18 @@ mod tests {
             flat.shapes[first + last][..3],
             img.texels()[last].to_array()
         );
+        // The wall's checkerboard: its colours where texels would be.
+        let Bsdf::Textured(t) = &scene.bsdfs[1] else {
+            panic!("the wall is textured");
+        };
+        let Texture::Checkerboard(c) = &t.textures()[0].1 else {
+            panic!("with a checkerboard");
+        };
+        let record = flat.shapes[SHAPE_WORDS + 1][0].to_bits() as usize;
+        assert_eq!(flat.shapes[record + 2][1].to_bits(), TEX_CHECKERBOARD);
+        let first = flat.shapes[record][3].to_bits() as usize;
+        assert_eq!(flat.shapes[first][..3], c.color0.to_array());
+        assert_eq!(flat.shapes[first + 1][..3], c.color1.to_array());
         // Every triangle is of a textured shape here: each has a slot.
         let slots = flat.prims.chunks(3).filter(|p| p[1][3].to_bits() != SPHERE);
         assert!(slots.clone().all(|p| p[1][3].to_bits() != NONE));

@@ -1,4 +1,4 @@
-// The BSDFs the GPU renders (bsdf/diffuse.rs (with a bitmap reflectance:
+// The BSDFs the GPU renders (bsdf/diffuse.rs (with a textured reflectance:
 // textured.rs, texture.wgsl), two_sided.rs, mirror.rs,
 // dielectric.rs, conductor.rs, rough_conductor.rs, plastic.rs,
 // rough_plastic.rs, rough_dielectric.rs), in the shading frame (z along
@@ -51,8 +51,8 @@ fn material_word(shape: u32, k: u32) -> vec4<f32> {
 // Set in the kind word of shapes with an area emitter (flatten.rs).
 const MAT_EMITS: u32 = 0x100u;
 
-// Set in the kind word of diffuse materials whose reflectance is a bitmap
-// texture; its record's index is word 1's x (flatten.rs).
+// Set in the kind word of diffuse materials whose reflectance is a
+// texture (texture.wgsl); its record's index is word 1's x (flatten.rs).
 const MAT_TEXTURED: u32 = 0x200u;
 
 fn material_kind(shape: u32) -> u32 {
@@ -68,7 +68,7 @@ var<private> shading_uv: vec2<f32>;
 fn material_a(shape: u32) -> vec3<f32> {
     let w = material_word(shape, 0u);
     if ((bitcast<u32>(w.w) & MAT_TEXTURED) != 0u) {
-        return bitmap_eval(bitcast<u32>(material_word(shape, 1u).x), shading_uv);
+        return texture_eval(bitcast<u32>(material_word(shape, 1u).x), shading_uv);
     }
     return w.xyz;
 }

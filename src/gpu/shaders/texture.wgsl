@@ -1,11 +1,14 @@
-// Bitmap textures (texture/bitmap.rs): Dr.Jit's conventions (uv (0, 0)
+// Bitmap and checkerboard textures (texture/bitmap.rs, checkerboard.rs).
+// Bitmaps: Dr.Jit's conventions (uv (0, 0)
 // is the top-left corner of the first row; bilinear filtering between
 // texel centres at (i + 1/2) / res; nearest takes the texel containing
 // uv), wrapped by repeat, mirror or clamp. A record in `shapes`
 // (flatten.rs's texture_record): (to_uv row 0, first texel), (to_uv row 1,
-// width), (height, filter, wrap, 0), then the texels (RGB, 0).
+// width), (height, filter, wrap, 0), then the texels (RGB, 0); a
+// checkerboard's filter is TEX_CHECKERBOARD and its texels its colours.
 
 const TEX_NEAREST: u32 = 0u;
+const TEX_CHECKERBOARD: u32 = 2u;
 const WRAP_REPEAT: u32 = 0u;
 const WRAP_MIRROR: u32 = 1u;
 
@@ -34,8 +37,8 @@ fn tex_texel(first: u32, w: i32, x: i32, y: i32) -> vec3<f32> {
     return shapes[first + u32(y * w + x)].xyz;
 }
 
-// BitmapTexture::eval at `uv`, for the record at `record`.
-fn bitmap_eval(record: u32, uv: vec2<f32>) -> vec3<f32> {
+// The texture's value at `uv`, for the record at `record`.
+fn texture_eval(record: u32, uv: vec2<f32>) -> vec3<f32> {
     let h0 = shapes[record];
     let h1 = shapes[record + 1u];
     let h2 = shapes[record + 2u];
@@ -45,6 +48,13 @@ fn bitmap_eval(record: u32, uv: vec2<f32>) -> vec3<f32> {
     let h = i32(bitcast<u32>(h2.x));
     let filter_type = bitcast<u32>(h2.y);
     let wrap = bitcast<u32>(h2.z);
+    if (filter_type == TEX_CHECKERBOARD) {
+        // Checkerboard::eval: color0 where both fractions are above a
+        // half or neither is.
+        let mx = st.x - floor(st.x) > 0.5;
+        let my = st.y - floor(st.y) > 0.5;
+        return shapes[first + select(1u, 0u, mx == my)].xyz;
+    }
     if (filter_type == TEX_NEAREST) {
         let x = tex_wrap(i32(floor(tex_bounded(st.x * f32(w)))), w, wrap);
         let y = tex_wrap(i32(floor(tex_bounded(st.y * f32(h)))), h, wrap);
