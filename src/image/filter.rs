@@ -244,16 +244,21 @@ mod tests {
 
     use super::*;
 
+    /// Mitchell-Netravali with the recommended B = C = 1/3.
+    fn mitchell() -> Filter {
+        Filter::Mitchell {
+            radius: 2.0,
+            b: 1.0 / 3.0,
+            c: 1.0 / 3.0,
+        }
+    }
+
     #[test]
     fn filters_vanish_at_their_radius() {
         for f in [
             Filter::default(),
             Filter::Tent { radius: 1.0 },
-            Filter::Mitchell {
-                radius: 2.0,
-                b: 1.0 / 3.0,
-                c: 1.0 / 3.0,
-            },
+            mitchell(),
             Filter::Lanczos { radius: 3.0 },
         ] {
             assert!(f.eval_1d(f.radius()).abs() < 1e-6, "{f:?}");
@@ -281,11 +286,7 @@ mod tests {
             },
             Filter::Box { radius: 0.5 },
             Filter::Tent { radius: 1.5 },
-            Filter::Mitchell {
-                radius: 2.0,
-                b: 1.0 / 3.0,
-                c: 1.0 / 3.0,
-            },
+            mitchell(),
             Filter::Lanczos { radius: 3.0 },
         ] {
             let e = f.evaluator();
