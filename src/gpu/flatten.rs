@@ -308,12 +308,17 @@ fn material(
             }
             _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
         },
-        Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
-            (Bsdf::Diffuse(f), Bsdf::Diffuse(b)) if f == b => {
-                [v4(f.albedo, bits(MAT_TWO_SIDED_DIFFUSE)), zero, zero]
+        // Two-sided diffuse, its reflectance constant or textured.
+        Bsdf::TwoSided(t) if t.front == t.back => {
+            let mut words = material(&t.front, table_base, tables)?;
+            let kind = words[0][3].to_bits();
+            if kind & !MAT_TEXTURED != MAT_DIFFUSE {
+                return unsupported("a two-sided BSDF other than two-sided diffuse");
             }
-            _ => return unsupported("a two-sided BSDF other than two-sided diffuse"),
-        },
+            words[0][3] = bits((kind & MAT_TEXTURED) | MAT_TWO_SIDED_DIFFUSE);
+            words
+        }
+        Bsdf::TwoSided(_) => return unsupported("a two-sided BSDF other than two-sided diffuse"),
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
