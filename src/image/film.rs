@@ -53,10 +53,18 @@ impl FilmBlock {
         }
     }
 
-    /// True if the filter's weights along x fit [`NARROW_COLUMNS`].
+    /// Calls `f(self, cell, w)` for every cell a sample at `pos` reaches
+    /// with a nonzero weight `w` ([`Footprint::for_each`]), its weights
+    /// along x in an array of [`NARROW_COLUMNS`] where they fit.
     #[inline(always)]
-    fn narrow(&self) -> bool {
-        self.radius <= 0.5 * (NARROW_COLUMNS - 1) as f32
+    fn splat(&mut self, pos: Vec2, mut f: impl FnMut(&mut FilmBlock, usize, f32)) {
+        if self.radius <= 0.5 * (NARROW_COLUMNS - 1) as f32 {
+            self.footprint::<NARROW_COLUMNS>(pos)
+                .for_each(|cell, w| f(self, cell, w));
+        } else {
+            self.footprint::<WIDE_COLUMNS>(pos)
+                .for_each(|cell, w| f(self, cell, w));
+        }
     }
 
     /// The same block with room for `channels` AOV values per pixel.
@@ -73,20 +81,8 @@ impl FilmBlock {
         if n == 0 || values[..n].iter().any(|v| !v.is_finite()) {
             return;
         }
-        if self.narrow() {
-            self.put_aovs_with::<NARROW_COLUMNS>(pos, values)
-        } else {
-            self.put_aovs_with::<WIDE_COLUMNS>(pos, values)
-        }
-    }
-
-    #[inline(always)]
-    fn put_aovs_with<const N: usize>(&mut self, pos: Vec2, values: &[f32]) {
-        let n = self.aov_channels;
-        let footprint = self.footprint::<N>(pos);
-        let aov = &mut self.aov;
-        footprint.for_each(|cell, w| {
-            for (acc, v) in aov[cell * n..cell * n + n].iter_mut().zip(values) {
+        self.splat(pos, |block, cell, w| {
+            for (acc, v) in block.aov[cell * n..cell * n + n].iter_mut().zip(values) {
                 *acc += w * v;
             }
         });
@@ -99,19 +95,8 @@ impl FilmBlock {
         if !value.is_finite() {
             return;
         }
-        if self.narrow() {
-            self.put_with::<NARROW_COLUMNS>(pos, value)
-        } else {
-            self.put_with::<WIDE_COLUMNS>(pos, value)
-        }
-    }
-
-    #[inline(always)]
-    fn put_with<const N: usize>(&mut self, pos: Vec2, value: Rgb) {
-        let footprint = self.footprint::<N>(pos);
-        let data = &mut self.data;
-        footprint.for_each(|cell, w| {
-            let cell = &mut data[cell];
+        self.splat(pos, |block, cell, w| {
+            let cell = &mut block.data[cell];
             cell.0 += w * value;
             cell.1 += w;
         });

@@ -55,7 +55,8 @@ impl std::fmt::Display for Filter {
 
 /// A [`Filter`] whose Gaussian exponent factor and value at the radius are
 /// computed once: [`FilterEval::eval_1d`] equals [`Filter::eval_1d`] bit
-/// for bit, with one `exp` per call instead of two.
+/// for bit, with one `exp` per call instead of two (the Gaussian's formula
+/// lives here; the other filters pass through).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilterEval {
     filter: Filter,
@@ -164,10 +165,8 @@ impl Filter {
     /// One-dimensional filter value at offset `x` (pixels).
     pub fn eval_1d(&self, x: f32) -> f32 {
         match *self {
-            Filter::Gaussian { radius, stddev } => {
-                let alpha = -1.0 / (2.0 * stddev * stddev);
-                ((alpha * x * x).exp() - (alpha * radius * radius).exp()).max(0.0)
-            }
+            // The formula is FilterEval's (one copy of it).
+            Filter::Gaussian { .. } => self.evaluator().eval_1d(x),
             Filter::Box { radius } => {
                 if x.abs() <= radius {
                     1.0
@@ -265,6 +264,12 @@ mod tests {
             assert!(f.eval_1d(0.0) > 0.0);
         }
         assert_eq!(Filter::Box { radius: 0.5 }.eval_1d(0.6), 0.0);
+        // Nori's Gaussian: exp(-x^2 / 2 s^2) less its value at the radius.
+        let g = Filter::default().eval_1d(1.0);
+        assert!(
+            (g - ((-2.0f32).exp() - (-8.0f32).exp())).abs() < 1e-6,
+            "{g}"
+        );
         // Lanczos: 1 at the centre, zero at every integer, negative in
         // its second lobe.
         let l = Filter::Lanczos { radius: 3.0 };
