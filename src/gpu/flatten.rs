@@ -386,42 +386,45 @@ fn texture_record(
     base: usize,
     words: &mut Vec<[f32; 4]>,
 ) -> Result<(), Unsupported> {
-    let first = (base + words.len() + 3) as u32;
-    let t = match texture {
-        Texture::Bitmap(b) => b,
+    let colours;
+    let (to_uv, (width, height), filter, wrap, texels) = match texture {
+        Texture::Bitmap(b) => {
+            let img = b.image();
+            let filter = match b.filter {
+                FilterType::Nearest => TEX_NEAREST,
+                FilterType::Bilinear => TEX_BILINEAR,
+            };
+            let wrap = match b.wrap {
+                WrapMode::Repeat => WRAP_REPEAT,
+                WrapMode::Mirror => WRAP_MIRROR,
+                WrapMode::Clamp => WRAP_CLAMP,
+            };
+            let size = (img.width(), img.height());
+            (&b.to_uv, size, filter, wrap, img.texels())
+        }
         Texture::Checkerboard(c) => {
-            let (r0, r1) = (c.to_uv.row0, c.to_uv.row1);
-            words.push([r0[0], r0[1], r0[2], bits(first)]);
-            words.push([r1[0], r1[1], r1[2], bits(2)]);
-            words.push([bits(1), bits(TEX_CHECKERBOARD), bits(WRAP_REPEAT), 0.0]);
-            words.extend([v4(c.color0, 0.0), v4(c.color1, 0.0)]);
-            return Ok(());
+            colours = [c.color0, c.color1];
+            (
+                &c.to_uv,
+                (2, 1),
+                TEX_CHECKERBOARD,
+                WRAP_REPEAT,
+                &colours[..],
+            )
         }
         other => return unsupported(format!("a {} texture", variant_name(other))),
     };
-    let img = t.image();
-    let texels = img.width() * img.height();
-    if words.len() + texels > MAX_TEXELS {
+    if words.len() + texels.len() > MAX_TEXELS {
         return unsupported(format!(
-            "textures of more than {MAX_TEXELS} texels in all (this one has {} x {})",
-            img.width(),
-            img.height()
+            "textures of more than {MAX_TEXELS} texels in all (this one has {width} x {height})"
         ));
     }
-    let (r0, r1) = (t.to_uv.row0, t.to_uv.row1);
-    let filter = match t.filter {
-        FilterType::Nearest => TEX_NEAREST,
-        FilterType::Bilinear => TEX_BILINEAR,
-    };
-    let wrap = match t.wrap {
-        WrapMode::Repeat => WRAP_REPEAT,
-        WrapMode::Mirror => WRAP_MIRROR,
-        WrapMode::Clamp => WRAP_CLAMP,
-    };
+    let first = (base + words.len() + 3) as u32;
+    let (r0, r1) = (to_uv.row0, to_uv.row1);
     words.push([r0[0], r0[1], r0[2], bits(first)]);
-    words.push([r1[0], r1[1], r1[2], bits(img.width() as u32)]);
-    words.push([bits(img.height() as u32), bits(filter), bits(wrap), 0.0]);
-    words.extend(img.texels().iter().map(|&c| v4(c, 0.0)));
+    words.push([r1[0], r1[1], r1[2], bits(width as u32)]);
+    words.push([bits(height as u32), bits(filter), bits(wrap), 0.0]);
+    words.extend(texels.iter().map(|&c| v4(c, 0.0)));
     Ok(())
 }
 
