@@ -4,7 +4,7 @@
 use crate::bsdf::Bsdf;
 use crate::camera::Camera;
 use crate::color::Rgb;
-use crate::emitter::{AreaLight, Emitter, EmitterContext, LightChoice};
+use crate::emitter::{AreaLight, Emitter, EmitterContext, EnvPoint, LightChoice, LightPdf};
 use crate::geometry::{Bvh, BvhHit, Geometry, Instance, Intersection};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::medium::{Medium, MediumInterface};
@@ -250,6 +250,17 @@ impl Scene {
     /// True if something blocks the ray towards infinity.
     pub fn occluded_ray(&self, from: Vec3, d: Vec3) -> bool {
         self.bvh.occluded(&Ray::new(from, d))
+    }
+
+    /// The first environment map among the emitters at infinity, and where
+    /// `d` meets it, with what evaluating it there with `which` reads
+    /// prefetched ([`Emitter::locate_escape`]): for a path about to trace
+    /// a ray along `d` that may escape to it.
+    #[inline]
+    pub fn locate_escape(&self, d: Vec3, which: LightPdf) -> Option<(u32, EnvPoint)> {
+        self.infinite
+            .iter()
+            .find_map(|&i| Some((i, self.emitters[i as usize].locate_escape(d, which)?)))
     }
 
     /// Radiance from emitters at infinity along an escaping direction.

@@ -14,7 +14,7 @@ mod spot;
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
-pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, LightPdf, TexelRows};
+pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, EnvPoint, LightPdf, TexelRows};
 pub use light_choice::{ChoicePoint, LightBounds, LightChoice, EXHAUSTIVE_MAX};
 pub use point::PointLight;
 pub use projector::{Projector, ProjectorError};
@@ -222,21 +222,52 @@ impl Emitter {
     /// Radiance arriving along a ray that escapes the scene in direction `d`
     /// (zero for lights that are not at infinity).
     pub fn eval_infinite(&self, d: Vec3) -> Rgb {
+        self.eval_infinite_at(d, None)
+    }
+
+    /// [`Emitter::eval_infinite`], with `d` already located on this
+    /// emitter's map if it has one ([`Emitter::locate_escape`]).
+    #[inline]
+    pub fn eval_infinite_at(&self, d: Vec3, at: Option<EnvPoint>) -> Rgb {
         match self {
             Emitter::Constant(e) => e.radiance,
-            Emitter::Environment(e) => e.eval(d),
+            Emitter::Environment(e) => at.map_or_else(|| e.eval(d), |at| e.eval_at(at)),
             _ => Rgb::ZERO,
         }
     }
 
     /// `(eval_infinite(d), pdf(.., d, .., which, facing))` in one go (an
-    /// environment map finds its texels once).
-    pub fn eval_infinite_pdf(&self, d: Vec3, which: LightPdf, facing: Option<Vec3>) -> (Rgb, f32) {
+    /// environment map finds its texels once), with `d` already located on
+    /// this emitter's map if `at` is given.
+    pub fn eval_infinite_pdf(
+        &self,
+        d: Vec3,
+        at: Option<EnvPoint>,
+        which: LightPdf,
+        facing: Option<Vec3>,
+    ) -> (Rgb, f32) {
         match self {
             Emitter::Constant(e) => (e.radiance, e.pdf(d)),
-            Emitter::Environment(e) => e.eval_pdf(d, which, facing),
+            Emitter::Environment(e) => match at {
+                Some(at) => e.eval_pdf_at(at, which, facing),
+                None => e.eval_pdf(d, which, facing),
+            },
             _ => (Rgb::ZERO, 0.0),
         }
+    }
+
+    /// Where `d` meets this emitter's environment map (`None` for other
+    /// emitters), with what looking it up with `which` reads prefetched:
+    /// for a path that is about to trace a ray along `d` and will need
+    /// them if it escapes.
+    #[inline]
+    pub fn locate_escape(&self, d: Vec3, which: LightPdf) -> Option<EnvPoint> {
+        let Emitter::Environment(e) = self else {
+            return None;
+        };
+        let at = e.locate(d)?;
+        e.prefetch_point(at, which);
+        Some(at)
     }
 
     /// Prefetches what `sample(.., u, .., which)` reads (environment maps

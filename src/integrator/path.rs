@@ -3,7 +3,7 @@
 
 use super::{sample_light_with, LightNumbers, PathParams, Strategy};
 use crate::color::{max_component, Rgb};
-use crate::emitter::{ChoicePoint, Emitter, LightHit, LightPdf};
+use crate::emitter::{ChoicePoint, Emitter, EnvPoint, LightHit, LightPdf};
 use crate::geometry::Intersection;
 use crate::math::{Ray, Vec3};
 use crate::sampling::Sampler;
@@ -67,9 +67,13 @@ pub(super) struct PrevVertex<'a> {
 /// Adds to `l` the emission at infinity seen along the escaping direction
 /// `d`, times `beta`: weighed against NEE at `mis` if given, in full
 /// otherwise. `camera_ray`: only emitters visible to the camera count.
+/// `escape`: `d` located on an environment map before the ray was traced
+/// ([`Scene::locate_escape`]), if it was.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn add_infinite_emission(
     scene: &Scene,
     d: Vec3,
+    escape: Option<(u32, EnvPoint)>,
     camera_ray: bool,
     beta: Rgb,
     mis: Option<PrevVertex>,
@@ -81,13 +85,14 @@ pub(super) fn add_infinite_emission(
         if camera_ray && !e.visible_to_camera() {
             continue;
         }
+        let at = escape.filter(|&(j, _)| j == i).map(|(_, at)| at);
         let (le, w) = match mis {
             Some(prev) => {
-                let (le, pdf) = e.eval_infinite_pdf(d, which, prev.at.facing);
+                let (le, pdf) = e.eval_infinite_pdf(d, at, which, prev.at.facing);
                 let pl = choice_pdf(scene, i as usize, prev.at) * pdf;
                 (le, power_heuristic(prev.pdf, pl))
             }
-            None => (e.eval_infinite(d), 1.0),
+            None => (e.eval_infinite_at(d, at), 1.0),
         };
         *l += beta * le * w;
     }
@@ -184,6 +189,10 @@ pub fn li(
     // The next vertex's light-sample numbers, drawn ahead (LightNumbers).
     let nee = strategy != Strategy::Mats;
     let mut light_numbers = nee.then(|| LightNumbers::draw_ahead(scene, sampler, which));
+    // Where `ray` meets the environment map, found (and its texels
+    // prefetched) before it is traced: bounce rays escape to random parts
+    // of the map, whose texels are rarely in the cache.
+    let mut escape = None;
 
     loop {
         let mut hit = scene.intersect(&ray);
@@ -207,7 +216,7 @@ pub fn li(
                 break;
             }
             if count_emission(specular) {
-                add_infinite_emission(scene, ray.d, depth == 0, beta, mis, which, &mut l);
+                add_infinite_emission(scene, ray.d, escape, depth == 0, beta, mis, which, &mut l);
             }
             break;
         };
@@ -286,6 +295,7 @@ pub fn li(
 
         let o = its.spawn(wo_world);
         ray = Ray::new(o, wo_world);
+        escape = scene.locate_escape(wo_world, which);
         if nee {
             light_numbers = Some(LightNumbers::draw_ahead(scene, sampler, which));
         }

@@ -119,7 +119,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
         });
         let Some(its) = hit else {
             if !(depth == 0 && params.hide_emitters) {
-                add_infinite_emission(scene, ray.d, depth == 0, beta, mis, which, &mut l);
+                add_infinite_emission(scene, ray.d, None, depth == 0, beta, mis, which, &mut l);
             }
             break;
         };

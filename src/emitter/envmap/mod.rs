@@ -304,13 +304,16 @@ impl EnvMap {
 
     /// Radiance seen in world direction `d`.
     pub fn eval(&self, d: Vec3) -> Rgb {
+        self.locate(d).map_or(Rgb::ZERO, |at| self.eval_at(at))
+    }
+
+    /// [`EnvMap::eval`] of the direction `at` was located from.
+    #[inline]
+    pub fn eval_at(&self, at: EnvPoint) -> Rgb {
         if !self.emits() {
             return Rgb::ZERO;
         }
-        match self.to_local(d) {
-            Some(l) => self.lookup(unit_dir_to_uv_sin(l).0) * self.scale,
-            None => Rgb::ZERO,
-        }
+        self.grid.lookup(&self.image.pixels, at.p) * self.scale
     }
 
     /// The density `which` selects (the complete one where the compensated
@@ -406,21 +409,44 @@ impl EnvMap {
     /// texels: what a path needs when a BSDF-sampled ray escapes to the map.
     #[inline]
     pub fn eval_pdf(&self, d: Vec3, which: LightPdf, facing: Option<Vec3>) -> (Rgb, f32) {
+        match self.locate(d) {
+            Some(at) => self.eval_pdf_at(at, which, facing),
+            None => (Rgb::ZERO, 0.0),
+        }
+    }
+
+    /// Where world direction `d` meets the map; `None` for zero, NaN or
+    /// infinite input.
+    #[inline]
+    pub fn locate(&self, d: Vec3) -> Option<EnvPoint> {
+        let (uv, sin_theta) = unit_dir_to_uv_sin(self.to_local(d)?);
+        Some(EnvPoint {
+            p: self.grid.locate(uv),
+            sin_theta,
+        })
+    }
+
+    /// Prefetches what [`EnvMap::eval_pdf_at`] reads at `at` with `which`
+    /// (texels and density values; not the facing tables), for a caller
+    /// that has a ray to trace before it knows whether it escapes.
+    #[inline]
+    pub fn prefetch_point(&self, at: EnvPoint, which: LightPdf) {
+        let CellPoint { col, band, .. } = at.p;
+        self.grid.prefetch(&self.image.pixels, col, band);
+        if let Some(density) = self.warp(which) {
+            density.map.prefetch_cell(col, band);
+        }
+    }
+
+    /// [`EnvMap::eval_pdf`] of the direction `at` was located from.
+    #[inline]
+    pub fn eval_pdf_at(&self, at: EnvPoint, which: LightPdf, facing: Option<Vec3>) -> (Rgb, f32) {
         let Some(density) = self.warp(which) else {
             return (Rgb::ZERO, 0.0);
         };
-        match self.to_local(d) {
-            Some(l) => {
-                let (uv, sin_theta) = unit_dir_to_uv_sin(l);
-                let p = self.grid.locate(uv);
-                let radiance = self.grid.lookup(&self.image.pixels, p) * self.scale;
-                (
-                    radiance,
-                    pdf_at(density, self.side(density, facing), p, sin_theta),
-                )
-            }
-            None => (Rgb::ZERO, 0.0),
-        }
+        let radiance = self.grid.lookup(&self.image.pixels, at.p) * self.scale;
+        let pdf = pdf_at(density, self.side(density, facing), at.p, at.sin_theta);
+        (radiance, pdf)
     }
 
     /// Solid-angle pdf that `sample(_, which, facing)` draws world direction
@@ -476,11 +502,15 @@ impl EnvMap {
             None
         }
     }
+}
 
-    /// Unscaled filtered texel value at (u, v), u in [0,1), v in [0,1].
-    fn lookup(&self, uv: Vec2) -> Rgb {
-        self.grid.lookup(&self.image.pixels, self.grid.locate(uv))
-    }
+/// Where a direction meets an environment map ([`EnvMap::locate`]): found
+/// once, to prefetch its texels while a ray that may escape is traced and
+/// then to look them up if it does.
+#[derive(Clone, Copy, Debug)]
+pub struct EnvPoint {
+    p: CellPoint,
+    sin_theta: f32,
 }
 
 /// Solid-angle density of `density` at a point with the given sin(theta),

@@ -188,7 +188,7 @@ impl EnvWarp {
     /// Prefetches the values [`EnvWarp::pdf`] reads for a point of cell
     /// (`col`, `band`).
     #[inline]
-    fn prefetch_cell(&self, col: usize, band: usize) {
+    pub fn prefetch_cell(&self, col: usize, band: usize) {
         let w = self.width;
         prefetch(&self.values[band * w + col]);
         if self.bilinear {
