@@ -27,7 +27,10 @@ LLVM variant needs libLLVM (DRJIT_LIBLLVM_PATH; Debian's libllvm19 works,
 LLVM 15 aborts); without it that column is left out. Mitsuba is timed warm:
 one render of each scene compiles its kernels before the timed ones. Times
 are of the render alone for both (lente's own report; Mitsuba's render and
-evaluation), without loading the scene.
+evaluation), without loading the scene. The renders run seed by seed, every
+renderer in turn, so that a slow spell of a shared machine (their speed
+drifted by 20% between runs on the 2-core VM) falls on all of them; the
+intervals resample the seeds' errors and times together.
 """
 
 import argparse
@@ -96,59 +99,56 @@ def mse(a, b):
     return sum((x - y) ** 2 for x, y in zip(a, b)) / len(a)
 
 
-def ratio_interval(a, b, resamples=4000):
-    """90% bootstrap interval of mean(a) / mean(b), a and b per-seed MSEs of
-    two renderers (independent renders: each resampled on its own). On
-    scenes whose error sits in a few pixels (a directly seen sun, a
-    defocused highlight) the per-seed MSE is heavy-tailed, and a ratio
-    from a few seeds can be off by half: the interval says how far."""
+def bootstrap(runs_l, runs_o, resamples=4000):
+    """90% bootstrap intervals of the MSE ratio and of the efficiency ratio
+    (other's MSE x time over lente's) of two renderers' per-seed (MSE,
+    seconds) runs, resampling the seeds (the same draw for both: their runs
+    of one seed ran side by side, so a slow spell of the machine hits both).
+    On scenes whose error sits in a few pixels (a directly seen sun, a
+    defocused highlight) the per-seed MSE is heavy-tailed, and a ratio from
+    a few seeds can be off by half: the intervals say how far."""
     import random
     rng = random.Random(12345)
-    ratios = []
+    n = len(runs_l)
+    mses, effs = [], []
     for _ in range(resamples):
-        ra = sum(rng.choice(a) for _ in a) / len(a)
-        rb = sum(rng.choice(b) for _ in b) / len(b)
-        ratios.append(ra / rb if rb > 0 else float("inf"))
-    ratios.sort()
-    return ratios[int(0.05 * resamples)], ratios[int(0.95 * resamples) - 1]
+        idx = [rng.randrange(n) for _ in range(n)]
+        ml = sum(runs_l[i][0] for i in idx)
+        mo = sum(runs_o[i][0] for i in idx)
+        tl = sum(runs_l[i][1] for i in idx)
+        to = sum(runs_o[i][1] for i in idx)
+        mses.append(ml / mo if mo > 0 else float("inf"))
+        effs.append((mo * to) / (ml * tl) if ml * tl > 0 else float("inf"))
+    lo, hi = int(0.05 * resamples), int(0.95 * resamples) - 1
+    mses.sort()
+    effs.sort()
+    return (mses[lo], mses[hi]), (effs[lo], effs[hi])
 
 
-def lente_runs(binary, scene, params, spp, seeds, threads):
-    """(list of MSE-ready images, total render seconds)."""
-    images, seconds = [], 0.0
-    for seed in seeds:
-        # One file per seed: the MSE is taken over all of them afterwards.
-        out = os.path.join(OUT, "lente-run-%d" % seed)
-        cmd = [binary, "render", scene, "--spp", str(spp), "--seed", str(seed),
-               "--threads", str(threads), "-q", "-o", out]
-        for k, v in params.items():
-            cmd += ["-D", "%s=%s" % (k, v)]
-        res = subprocess.run(cmd, capture_output=True, text=True)
-        if res.returncode != 0:
-            sys.exit("lente failed on %s:\n%s" % (scene, res.stderr))
-        m = re.search(r"spp, \d+ threads?, ([0-9.]+) s,", res.stdout)
-        if not m:
-            sys.exit("cannot read lente's render time from:\n" + res.stdout)
-        seconds += float(m.group(1))
-        images.append(out + ".exr")
-    return images, seconds
+def lente_run(binary, scene, params, spp, seed, threads):
+    """(image file, render seconds) of one lente render."""
+    # One file per seed and build: the MSE is taken afterwards.
+    out = os.path.join(OUT, "lente-run-%d-%s" % (seed, os.path.basename(os.path.dirname(os.path.dirname(binary)))))
+    cmd = [binary, "render", scene, "--spp", str(spp), "--seed", str(seed),
+           "--threads", str(threads), "-q", "-o", out]
+    for k, v in params.items():
+        cmd += ["-D", "%s=%s" % (k, v)]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        sys.exit("lente failed on %s:\n%s" % (scene, res.stderr))
+    m = re.search(r"spp, \d+ threads?, ([0-9.]+) s,", res.stdout)
+    if not m:
+        sys.exit("cannot read lente's render time from:\n" + res.stdout)
+    return out + ".exr", float(m.group(1))
 
 
-def mitsuba_runs(mi, dr, scene_path, params, spp, seeds):
-    """(list of images as flat lists, total render seconds), warm."""
-    scene = mi.load_file(scene_path, **params)
-    img = mi.render(scene, spp=spp, seed=0)  # compiles the kernels
+def mitsuba_run(mi, dr, scene, spp, seed):
+    """(image as a flat list, render seconds) of one warm Mitsuba render."""
+    t0 = time.perf_counter()
+    img = mi.render(scene, spp=spp, seed=seed)
     dr.eval(img)
     dr.sync_thread()
-    images, seconds = [], 0.0
-    for seed in seeds:
-        t0 = time.perf_counter()
-        img = mi.render(scene, spp=spp, seed=seed)
-        dr.eval(img)
-        dr.sync_thread()
-        seconds += time.perf_counter() - t0
-        images.append(list(img.array))
-    return images, seconds
+    return list(img.array), time.perf_counter() - t0
 
 
 def main():
@@ -212,19 +212,34 @@ def main():
             mi.Bitmap(img).write(ref_path)
         ref = image_values(mi, ref_path)
         pixels = len(ref) // 3
-        samples = pixels * args.spp * len(seeds)
-        row = {"scene": name}
-        for label, binary in builds:
-            log("%s: %s" % (name, label))
-            files, secs = lente_runs(binary, scene_path, params, args.spp, seeds, args.threads)
-            row[label] = ([mse(image_values(mi, f), ref) for f in files], samples / secs)
+        row = {"scene": name, "samples": pixels * args.spp}
+        # Mitsuba's scenes, one per variant, each rendered once to compile
+        # its kernels before the timed renders.
+        scenes = {}
         for v in variants:
-            log("%s: mitsuba %s" % (name, v))
             mi.set_variant(v)
             if v != "scalar_rgb":
                 dr.set_thread_count(args.threads)
-            imgs, secs = mitsuba_runs(mi, dr, scene_path, dict(params, spp=args.spp), args.spp, seeds)
-            row[v] = ([mse(i, ref) for i in imgs], samples / secs)
+            scenes[v] = mi.load_file(scene_path, **dict(params, spp=args.spp))
+            mitsuba_run(mi, dr, scenes[v], args.spp, 0)
+        # Seed by seed, every renderer in turn (the order turning with the
+        # seed), so that a slow spell of the machine does not fall on one
+        # renderer's runs only.
+        renderers = [(label, binary) for label, binary in builds] + [(v, None) for v in variants]
+        runs = {label: [] for label, _ in renderers}
+        log("%s: %d seeds x %s" % (name, len(seeds), ", ".join(l for l, _ in renderers)))
+        for k, seed in enumerate(seeds):
+            for label, binary in renderers[k % len(renderers):] + renderers[:k % len(renderers)]:
+                if binary is not None:
+                    f, secs = lente_run(binary, scene_path, params, args.spp, seed, args.threads)
+                    runs[label].append((mse(image_values(mi, f), ref), secs))
+                else:
+                    mi.set_variant(label)
+                    img, secs = mitsuba_run(mi, dr, scenes[label], args.spp, seed)
+                    runs[label].append((mse(img, ref), secs))
+        for label, _ in renderers:
+            row[label] = runs[label]
+        del scenes
         rows.append(row)
 
     labels = [b[0] for b in builds] + variants
@@ -241,20 +256,21 @@ def main():
     geo = {o: [1.0, 1.0, 0] for o in others}
     mean = lambda xs: sum(xs) / len(xs)
     for r in rows:
+        pixels_samples = r["samples"]
         cells = [r["scene"]]
-        cells += ["%.3e" % mean(r[l][0]) for l in labels]
-        cells += ["%.2f" % (r[l][1] / 1e6) for l in labels]
-        ml, sl = mean(r["lente"][0]), r["lente"][1]
-        intervals = {o: ratio_interval(r["lente"][0], r[o][0]) for o in others}
+        cells += ["%.3e" % mean([m for m, _ in r[l]]) for l in labels]
+        speed = {l: pixels_samples * len(r[l]) / sum(t for _, t in r[l]) for l in labels}
+        cells += ["%.2f" % (speed[l] / 1e6) for l in labels]
+        ml = mean([m for m, _ in r["lente"]])
+        intervals = {o: bootstrap(r["lente"], r[o]) for o in others}
         for o in others:
-            lo, hi = intervals[o]
-            cells.append("%.2f [%.2f, %.2f]" % (ml / mean(r[o][0]), lo, hi))
+            (lo, hi), _ = intervals[o]
+            cells.append("%.2f [%.2f, %.2f]" % (ml / mean([m for m, _ in r[o]]), lo, hi))
         for o in others:
-            mo, so = mean(r[o][0]), r[o][1]
-            eff = (mo / so) / (ml / sl)  # (MSE x time per sample) ratio
-            lo, hi = intervals[o]
-            speed = sl / so
-            cells.append("%.2f [%.2f, %.2f]" % (eff, speed / hi, speed / lo))
+            mo = mean([m for m, _ in r[o]])
+            eff = (mo / speed[o]) / (ml / speed["lente"])  # (MSE x time per sample) ratio
+            _, (lo, hi) = intervals[o]
+            cells.append("%.2f [%.2f, %.2f]" % (eff, lo, hi))
             geo[o][0] *= ml / mo
             geo[o][1] *= eff
             geo[o][2] += 1
