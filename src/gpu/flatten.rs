@@ -11,7 +11,7 @@ use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
 use crate::bsdf::{Bsdf, BsdfParam};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, SphereUv};
 use crate::integrator::{Integrator, Strategy};
 use crate::math::{Vec2, Vec3};
 use crate::render::RenderJob;
@@ -64,8 +64,10 @@ pub const MAT_EMITS: u32 = 0x100;
 /// bits): see [`texture_record`].
 pub const MAT_TEXTURED: u32 = 0x200;
 
-/// Vec4 words per vertex-data slot in `normals`: the three vertex normals
-/// (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2, 0, 0).
+/// Vec4 words per vertex-data slot in `normals`: a triangle's three vertex
+/// normals (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2,
+/// 0, 0); a textured sphere's (u, v) frame: (object x, 1 for ETH's (u, v)
+/// else 0), (object y, 0), (object z, 0), then unused words.
 pub const SLOT_WORDS: usize = 5;
 
 /// Texture filter and wrap codes in a texture record.
@@ -151,12 +153,13 @@ pub struct GpuScene {
     pub nodes: Vec<[f32; 4]>,
     /// Three per primitive in leaf order. Triangle: (v0, shape), (v1,
     /// normal slot or NONE), (v2, light or NONE). Sphere: (centre, shape),
-    /// (radius, 0, 0, SPHERE), (0, 0, 0, light or NONE). Disk: (centre,
+    /// (radius, uv-frame slot or NONE, 0, SPHERE), (0, 0, 0, light or
+    /// NONE). Disk: (centre,
     /// shape), (dual basis dx, DISK or DISK_FLIPPED), (dy, light or NONE).
     pub prims: Vec<[f32; 4]>,
     /// `SLOT_WORDS` per vertex-data slot: a triangle's vertex normals and
     /// uvs (slots are given to triangles with normals, and to those of
-    /// textured shapes).
+    /// textured shapes), or a textured sphere's (u, v) frame.
     pub normals: Vec<[f32; 4]>,
     /// `SHAPE_WORDS` per shape ([`material`] says what they hold), then
     /// the rough plastics' coating transmittance tables (16 words each)
@@ -212,6 +215,10 @@ enum Prim {
         shape: u32,
         center: Vec3,
         radius: f32,
+        /// The (u, v) frame, for spheres whose material is textured:
+        /// object x, y and z (the polar axis) in world space, and the
+        /// convention.
+        uv_frame: Option<([Vec3; 3], SphereUv)>,
     },
     Disk {
         shape: u32,
@@ -530,13 +537,11 @@ impl GpuScene {
                         });
                     }
                 }
-                Geometry::Sphere(_) | Geometry::Disk(_) if textured => {
-                    return unsupported("a textured BSDF on a sphere or disk")
-                }
                 Geometry::Sphere(sp) => prims.push(Prim::Sphere {
                     shape,
                     center: sp.center,
                     radius: sp.radius,
+                    uv_frame: textured.then_some(([sp.x_axis, sp.y_axis, sp.axis], sp.uv)),
                 }),
                 Geometry::Disk(d) => prims.push(Prim::Disk { shape, disk: *d }),
                 Geometry::Curve(_) => return unsupported("curves"),
@@ -654,6 +659,7 @@ impl GpuScene {
                     shape,
                     center,
                     radius,
+                    ..
                 } => {
                     let area = 4.0 * std::f32::consts::PI * radius * radius;
                     (
@@ -755,9 +761,27 @@ impl GpuScene {
                     shape,
                     center,
                     radius,
+                    uv_frame,
                 } => {
+                    // A textured sphere's (u, v) frame takes a vertex-data
+                    // slot: object x (with the convention), y and z.
+                    let slot = match uv_frame {
+                        Some((axes, convention)) => {
+                            let slot = (normals.len() / SLOT_WORDS) as u32;
+                            let eth = match convention {
+                                SphereUv::Mitsuba => 0.0,
+                                SphereUv::Eth => 1.0,
+                            };
+                            normals.push(v4(axes[0], eth));
+                            normals.push(v4(axes[1], 0.0));
+                            normals.push(v4(axes[2], 0.0));
+                            normals.extend([[0.0; 4]; SLOT_WORDS - 3]);
+                            slot
+                        }
+                        None => NONE,
+                    };
                     flat.push(v4(center, bits(shape)));
-                    flat.push([radius, 0.0, 0.0, bits(SPHERE)]);
+                    flat.push([radius, bits(slot), 0.0, bits(SPHERE)]);
                     flat.push([0.0, 0.0, 0.0, light]);
                 }
                 Prim::Disk { shape, disk } => {
@@ -910,7 +934,8 @@ mod tests {
 
     /// A textured diffuse shape points at its texture's record, whose
     /// header and texels are the image's (a checkerboard's: its colours); its triangles get vertex-data
-    /// slots with uvs. A textured sphere is named as unsupported.
+    /// slots with uvs, its spheres slots with their (u, v) frame. A
+    /// textured plastic is named as unsupported.
     #[test]
     fn textures_are_records_and_triangles_get_uvs() {
         let (scene, job) = load("tests/gpu/textured.xml");
@@ -952,10 +977,23 @@ mod tests {
         let first = flat.shapes[record][3].to_bits() as usize;
         assert_eq!(flat.shapes[first][..3], c.color0.to_array());
         assert_eq!(flat.shapes[first + 1][..3], c.color1.to_array());
-        // Every triangle is of a textured shape here: each has a slot.
-        let slots = flat.prims.chunks(3).filter(|p| p[1][3].to_bits() != SPHERE);
-        assert!(slots.clone().all(|p| p[1][3].to_bits() != NONE));
-        assert_eq!(flat.normals.len(), slots.count() * SLOT_WORDS);
+        // Every triangle and sphere is of a textured shape here: each has
+        // a slot; a sphere's holds its axes.
+        let slot = |p: &[[f32; 4]]| match p[1][3].to_bits() {
+            SPHERE => Some(p[1][1].to_bits()),
+            DISK | DISK_FLIPPED => None,
+            s => Some(s),
+        };
+        let slots: Vec<u32> = flat.prims.chunks(3).filter_map(slot).collect();
+        assert!(slots.iter().all(|&s| s != NONE));
+        assert_eq!(flat.normals.len(), slots.len() * SLOT_WORDS);
+        let Geometry::Sphere(sp) = &scene.geometry[scene.geometry.len() - 2] else {
+            panic!("the sphere is the last shape but one");
+        };
+        let sphere = flat.prims.chunks(3).find(|p| p[1][3].to_bits() == SPHERE);
+        let k = sphere.unwrap()[1][1].to_bits() as usize * SLOT_WORDS;
+        assert_eq!(flat.normals[k], v4(sp.x_axis, 0.0));
+        assert_eq!(flat.normals[k + 2], v4(sp.axis, 0.0));
 
         let (scene, job) = load("tests/conformance/textures.xml");
         let err = GpuScene::new(&scene, &job, 1).err().unwrap();

@@ -192,14 +192,36 @@ struct Surface {
     ns: vec3<f32>,
     shape: u32,
     light: u32,
-    // The texture coordinates: triangles with a vertex-data slot only
-    // (flatten.rs gives one to every triangle of a textured shape).
+    // The texture coordinates: disks, spheres with a (u, v) frame and
+    // triangles with a vertex-data slot (flatten.rs gives those to every
+    // sphere and triangle of a textured shape); zero elsewhere.
     uv: vec2<f32>,
 }
 
 // Vec4 words per vertex-data slot (flatten.rs's SLOT_WORDS): three
 // normals, then (u0, v0, u1, v1), (u2, v2, 0, 0).
 const SLOT_WORDS: u32 = 5u;
+
+// A sphere's (u, v) at unit normal `n`, its frame at vertex-data word `k`
+// (geometry/sphere.rs's `normal_uv`): Mitsuba's u = atan2(y, x) / 2pi in
+// [0, 1), v = acos(z) / pi; ETH's u = 1/2 + atan2(y, x) / 2pi,
+// v = 1 - acos(z) / pi.
+fn sphere_uv(n: vec3<f32>, k: u32) -> vec2<f32> {
+    let ex = normals[k];
+    let phi = atan2(dot(n, normals[k + 1u].xyz), dot(n, ex.xyz));
+    let theta = acos(clamp(dot(n, normals[k + 2u].xyz), -1.0, 1.0));
+    if (ex.w != 0.0) {
+        return vec2<f32>(0.5 + phi * (0.5 * INV_PI), 1.0 - theta * INV_PI);
+    }
+    return vec2<f32>(select(phi, phi + 2.0 * PI, phi < 0.0) * (0.5 * INV_PI), theta * INV_PI);
+}
+
+// A disk's (u, v) at object coordinates `l` (geometry/disk.rs): (radius,
+// angle from object x towards y in turns, in [0, 1)).
+fn disk_uv(l: vec2<f32>) -> vec2<f32> {
+    let turns = atan2(l.y, l.x) * (0.5 * INV_PI);
+    return vec2<f32>(length(l), select(turns, turns + 1.0, turns < 0.0));
+}
 
 fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let r0 = prims[3u * h.prim];
@@ -210,14 +232,20 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let light = bitcast<u32>(r2.w);
     if (slot == SPHERE) {
         let n = normalize(o + h.t * d - r0.xyz);
-        return Surface(r0.xyz + r1.x * n, n, n, shape, light, vec2<f32>(0.0));
+        let frame = bitcast<u32>(r1.y);
+        var uv = vec2<f32>(0.0);
+        if (frame != NONE) {
+            uv = sphere_uv(n, SLOT_WORDS * frame);
+        }
+        return Surface(r0.xyz + r1.x * n, n, n, shape, light, uv);
     }
     if (is_disk(slot)) {
         var n = normalize(cross(r1.xyz, r2.xyz));
         if (slot == DISK_FLIPPED) {
             n = -n;
         }
-        return Surface(o + h.t * d, n, n, shape, light, vec2<f32>(0.0));
+        // The hit keeps the object coordinates in (b1, b2).
+        return Surface(o + h.t * d, n, n, shape, light, disk_uv(vec2<f32>(h.b1, h.b2)));
     }
     let b0 = 1.0 - h.b1 - h.b2;
     let p = b0 * r0.xyz + h.b1 * r1.xyz + h.b2 * r2.xyz;
