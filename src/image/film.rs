@@ -24,6 +24,8 @@ pub struct FilmBlock {
     pub aov: Vec<f32>,
     filter: FilterEval,
     radius: f32,
+    /// The filter is Mitsuba's box (radius 1/2): see [`FilmBlock::splat`].
+    pixel_box: bool,
 }
 
 /// Weights along x kept per sample for filters of radius up to 3.5 pixels
@@ -50,6 +52,7 @@ impl FilmBlock {
             aov: Vec::new(),
             filter: filter.evaluator(),
             radius,
+            pixel_box: filter == Filter::Box { radius: 0.5 },
         }
     }
 
@@ -58,6 +61,22 @@ impl FilmBlock {
     /// along x in an array of [`NARROW_COLUMNS`] where they fit.
     #[inline(always)]
     fn splat(&mut self, pos: Vec2, mut f: impl FnMut(&mut FilmBlock, usize, f32)) {
+        // A box of radius 1/2 gives a sample inside a pixel to that pixel
+        // alone, with weight 1 (one on a pixel's edge reaches both sides:
+        // the general path). The same cell and weight as the general path,
+        // without its bounds and weights (4% of a render's instructions).
+        if self.pixel_box {
+            let (x, y) = (floor_i32(pos.x), floor_i32(pos.y));
+            let (cx, cy) = (x.wrapping_sub(self.x0), y.wrapping_sub(self.y0));
+            if x as f32 != pos.x
+                && y as f32 != pos.y
+                && (cx as u32 as usize) < self.width
+                && (cy as u32 as usize) < self.height
+            {
+                f(self, cy as usize * self.width + cx as usize, 1.0);
+                return;
+            }
+        }
         if self.radius <= 0.5 * (NARROW_COLUMNS - 1) as f32 {
             self.footprint::<NARROW_COLUMNS>(pos)
                 .for_each(|cell, w| f(self, cell, w));
@@ -325,7 +344,9 @@ mod tests {
 
     /// A sample lands on every cell within the radius with the product of
     /// the filter's weights along x and y, for filters whose weights along
-    /// x fit the narrow array and for wider ones.
+    /// x fit the narrow array and for wider ones, and for Mitsuba's box
+    /// (its own path) inside a pixel, on an edge (two pixels) and on a
+    /// corner (four), at the tile's border too.
     #[test]
     fn a_sample_gets_the_filter_weights_narrow_and_wide() {
         for f in [
@@ -342,6 +363,10 @@ mod tests {
                 Vec2::new(20.3, 17.8),
                 Vec2::new(16.5, 16.5),
                 Vec2::new(23.99, 16.01),
+                Vec2::new(20.0, 17.5),
+                Vec2::new(19.0, 18.0),
+                Vec2::new(16.0, 23.999),
+                Vec2::new(24.0, 24.0),
             ] {
                 let mut block = FilmBlock::new(16, 16, 8, 8, f);
                 block.put(pos, Rgb::splat(2.0));
