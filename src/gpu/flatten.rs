@@ -59,9 +59,11 @@ pub const MAT_CONDUCTOR: u32 = 10;
 /// (camera rays pass through them under `hide_emitters`).
 pub const MAT_EMITS: u32 = 0x100;
 
-/// Set in a diffuse material's kind word when its reflectance is a bitmap
-/// or checkerboard texture, whose record starts at `shapes[SHAPE_WORDS s + 1].x` (as
-/// bits): see [`texture_record`].
+/// Set in a diffuse or plastic material's kind word when its diffuse
+/// reflectance is a bitmap or checkerboard texture. Its A word then holds
+/// (texture record index as bits, the plastics' internal reflectance, 1 if
+/// the plastic is nonlinear else 0) in place of the reflectance or term
+/// (see [`texture_record`]).
 pub const MAT_TEXTURED: u32 = 0x200;
 
 /// Vec4 words per vertex-data slot in `normals`: a triangle's three vertex
@@ -303,15 +305,23 @@ fn material(
     let zero = [0.0; 4];
     Ok(match bsdf {
         Bsdf::Diffuse(d) => [v4(d.albedo, bits(MAT_DIFFUSE)), zero, zero],
-        Bsdf::Textured(t) => match (t.base(), t.textures()) {
-            (Bsdf::Diffuse(d), [(BsdfParam::Diffuse, texture)]) => {
+        Bsdf::Textured(t) => match t.textures() {
+            [(BsdfParam::Diffuse, texture)] => {
+                // The plastics' diffuse term is computed from the texel
+                // (`bsdf.wgsl`'s `material_a`): what it takes replaces A.
+                let (internal, nonlinear) = match t.base() {
+                    Bsdf::Diffuse(_) => (0.0, false),
+                    Bsdf::Plastic(p) => (p.fdr_int, p.nonlinear),
+                    Bsdf::RoughPlastic(p) => (p.internal_reflectance, p.nonlinear),
+                    _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
+                };
+                let mut words = material(t.base(), table_base, tables)?;
                 let record = (table_base + tables.len()) as u32;
                 texture_record(texture, table_base, tables)?;
-                [
-                    v4(d.albedo, bits(MAT_DIFFUSE | MAT_TEXTURED)),
-                    [bits(record), 0.0, 0.0, 0.0],
-                    zero,
-                ]
+                let kind = words[0][3].to_bits() | MAT_TEXTURED;
+                let nonlinear = if nonlinear { 1.0 } else { 0.0 };
+                words[0] = [bits(record), internal, nonlinear, bits(kind)];
+                words
             }
             _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
         },
@@ -935,7 +945,7 @@ mod tests {
     /// A textured diffuse shape points at its texture's record, whose
     /// header and texels are the image's (a checkerboard's: its colours); its triangles get vertex-data
     /// slots with uvs, its spheres slots with their (u, v) frame. A
-    /// textured plastic is named as unsupported.
+    /// conductor with a textured roughness is named as unsupported.
     #[test]
     fn textures_are_records_and_triangles_get_uvs() {
         let (scene, job) = load("tests/gpu/textured.xml");
@@ -948,7 +958,7 @@ mod tests {
         };
         let words = &flat.shapes[0..SHAPE_WORDS];
         assert_eq!(words[0][3].to_bits(), MAT_DIFFUSE | MAT_TEXTURED);
-        let record = words[1][0].to_bits() as usize;
+        let record = words[0][0].to_bits() as usize;
         let header = &flat.shapes[record..record + 3];
         let img = b.image();
         assert_eq!(header[1][3].to_bits() as usize, img.width());
@@ -972,7 +982,7 @@ mod tests {
         let Texture::Checkerboard(c) = &t.textures()[0].1 else {
             panic!("with a checkerboard");
         };
-        let record = flat.shapes[SHAPE_WORDS + 1][0].to_bits() as usize;
+        let record = flat.shapes[SHAPE_WORDS][0].to_bits() as usize;
         assert_eq!(flat.shapes[record + 2][1].to_bits(), TEX_CHECKERBOARD);
         let first = flat.shapes[record][3].to_bits() as usize;
         assert_eq!(flat.shapes[first][..3], c.color0.to_array());

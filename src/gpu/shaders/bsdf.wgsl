@@ -51,8 +51,9 @@ fn material_word(shape: u32, k: u32) -> vec4<f32> {
 // Set in the kind word of shapes with an area emitter (flatten.rs).
 const MAT_EMITS: u32 = 0x100u;
 
-// Set in the kind word of diffuse materials whose reflectance is a
-// texture (texture.wgsl); its record's index is word 1's x (flatten.rs).
+// Set in the kind word of diffuse and plastic materials whose diffuse
+// reflectance is a texture (texture.wgsl); word A then holds (its record's
+// index, the plastics' internal reflectance, 1 if nonlinear) (flatten.rs).
 const MAT_TEXTURED: u32 = 0x200u;
 
 fn material_kind(shape: u32) -> u32 {
@@ -63,14 +64,25 @@ fn material_kind(shape: u32) -> u32 {
 // sets them after each hit).
 var<private> shading_uv: vec2<f32>;
 
-// A: the diffuse reflectance (read from its texture at `shading_uv` where
-// it has one), the specular reflectance or the plastics' diffuse term.
+// A: the diffuse reflectance, the specular reflectance or the plastics'
+// diffuse term (the reflectance over what the coating reflects back
+// inside: flatten.rs's `plastic_diffuse`), the reflectance read from its
+// texture at `shading_uv` where it has one.
 fn material_a(shape: u32) -> vec3<f32> {
     let w = material_word(shape, 0u);
-    if ((bitcast<u32>(w.w) & MAT_TEXTURED) != 0u) {
-        return texture_eval(bitcast<u32>(material_word(shape, 1u).x), shading_uv);
+    let kind = bitcast<u32>(w.w);
+    if ((kind & MAT_TEXTURED) == 0u) {
+        return w.xyz;
     }
-    return w.xyz;
+    let kd = texture_eval(bitcast<u32>(w.x), shading_uv);
+    let base = kind & ~(MAT_EMITS | MAT_TEXTURED);
+    if (base != MAT_PLASTIC && base != MAT_ROUGH_PLASTIC) {
+        return kd;
+    }
+    if (w.z != 0.0) {
+        return kd / (vec3<f32>(1.0) - kd * w.y);
+    }
+    return kd / (1.0 - w.y);
 }
 
 fn shape_emits(shape: u32) -> bool {
