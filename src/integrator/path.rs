@@ -295,7 +295,13 @@ pub fn li(
 
         let o = its.spawn(wo_world);
         ray = Ray::new(o, wo_world);
-        escape = scene.locate_escape(wo_world, which);
+        // Only where the path would count what it finds there (not
+        // behind a diffuse bounce under `path_ems`).
+        escape = if count_emission(specular) {
+            scene.locate_escape(wo_world, which)
+        } else {
+            None
+        };
         if nee {
             light_numbers = Some(LightNumbers::draw_ahead(scene, sampler, which));
         }
