@@ -225,7 +225,7 @@ def main():
         # Seed by seed, every renderer in turn (the order turning with the
         # seed), so that a slow spell of the machine does not fall on one
         # renderer's runs only.
-        renderers = [(label, binary) for label, binary in builds] + [(v, None) for v in variants]
+        renderers = list(builds) + [(v, None) for v in variants]
         runs = {label: [] for label, _ in renderers}
         log("%s: %d seeds x %s" % (name, len(seeds), ", ".join(l for l, _ in renderers)))
         for k, seed in enumerate(seeds):
@@ -237,8 +237,7 @@ def main():
                     mi.set_variant(label)
                     img, secs = mitsuba_run(mi, dr, scenes[label], args.spp, seed)
                     runs[label].append((mse(img, ref), secs))
-        for label, _ in renderers:
-            row[label] = runs[label]
+        row.update(runs)
         del scenes
         rows.append(row)
 

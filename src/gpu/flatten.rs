@@ -305,26 +305,25 @@ fn material(
     let zero = [0.0; 4];
     Ok(match bsdf {
         Bsdf::Diffuse(d) => [v4(d.albedo, bits(MAT_DIFFUSE)), zero, zero],
-        Bsdf::Textured(t) => match t.textures() {
-            [(BsdfParam::Diffuse, texture)] => {
-                // The plastics' diffuse term is computed from the texel
-                // (`bsdf.wgsl`'s `material_a`): what it takes replaces A.
-                let (internal, nonlinear) = match t.base() {
-                    Bsdf::Diffuse(_) => (0.0, false),
-                    Bsdf::Plastic(p) => (p.fdr_int, p.nonlinear),
-                    Bsdf::RoughPlastic(p) => (p.internal_reflectance, p.nonlinear),
-                    _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
-                };
-                let mut words = material(t.base(), table_base, tables)?;
-                let record = (table_base + tables.len()) as u32;
-                texture_record(texture, table_base, tables)?;
-                let kind = words[0][3].to_bits() | MAT_TEXTURED;
-                let nonlinear = if nonlinear { 1.0 } else { 0.0 };
-                words[0] = [bits(record), internal, nonlinear, bits(kind)];
-                words
-            }
-            _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
-        },
+        Bsdf::Textured(t) => {
+            // The plastics' diffuse term is computed from the texel
+            // (`bsdf.wgsl`'s `material_a`): what it takes replaces A.
+            let (texture, internal, nonlinear) = match (t.textures(), t.base()) {
+                ([(BsdfParam::Diffuse, tex)], Bsdf::Diffuse(_)) => (tex, 0.0, false),
+                ([(BsdfParam::Diffuse, tex)], Bsdf::Plastic(p)) => (tex, p.fdr_int, p.nonlinear),
+                ([(BsdfParam::Diffuse, tex)], Bsdf::RoughPlastic(p)) => {
+                    (tex, p.internal_reflectance, p.nonlinear)
+                }
+                _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
+            };
+            let mut words = material(t.base(), table_base, tables)?;
+            let record = (table_base + tables.len()) as u32;
+            texture_record(texture, table_base, tables)?;
+            let kind = words[0][3].to_bits() | MAT_TEXTURED;
+            let nonlinear = if nonlinear { 1.0 } else { 0.0 };
+            words[0] = [bits(record), internal, nonlinear, bits(kind)];
+            words
+        }
         // Two-sided diffuse, its reflectance constant or textured.
         Bsdf::TwoSided(t) if t.front == t.back => {
             let mut words = material(&t.front, table_base, tables)?;
