@@ -369,7 +369,7 @@ impl EnvMap {
             Some((facing, bin)) => facing.sample(warp, bin, u, |cols, band| {
                 self.grid.prefetch_span(pixels, cols, band)
             })?,
-            None => warp.place(warp.pick(u, |col, band| self.grid.prefetch(pixels, col, band))),
+            None => warp.place(warp.pick(u)),
         };
         // A point on an edge where the density vanishes (a pole, or the
         // border of a compensated density's support) is pulled towards its

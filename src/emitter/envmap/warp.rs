@@ -146,43 +146,30 @@ impl EnvWarp {
     }
 
     /// Sampling a point with `u` in [0, 1)^2, first half: the cell, from
-    /// the alias tables, with the unused randomness. Before the cell's
-    /// alias entry arrives from memory, the cell it most likely names (the
-    /// one drawn; an alias is a bright cell, which stays cached) has its
-    /// corner values prefetched and is passed to `prefetch_texels(col, band)`
-    /// for the caller's own reads, so these misses overlap instead of
-    /// following one another.
+    /// the alias tables, with the unused randomness. It prefetches
+    /// nothing: a caller that knows `u` early calls
+    /// [`EnvWarp::prefetch_pick`] first, so that the alias entry, the
+    /// corner values and the texels arrive while it does other work.
     #[inline]
-    pub fn pick(&self, u: Vec2, prefetch_texels: impl Fn(usize, usize)) -> CellPick {
-        let (band, uy, _) = self.prefetch_guess(u, prefetch_texels);
+    pub fn pick(&self, u: Vec2) -> CellPick {
+        let (band, uy) = self.bands.sample(u.y);
         let (col, ux) = self.cells.sample(band, u.x);
         CellPick { col, band, ux, uy }
     }
 
     /// Prefetches what [`EnvWarp::pick`] with `u` reads (the cell's alias
-    /// entry, and the corner values of the cell it most likely names, also
-    /// passed to `prefetch_texels(col, band)`), without waiting for any of
-    /// it: for a caller that knows `u` well before it samples.
+    /// entry, and the corner values of the cell it most likely names: the
+    /// one drawn, since an alias is a bright cell, which stays cached; that
+    /// cell is also passed to `prefetch_texels(col, band)`), without
+    /// waiting for any of it: for a caller that knows `u` well before it
+    /// samples.
     #[inline]
     pub fn prefetch_pick(&self, u: Vec2, prefetch_texels: impl Fn(usize, usize)) {
-        let (band, _, guess) = self.prefetch_guess(u, prefetch_texels);
-        self.cells.prefetch(band, guess);
-    }
-
-    /// The band `u` picks (with the number left in it) and the cell of it
-    /// that `u` draws before its alias entry is read, whose corner values
-    /// are prefetched and which is passed to `prefetch_texels(col, band)`.
-    #[inline]
-    fn prefetch_guess(
-        &self,
-        u: Vec2,
-        prefetch_texels: impl Fn(usize, usize),
-    ) -> (usize, f32, usize) {
-        let (band, uy) = self.bands.sample(u.y);
+        let (band, _) = self.bands.sample(u.y);
         let guess = self.cells.first_guess(u.x);
         self.prefetch_cell(guess, band);
         prefetch_texels(guess, band);
-        (band, uy, guess)
+        self.cells.prefetch(band, guess);
     }
 
     /// Prefetches the values [`EnvWarp::pdf`] reads for a point of cell
