@@ -46,7 +46,6 @@ pub const SHAPE_WORDS: usize = 3;
 /// Material kinds (`shapes[SHAPE_WORDS s].w`), as `bsdf.wgsl` names them.
 /// Kinds from `MAT_MIRROR` on are purely specular (no light sampling).
 pub const MAT_DIFFUSE: u32 = 0;
-pub const MAT_TWO_SIDED_DIFFUSE: u32 = 1;
 pub const MAT_ROUGH_CONDUCTOR: u32 = 2;
 pub const MAT_PLASTIC: u32 = 3;
 pub const MAT_ROUGH_PLASTIC: u32 = 4;
@@ -54,17 +53,34 @@ pub const MAT_ROUGH_DIELECTRIC: u32 = 5;
 pub const MAT_MIRROR: u32 = 8;
 pub const MAT_DIELECTRIC: u32 = 9;
 pub const MAT_CONDUCTOR: u32 = 10;
+pub const MAT_THIN_DIELECTRIC: u32 = 11;
 
 /// Set in a material's kind word on shapes that have an area emitter
 /// (camera rays pass through them under `hide_emitters`).
 pub const MAT_EMITS: u32 = 0x100;
 
-/// Set in a diffuse or plastic material's kind word when its diffuse
-/// reflectance is a bitmap or checkerboard texture. Its A word then holds
-/// (texture record index as bits, the plastics' internal reflectance, 1 if
-/// the plastic is nonlinear else 0) in place of the reflectance or term
-/// (see [`texture_record`]).
+/// Set in a material's kind word when the colour of its word A (a diffuse
+/// reflectance or a specular reflectance) is a bitmap or checkerboard
+/// texture. Word A then holds (texture record index as bits, the
+/// plastics' internal reflectance, 1 if the plastic is nonlinear else 0)
+/// in place of the colour or the plastics' diffuse term (see
+/// [`texture_record`]).
 pub const MAT_TEXTURED: u32 = 0x200;
+
+/// Set when the colour of word B (a plastic's specular reflectance, a
+/// dielectric's specular transmittance) is a texture: B's first value is
+/// then its record index as bits.
+pub const MAT_TEXTURED_B: u32 = 0x400;
+
+/// Set when the roughness (word B's last value) is a texture, read as one
+/// value (`Texture::eval_1`): that value is then its record index as bits.
+pub const MAT_TEXTURED_ALPHA: u32 = 0x800;
+
+/// Set in a `twosided` material's kind word: the same BSDF on both sides.
+pub const MAT_TWO_SIDED: u32 = 0x1000;
+
+/// Every texture flag.
+pub const MAT_TEXTURED_ANY: u32 = MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA;
 
 /// Vec4 words per vertex-data slot in `normals`: a triangle's three vertex
 /// normals (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2,
@@ -290,11 +306,13 @@ fn plastic_diffuse(kd: Rgb, internal: f32, nonlinear: bool) -> Rgb {
 /// A shape's `SHAPE_WORDS` material words, as `bsdf.wgsl` reads them:
 /// (A, kind), (B, alpha), (C, distribution) with, per kind, A the
 /// diffuse reflectance (diffuse), the specular reflectance (conductors,
-/// rough dielectric) or the diffuse term (plastics); B (eta, 0, 0)
-/// (dielectric), eta (conductors), the specular transmittance (rough
-/// dielectric) or the specular reflectance (plastics); C k (conductors),
-/// (eta, 0, 0) (rough dielectric) or (eta, specular sampling weight,
-/// transmittance table) (plastics).
+/// rough and thin dielectric) or the diffuse term (plastics); B (eta, 0,
+/// 0) (dielectric), eta (conductors), the specular transmittance (rough
+/// and thin dielectric) or the specular reflectance (plastics); C k
+/// (conductors), (eta, 0, 0) (rough and thin dielectric) or (eta,
+/// specular sampling weight, transmittance table) (plastics). Textured
+/// colours and roughness put their record's index in place of the value
+/// and set a flag in the kind (`MAT_TEXTURED`, `_B`, `_ALPHA`).
 /// Rough plastics append their table to `tables`, whose words follow the
 /// records (`table_base` is where they start).
 fn material(
@@ -306,40 +324,71 @@ fn material(
     Ok(match bsdf {
         Bsdf::Diffuse(d) => [v4(d.albedo, bits(MAT_DIFFUSE)), zero, zero],
         Bsdf::Textured(t) => {
-            // The plastics' diffuse term is computed from the texel
-            // (`bsdf.wgsl`'s `material_a`): what it takes replaces A.
-            let (texture, internal, nonlinear) = match (t.textures(), t.base()) {
-                ([(BsdfParam::Diffuse, tex)], Bsdf::Diffuse(_)) => (tex, 0.0, false),
-                ([(BsdfParam::Diffuse, tex)], Bsdf::Plastic(p)) => (tex, p.fdr_int, p.nonlinear),
-                ([(BsdfParam::Diffuse, tex)], Bsdf::RoughPlastic(p)) => {
-                    (tex, p.internal_reflectance, p.nonlinear)
+            let base = t.base();
+            let mut words = material(base, table_base, tables)?;
+            let mut kind = words[0][3].to_bits();
+            for (param, texture) in t.textures() {
+                let Some(slot) = texture_slot(*param, base) else {
+                    return unsupported(format!(
+                        "a textured {param:?} parameter of the {} BSDF",
+                        variant_name(base)
+                    ));
+                };
+                let record = bits((table_base + tables.len()) as u32);
+                match slot {
+                    TextureSlot::A => {
+                        // The plastics' diffuse term is computed from the
+                        // texel (`bsdf.wgsl`'s `material_a`).
+                        let (internal, nonlinear) = match base {
+                            Bsdf::Plastic(p) => (p.fdr_int, p.nonlinear),
+                            Bsdf::RoughPlastic(p) => (p.internal_reflectance, p.nonlinear),
+                            _ => (0.0, false),
+                        };
+                        let nonlinear = if nonlinear { 1.0 } else { 0.0 };
+                        words[0] = [record, internal, nonlinear, 0.0];
+                        kind |= MAT_TEXTURED;
+                    }
+                    TextureSlot::B => {
+                        words[1][0] = record;
+                        kind |= MAT_TEXTURED_B;
+                    }
+                    TextureSlot::Alpha => {
+                        words[1][3] = record;
+                        kind |= MAT_TEXTURED_ALPHA;
+                    }
+                    // An isotropic texture names both; another is anisotropic.
+                    TextureSlot::AlphaV => {
+                        let same =
+                            |(p, x): &(BsdfParam, Texture)| *p == BsdfParam::Alpha && x == texture;
+                        if !t.textures().iter().any(same) {
+                            return unsupported("anisotropic roughness");
+                        }
+                        continue;
+                    }
                 }
-                _ => return unsupported("a textured BSDF other than a diffuse reflectance"),
-            };
-            let mut words = material(t.base(), table_base, tables)?;
-            let record = (table_base + tables.len()) as u32;
-            texture_record(texture, table_base, tables)?;
-            let kind = words[0][3].to_bits() | MAT_TEXTURED;
-            let nonlinear = if nonlinear { 1.0 } else { 0.0 };
-            words[0] = [bits(record), internal, nonlinear, bits(kind)];
+                texture_record(texture, table_base, tables)?;
+            }
+            words[0][3] = bits(kind);
             words
         }
-        // Two-sided diffuse, its reflectance constant or textured.
+        // The same (non-transmitting) BSDF on both sides: the front, with
+        // directions mirrored through the surface when seen from the back.
         Bsdf::TwoSided(t) if t.front == t.back => {
             let mut words = material(&t.front, table_base, tables)?;
-            let kind = words[0][3].to_bits();
-            if kind & !MAT_TEXTURED != MAT_DIFFUSE {
-                return unsupported("a two-sided BSDF other than two-sided diffuse");
-            }
-            words[0][3] = bits((kind & MAT_TEXTURED) | MAT_TWO_SIDED_DIFFUSE);
+            words[0][3] = bits(words[0][3].to_bits() | MAT_TWO_SIDED);
             words
         }
-        Bsdf::TwoSided(_) => return unsupported("a two-sided BSDF other than two-sided diffuse"),
+        Bsdf::TwoSided(_) => return unsupported("a two-sided BSDF with a different back"),
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
             [d.eta, 0.0, 0.0, 0.0],
             zero,
+        ],
+        Bsdf::ThinDielectric(d) => [
+            v4(d.specular_reflectance, bits(MAT_THIN_DIELECTRIC)),
+            v4(d.specular_transmittance, 0.0),
+            [d.eta, 0.0, 0.0, 0.0],
         ],
         Bsdf::Conductor(c) => [
             v4(c.specular_reflectance, bits(MAT_CONDUCTOR)),
@@ -388,6 +437,41 @@ fn material(
             ]
         }
         other => return unsupported(format!("the {} BSDF", variant_name(other))),
+    })
+}
+
+/// Where a textured parameter goes in a material record (`material`).
+enum TextureSlot {
+    /// Word A's colour (flag `MAT_TEXTURED`).
+    A,
+    /// Word B's colour (flag `MAT_TEXTURED_B`).
+    B,
+    /// Word B's alpha (flag `MAT_TEXTURED_ALPHA`).
+    Alpha,
+    /// The second roughness: only as the same texture as `Alpha`.
+    AlphaV,
+}
+
+/// The slot of `param` of a textured `base` model; `None` where the GPU
+/// does not read it from a texture.
+fn texture_slot(param: BsdfParam, base: &Bsdf) -> Option<TextureSlot> {
+    use BsdfParam as P;
+    Some(match (param, base) {
+        (P::Diffuse, Bsdf::Diffuse(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_)) => TextureSlot::A,
+        (P::SpecularReflectance, Bsdf::Plastic(_) | Bsdf::RoughPlastic(_)) => TextureSlot::B,
+        (
+            P::SpecularReflectance,
+            Bsdf::Conductor(_)
+            | Bsdf::RoughConductor(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::RoughDielectric(_),
+        ) => TextureSlot::A,
+        (P::SpecularTransmittance, Bsdf::ThinDielectric(_) | Bsdf::RoughDielectric(_)) => {
+            TextureSlot::B
+        }
+        (P::Alpha, Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_)) => TextureSlot::Alpha,
+        (P::AlphaV, Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_)) => TextureSlot::AlphaV,
+        _ => return None,
     })
 }
 
@@ -503,7 +587,7 @@ impl GpuScene {
                 None => Rgb::ZERO,
             };
             emissions.push(emission);
-            let textured = words[0][3].to_bits() & MAT_TEXTURED != 0;
+            let textured = words[0][3].to_bits() & MAT_TEXTURED_ANY != 0;
             match geometry {
                 Geometry::Mesh(m) => {
                     let has_normals = !m.normals().is_empty();
@@ -1003,9 +1087,42 @@ mod tests {
         let k = sphere.unwrap()[1][1].to_bits() as usize * SLOT_WORDS;
         assert_eq!(flat.normals[k], v4(sp.x_axis, 0.0));
         assert_eq!(flat.normals[k + 2], v4(sp.axis, 0.0));
+    }
 
-        let (scene, job) = load("tests/conformance/textures.xml");
+    /// A rough conductor with a textured roughness and specular
+    /// reflectance points at both records; a textured index of refraction
+    /// is named as unsupported.
+    #[test]
+    fn textured_roughness_and_specular_colours_are_records() {
+        let (mut scene, job) = load("tests/conformance/textures.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let k = (scene.bsdfs.iter())
+            .position(
+                |b| matches!(b, Bsdf::Textured(t) if matches!(t.base(), Bsdf::RoughConductor(_))),
+            )
+            .expect("a textured rough conductor");
+        let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+        let kind = words[0][3].to_bits();
+        assert_eq!(
+            kind,
+            MAT_ROUGH_CONDUCTOR | MAT_TEXTURED | MAT_TEXTURED_ALPHA,
+            "{kind:#x}"
+        );
+        let header = |w: f32| &flat.shapes[w.to_bits() as usize..w.to_bits() as usize + 3];
+        assert_eq!(header(words[0][0])[2][1].to_bits(), TEX_CHECKERBOARD);
+        assert_eq!(header(words[1][3])[2][1].to_bits(), TEX_BILINEAR);
+
+        let Bsdf::Textured(t) = &scene.bsdfs[k] else {
+            unreachable!()
+        };
+        let texture = t.textures()[0].1.clone();
+        let eta = crate::bsdf::Textured::new(t.base().clone(), vec![(BsdfParam::Eta, texture)]);
+        scene.bsdfs[k] = Bsdf::Textured(Box::new(eta.unwrap()));
         let err = GpuScene::new(&scene, &job, 1).err().unwrap();
-        assert!(err.to_string().contains("textured BSDF"), "{err}");
+        assert!(
+            err.to_string()
+                .contains("a textured Eta parameter of the RoughConductor BSDF"),
+            "{err}"
+        );
     }
 }

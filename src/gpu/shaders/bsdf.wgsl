@@ -1,15 +1,16 @@
-// The BSDFs the GPU renders (bsdf/diffuse.rs (with a textured reflectance:
-// textured.rs, texture.wgsl), two_sided.rs, mirror.rs,
-// dielectric.rs, conductor.rs, rough_conductor.rs, plastic.rs,
-// rough_plastic.rs, rough_dielectric.rs), in the shading frame (z along
-// the shading normal).
+// The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, mirror.rs,
+// dielectric.rs, thin_dielectric.rs, conductor.rs, rough_conductor.rs,
+// plastic.rs, rough_plastic.rs, rough_dielectric.rs; their reflectances,
+// transmittances and isotropic roughness textured as textured.rs reads
+// them, texture.wgsl), in the shading frame (z along the shading normal).
 // A shape's record (flatten.rs's `material`, SHAPE_WORDS vec4s):
 // [0] = (A, kind), [1] = (B, alpha), [2] = (C, distribution), with A the
 // diffuse reflectance, the specular reflectance (conductors) or the
 // diffuse term (plastics); B (eta, 0, 0), eta (conductors), the specular
 // transmittance (rough dielectric) or the specular reflectance (plastics);
-// C k (conductors), (eta, 0, 0) (rough dielectric) or (eta, specular
-// sampling weight, transmittance table) (plastics).
+// C k (conductors), (eta, 0, 0) (rough and thin dielectric) or (eta,
+// specular sampling weight, transmittance table) (plastics). The thin
+// dielectric's A and B are its specular reflectance and transmittance.
 //
 // Rough lobes are isotropic. Their microfacet normals are drawn from the
 // visible normals for GGX (Heitz 2018) and from D(m) cos(theta_m) for
@@ -20,7 +21,6 @@
 const SHAPE_WORDS: u32 = 3u;
 
 const MAT_DIFFUSE: u32 = 0u;
-const MAT_TWO_SIDED_DIFFUSE: u32 = 1u;
 const MAT_ROUGH_CONDUCTOR: u32 = 2u;
 const MAT_PLASTIC: u32 = 3u;
 const MAT_ROUGH_PLASTIC: u32 = 4u;
@@ -28,6 +28,7 @@ const MAT_ROUGH_DIELECTRIC: u32 = 5u;
 const MAT_MIRROR: u32 = 8u;
 const MAT_DIELECTRIC: u32 = 9u;
 const MAT_CONDUCTOR: u32 = 10u;
+const MAT_THIN_DIELECTRIC: u32 = 11u;
 
 const DISTR_GGX: u32 = 1u;
 
@@ -51,38 +52,62 @@ fn material_word(shape: u32, k: u32) -> vec4<f32> {
 // Set in the kind word of shapes with an area emitter (flatten.rs).
 const MAT_EMITS: u32 = 0x100u;
 
-// Set in the kind word of diffuse and plastic materials whose diffuse
-// reflectance is a texture (texture.wgsl); word A then holds (its record's
-// index, the plastics' internal reflectance, 1 if nonlinear) (flatten.rs).
+// Set in the kind word of materials whose word A colour (a diffuse or
+// specular reflectance) is a texture (texture.wgsl); word A then holds
+// (its record's index, the plastics' internal reflectance, 1 if
+// nonlinear) (flatten.rs).
 const MAT_TEXTURED: u32 = 0x200u;
+// Word B's colour is a texture: B.x is its record's index.
+const MAT_TEXTURED_B: u32 = 0x400u;
+// The roughness is a texture read as one value: B.w is its record's index.
+const MAT_TEXTURED_ALPHA: u32 = 0x800u;
+const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA | MAT_TWO_SIDED;
 
 fn material_kind(shape: u32) -> u32 {
-    return bitcast<u32>(material_word(shape, 0u).w) & ~(MAT_EMITS | MAT_TEXTURED);
+    return bitcast<u32>(material_word(shape, 0u).w) & ~MAT_FLAGS;
 }
 
-// The texture coordinates of the surface point being shaded (path.wgsl
-// sets them after each hit).
-var<private> shading_uv: vec2<f32>;
+// The shaded point's material values, its textures read once per hit
+// (path.wgsl calls `load_material` after each hit; shaders inline every
+// call, so one texture read here instead of one per use keeps the kernel
+// small): A, the diffuse reflectance, the specular reflectance or the
+// plastics' diffuse term (the reflectance over what the coating reflects
+// back inside: flatten.rs's `plastic_diffuse`); B, word B's colour; the
+// roughness.
+var<private> mat_a: vec3<f32>;
+var<private> mat_b: vec3<f32>;
+var<private> mat_alpha: f32;
 
-// A: the diffuse reflectance, the specular reflectance or the plastics'
-// diffuse term (the reflectance over what the coating reflects back
-// inside: flatten.rs's `plastic_diffuse`), the reflectance read from its
-// texture at `shading_uv` where it has one.
-fn material_a(shape: u32) -> vec3<f32> {
-    let w = material_word(shape, 0u);
-    let kind = bitcast<u32>(w.w);
-    if ((kind & MAT_TEXTURED) == 0u) {
-        return w.xyz;
+fn load_material(shape: u32, uv: vec2<f32>) {
+    let w0 = material_word(shape, 0u);
+    let w1 = material_word(shape, 1u);
+    let flags = bitcast<u32>(w0.w);
+    mat_a = w0.xyz;
+    mat_b = w1.xyz;
+    mat_alpha = w1.w;
+    // One loop, so the texture lookup is inlined once: A, B, alpha.
+    for (var k = 0u; k < 3u; k++) {
+        if ((flags & (MAT_TEXTURED << k)) == 0u) {
+            continue;
+        }
+        let record = bitcast<u32>(select(select(w1.w, w1.x, k == 1u), w0.x, k == 0u));
+        let c = texture_lookup(record, uv, k == 2u);
+        if (k == 0u) {
+            let base = flags & ~MAT_FLAGS;
+            if (base != MAT_PLASTIC && base != MAT_ROUGH_PLASTIC) {
+                mat_a = c;
+            } else if (w0.z != 0.0) {
+                mat_a = c / (vec3<f32>(1.0) - c * w0.y);
+            } else {
+                mat_a = c / (1.0 - w0.y);
+            }
+        } else if (k == 1u) {
+            mat_b = c;
+        } else {
+            // textured.rs: at least distribution.rs's MIN_ALPHA.
+            mat_alpha = max(texture_value_1(record, c), 1e-4);
+        }
     }
-    let kd = texture_eval(bitcast<u32>(w.x), shading_uv);
-    let base = kind & ~(MAT_EMITS | MAT_TEXTURED);
-    if (base != MAT_PLASTIC && base != MAT_ROUGH_PLASTIC) {
-        return kd;
-    }
-    if (w.z != 0.0) {
-        return kd / (vec3<f32>(1.0) - kd * w.y);
-    }
-    return kd / (1.0 - w.y);
 }
 
 fn shape_emits(shape: u32) -> bool {
@@ -148,7 +173,7 @@ struct Microfacet {
 
 fn microfacet(shape: u32) -> Microfacet {
     let distr = bitcast<u32>(material_word(shape, 2u).w);
-    return Microfacet(material_word(shape, 1u).w, distr == DISTR_GGX);
+    return Microfacet(mat_alpha, distr == DISTR_GGX);
 }
 
 // D(m), zero below the horizon.
@@ -282,11 +307,11 @@ fn rough_dielectric_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> 
     let cos_i = abs(wi.z);
     let cos_o = abs(wo.z);
     if (h.reflect) {
-        return material_word(shape, 0u).xyz * (f * dg / (4.0 * cos_i * cos_o));
+        return mat_a * (f * dg / (4.0 * cos_i * cos_o));
     }
     let denom = dim + h.eta * dom;
     let value = abs((1.0 - f) * dg * dim * dom / (cos_i * denom * denom));
-    return material_word(shape, 1u).xyz * (value / cos_o);
+    return mat_b * (value / cos_o);
 }
 
 fn rough_dielectric_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
@@ -376,20 +401,13 @@ fn rough_plastic_glossy_prob(shape: u32, wi: vec3<f32>) -> f32 {
 
 // --- The BSDF interface the path tracer calls.
 
-// Whether wi and wo both lie on the side a one-sided BSDF of this kind
-// reflects on (two-sided diffuse: the back seen as the front).
-fn both_in_front(kind: u32, wi: vec3<f32>, wo: vec3<f32>) -> bool {
-    var zi = wi.z;
-    var zo = wo.z;
-    if (kind == MAT_TWO_SIDED_DIFFUSE && wi.z < 0.0) {
-        zi = -zi;
-        zo = -zo;
-    }
-    return zi > 0.0 && zo > 0.0;
+// Whether wi and wo both lie on the side a one-sided BSDF reflects on.
+fn both_in_front(wi: vec3<f32>, wo: vec3<f32>) -> bool {
+    return wi.z > 0.0 && wo.z > 0.0;
 }
 
-// f(wi, wo) of the non-specular part.
-fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+// f(wi, wo) of the non-specular part, of the front of a two-sided one.
+fn front_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let kind = material_kind(shape);
     if (kind >= MAT_MIRROR) {
         return vec3<f32>(0.0);
@@ -397,14 +415,14 @@ fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_eval(shape, wi, wo);
     }
-    if (!both_in_front(kind, wi, wo)) {
+    if (!both_in_front(wi, wo)) {
         return vec3<f32>(0.0);
     }
-    let a = material_a(shape);
-    if (kind <= MAT_TWO_SIDED_DIFFUSE) {
+    let a = mat_a;
+    if (kind == MAT_DIFFUSE) {
         return a * INV_PI;
     }
-    let b = material_word(shape, 1u).xyz;
+    let b = mat_b;
     let c = material_word(shape, 2u);
     if (kind == MAT_PLASTIC) {
         let eta = c.x;
@@ -425,8 +443,8 @@ fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     return b * (dg * f) + a * (INV_PI / (eta * eta) * t);
 }
 
-// Solid-angle density of bsdf_sample's non-specular part.
-fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+// Solid-angle density of front_sample's non-specular part.
+fn front_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let kind = material_kind(shape);
     if (kind >= MAT_MIRROR) {
         return 0.0;
@@ -434,12 +452,11 @@ fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_pdf(shape, wi, wo);
     }
-    if (!both_in_front(kind, wi, wo)) {
+    if (!both_in_front(wi, wo)) {
         return 0.0;
     }
-    if (kind <= MAT_TWO_SIDED_DIFFUSE) {
-        // wo is on the side the lobe is on: its cosine is |wo.z|.
-        return abs(wo.z) * INV_PI;
+    if (kind == MAT_DIFFUSE) {
+        return wo.z * INV_PI;
     }
     if (kind == MAT_PLASTIC) {
         let c = material_word(shape, 2u);
@@ -466,33 +483,22 @@ fn sample_rough(shape: u32, wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSa
     if (wo.z <= 0.0 || not_finite(wo.x + wo.y + wo.z)) {
         return no_sample();
     }
-    let pdf = bsdf_pdf(shape, wi, wo);
+    let pdf = front_pdf(shape, wi, wo);
     if (pdf <= 0.0) {
         return no_sample();
     }
-    return BsdfSample(wo, bsdf_eval(shape, wi, wo) * (wo.z / pdf), pdf, false, 1.0, true);
+    return BsdfSample(wo, front_eval(shape, wi, wo) * (wo.z / pdf), pdf, false, 1.0, true);
 }
 
-fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+fn front_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let kind = material_kind(shape);
-    let a = material_a(shape);
-    if (kind <= MAT_TWO_SIDED_DIFFUSE) {
-        var flip = false;
-        if (wi.z <= 0.0) {
-            if (kind != MAT_TWO_SIDED_DIFFUSE || wi.z == 0.0) {
-                return no_sample();
-            }
-            flip = true;
-        }
-        var wo = square_to_cosine_hemisphere(u);
-        if (wo.z <= 0.0) {
+    let a = mat_a;
+    if (kind == MAT_DIFFUSE) {
+        let wo = square_to_cosine_hemisphere(u);
+        if (wi.z <= 0.0 || wo.z <= 0.0) {
             return no_sample();
         }
-        let pdf = wo.z * INV_PI;
-        if (flip) {
-            wo.z = -wo.z;
-        }
-        return BsdfSample(wo, a, pdf, false, 1.0, true);
+        return BsdfSample(wo, a, wo.z * INV_PI, false, 1.0, true);
     }
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_sample(shape, wi, u, u_lobe);
@@ -508,6 +514,16 @@ fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
         let scale = 1.0 / (eta_ti * eta_ti);
         return BsdfSample(normalize(wo), vec3<f32>(scale), 1.0 - f.x, true, eta_ti, true);
     }
+    if (kind == MAT_THIN_DIELECTRIC) {
+        // thin_dielectric.rs: the faces' reflections summed, 2R / (1 + R);
+        // the rest passes straight through.
+        let f = fresnel_dielectric(abs(wi.z), material_word(shape, 2u).x).x;
+        let r = 2.0 * f / (1.0 + f);
+        if (u_lobe <= r) {
+            return BsdfSample(vec3<f32>(-wi.x, -wi.y, wi.z), a, r, true, 1.0, true);
+        }
+        return BsdfSample(-wi, mat_b, 1.0 - r, true, 1.0, true);
+    }
     // The rest are one-sided.
     if (wi.z <= 0.0) {
         return no_sample();
@@ -516,7 +532,7 @@ fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
     if (kind == MAT_MIRROR) {
         return BsdfSample(mirror, vec3<f32>(1.0), 1.0, true, 1.0, true);
     }
-    let b = material_word(shape, 1u).xyz;
+    let b = mat_b;
     let c = material_word(shape, 2u);
     if (kind == MAT_CONDUCTOR) {
         return BsdfSample(mirror, a * fresnel_conductor(wi.z, b, c.xyz), 1.0, true, 1.0, true);
@@ -542,4 +558,35 @@ fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
     }
     // Rough plastic.
     return sample_rough(shape, wi, u, u_lobe < rough_plastic_glossy_prob(shape, wi));
+}
+
+// --- Two-sided materials (two_sided.rs): the front seen from either side,
+// directions mirrored through the surface when seen from the back.
+
+// Set in the kind word of a `twosided` material (its front and back the
+// same BSDF, which does not transmit).
+const MAT_TWO_SIDED: u32 = 0x1000u;
+
+// (1, 1, -1) where the point is seen from the back of a two-sided
+// material, else (1, 1, 1).
+fn side_flip(shape: u32, wi: vec3<f32>) -> vec3<f32> {
+    let two_sided = (bitcast<u32>(material_word(shape, 0u).w) & MAT_TWO_SIDED) != 0u;
+    return vec3<f32>(1.0, 1.0, select(1.0, -1.0, two_sided && wi.z < 0.0));
+}
+
+fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let f = side_flip(shape, wi);
+    return front_eval(shape, wi * f, wo * f);
+}
+
+fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let f = side_flip(shape, wi);
+    return front_pdf(shape, wi * f, wo * f);
+}
+
+fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+    let f = side_flip(shape, wi);
+    var s = front_sample(shape, wi * f, u, u_lobe);
+    s.wo *= f;
+    return s;
 }

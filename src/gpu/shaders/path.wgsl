@@ -93,7 +93,7 @@ fn li(camera: Ray) -> vec3<f32> {
             break;
         }
         let s = surface_at(h, ray.o, ray.d);
-        shading_uv = s.uv;
+        load_material(s.shape, s.uv);
         // Emission found by following the path (front side only).
         if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide)) {
             var w = 1.0;

@@ -37,8 +37,20 @@ fn tex_texel(first: u32, w: i32, x: i32, y: i32) -> vec3<f32> {
     return shapes[first + u32(y * w + x)].xyz;
 }
 
-// The texture's value at `uv`, for the record at `record`.
-fn texture_eval(record: u32, uv: vec2<f32>) -> vec3<f32> {
+// Texture::eval_1 (roughness) of the colour `c` that `texture_lookup`
+// read with `swap`: a bitmap's luminance; a checkerboard colour's channel
+// mean.
+fn texture_value_1(record: u32, c: vec3<f32>) -> f32 {
+    if (bitcast<u32>(shapes[record + 2u].y) == TEX_CHECKERBOARD) {
+        return (c.x + c.y + c.z) / 3.0;
+    }
+    return dot(c, vec3<f32>(0.212671, 0.715160, 0.072169));
+}
+
+// The texture's value at `uv`, for the record at `record`; a
+// checkerboard's squares swapped if `swap` (checkerboard.rs's `eval_1`
+// swaps them, as Mitsuba 3.9's does).
+fn texture_lookup(record: u32, uv: vec2<f32>, swap: bool) -> vec3<f32> {
     let h0 = shapes[record];
     let h1 = shapes[record + 1u];
     let h2 = shapes[record + 2u];
@@ -53,7 +65,7 @@ fn texture_eval(record: u32, uv: vec2<f32>) -> vec3<f32> {
         // half or neither is.
         let mx = st.x - floor(st.x) > 0.5;
         let my = st.y - floor(st.y) > 0.5;
-        return shapes[first + select(1u, 0u, mx == my)].xyz;
+        return shapes[first + select(1u, 0u, (mx == my) != swap)].xyz;
     }
     if (filter_type == TEX_NEAREST) {
         let x = tex_wrap(i32(floor(tex_bounded(st.x * f32(w)))), w, wrap);
