@@ -24,6 +24,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::aov::{AovList, MAX_AOV_CHANNELS};
+use crate::color::Rgb;
 use crate::image::{Bitmap, Film, FilmBlock, Filter};
 use crate::integrator::Integrator;
 use crate::math::Vec2;
@@ -219,9 +220,26 @@ pub fn render_tile(
     scene: &Scene,
     job: &RenderJob,
     tile: Tile,
+    samples: (u32, u32),
+    seed: u64,
+    aovs: &AovList,
+    abandon: &AtomicBool,
+) -> Option<FilmBlock> {
+    trace_tile(scene, job, tile, samples, seed, aovs, true, abandon)
+}
+
+/// [`render_tile`], the image traced only if `image` (else its samples
+/// carry zero radiance: the block holds their filter weights and the
+/// AOVs).
+#[allow(clippy::too_many_arguments)]
+fn trace_tile(
+    scene: &Scene,
+    job: &RenderJob,
+    tile: Tile,
     (s0, s1): (u32, u32),
     seed: u64,
     aovs: &AovList,
+    image: bool,
     abandon: &AtomicBool,
 ) -> Option<FilmBlock> {
     let mut block =
@@ -237,7 +255,11 @@ pub fn render_tile(
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let aperture = sampler.next_2d();
                 let ray = scene.camera.generate_ray(film, aperture);
-                let l = job.integrator.li(scene, &ray, &mut sampler);
+                let l = if image {
+                    job.integrator.li(scene, &ray, &mut sampler)
+                } else {
+                    Rgb::ZERO
+                };
                 block.put(film, l);
                 if !aovs.is_empty() {
                     let mut aov_sampler = Sampler::for_pixel_sample(seed ^ AOV_SEED_SALT, x, y, s);
@@ -248,6 +270,31 @@ pub fn render_tile(
         }
     }
     Some(block)
+}
+
+/// The AOVs of samples `s0..s1` of every pixel, as a CPU render draws
+/// them (the same random streams and film positions), in a film whose
+/// image holds only the samples' filter weights: what the GPU backend
+/// adds to its image. Tiles run on rayon's pool and merge in a fixed
+/// order; `None` if `abandon` was set.
+pub fn render_aovs(
+    scene: &Scene,
+    job: &RenderJob,
+    samples: (u32, u32),
+    seed: u64,
+    aovs: &AovList,
+    abandon: &AtomicBool,
+) -> Option<Film> {
+    use rayon::prelude::*;
+    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let blocks = (tiles(w, h).into_par_iter())
+        .map(|tile| trace_tile(scene, job, tile, samples, seed, aovs, false, abandon))
+        .collect::<Option<Vec<_>>>()?;
+    let mut film = Film::new(w as usize, h as usize).with_aovs(aovs.channel_count());
+    for block in &blocks {
+        film.merge(block);
+    }
+    Some(film)
 }
 
 /// Peak memory of a render per image pixel, an upper estimate: the film

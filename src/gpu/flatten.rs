@@ -200,7 +200,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, diffuse, two-sided diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth and rough dielectric BSDFs, area, point, spot and directional lights, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, textured reflectances, transmittances and roughness), area, point, spot and directional lights, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {

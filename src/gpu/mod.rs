@@ -23,7 +23,7 @@ use wgpu::util::DeviceExt;
 use crate::color::Rgb;
 use crate::image::Film;
 use crate::progress::Progress;
-use crate::render::{pass_schedule_from, PassInfo, RenderJob, RenderOptions, RenderOutput};
+use crate::render::{self, pass_schedule_from, PassInfo, RenderJob, RenderOptions, RenderOutput};
 use crate::scene::Scene;
 pub use flatten::{GpuScene, Unsupported};
 
@@ -101,9 +101,6 @@ pub fn render_with_passes(
     cancel: &AtomicBool,
     mut on_pass: impl FnMut(&PassInfo),
 ) -> Result<RenderOutput, GpuError> {
-    if !opts.aovs.is_empty() {
-        return Err(Unsupported("AOVs".into()).into());
-    }
     if opts.rows.is_some() {
         return Err(Unsupported("rendering a strip of rows".into()).into());
     }
@@ -226,60 +223,84 @@ pub fn render_with_passes(
     // after each pass.
     let mut film = match &opts.film {
         Some(f) => f.clone(),
-        None => Film::new(w as usize, h as usize),
+        None => Film::new(w as usize, h as usize).with_aovs(opts.aovs.channel_count()),
     };
     let mut spp_done = first;
     let mut samples_taken = 0u64;
-    'passes: for (index, &(s0, s1)) in passes.iter().enumerate() {
-        progress.start_pass(index);
-        let mut done = s0;
-        let mut pass_samples = 0u64;
-        while done < s1 {
-            if stop() {
-                break 'passes;
+    // The AOVs of the passes done, computed on the CPU while the GPU
+    // traces each pass (`render::render_aovs`).
+    let aov_channels = opts.aovs.channel_count();
+    let mut aov_film = Film::new(w as usize, h as usize).with_aovs(aov_channels);
+    std::thread::scope(|threads| -> Result<(), GpuError> {
+        'passes: for (index, &(s0, s1)) in passes.iter().enumerate() {
+            progress.start_pass(index);
+            let aov_pass = (aov_channels > 0).then(|| {
+                threads.spawn(move || {
+                    render::render_aovs(scene, job, (s0, s1), opts.seed, &opts.aovs, cancel)
+                })
+            });
+            let mut done = s0;
+            let mut pass_samples = 0u64;
+            while done < s1 {
+                if stop() {
+                    break 'passes;
+                }
+                let n = spp_pass.min(s1 - done);
+                let mut p = flat.params;
+                p.sample_base = done;
+                p.spp_pass = n;
+                queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
+                let groups = (pixels * n as u64).div_ceil(64);
+                let gx = groups.min(max_groups as u64) as u32;
+                let gy = groups.div_ceil(gx as u64) as u32;
+                let mut encoder = device.create_command_encoder(&Default::default());
+                {
+                    let mut pass = encoder.begin_compute_pass(&Default::default());
+                    pass.set_pipeline(&trace);
+                    pass.set_bind_group(0, &trace_group, &[]);
+                    pass.dispatch_workgroups(gx, gy, 1);
+                    pass.set_pipeline(&gather);
+                    pass.set_bind_group(0, &gather_group, &[]);
+                    pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+                }
+                queue.submit([encoder.finish()]);
+                device
+                    .poll(wgpu::PollType::wait_indefinitely())
+                    .map_err(|e| GpuError::Device(e.to_string()))?;
+                failed()?;
+                done += n;
+                pass_samples += pixels * n as u64;
+                progress.add(pixels * n as u64);
             }
-            let n = spp_pass.min(s1 - done);
-            let mut p = flat.params;
-            p.sample_base = done;
-            p.spp_pass = n;
-            queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
-            let groups = (pixels * n as u64).div_ceil(64);
-            let gx = groups.min(max_groups as u64) as u32;
-            let gy = groups.div_ceil(gx as u64) as u32;
-            let mut encoder = device.create_command_encoder(&Default::default());
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&trace);
-                pass.set_bind_group(0, &trace_group, &[]);
-                pass.dispatch_workgroups(gx, gy, 1);
-                pass.set_pipeline(&gather);
-                pass.set_bind_group(0, &gather_group, &[]);
-                pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-            }
-            queue.submit([encoder.finish()]);
-            device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| GpuError::Device(e.to_string()))?;
+            let mut pass_film = read_film(&device, &queue, &gpu_film, &readback, (w, h))?;
             failed()?;
-            done += n;
-            pass_samples += pixels * n as u64;
-            progress.add(pixels * n as u64);
+            if let Some(aov_pass) = aov_pass {
+                match aov_pass.join() {
+                    Ok(Some(aovs)) => aov_film.add(&aovs),
+                    // Cancelled while the GPU finished the pass: drop it.
+                    Ok(None) => break 'passes,
+                    Err(_) => return Err(GpuError::Device("the AOV thread panicked".into())),
+                }
+                pass_film
+                    .set_aov_sums(aov_channels, aovs_for(&aov_film, &pass_film))
+                    .ok_or_else(|| GpuError::Device("the AOV film has the wrong size".into()))?;
+            }
+            if let Some(before) = &opts.film {
+                pass_film.add(before);
+            }
+            film = pass_film;
+            spp_done = s1;
+            samples_taken += pass_samples;
+            on_pass(&PassInfo {
+                film: &film,
+                spp_done,
+                spp_total: job.spp,
+                samples: samples_taken,
+                elapsed: start.elapsed(),
+            });
         }
-        film = read_film(&device, &queue, &gpu_film, &readback, (w, h))?;
-        failed()?;
-        if let Some(before) = &opts.film {
-            film.add(before);
-        }
-        spp_done = s1;
-        samples_taken += pass_samples;
-        on_pass(&PassInfo {
-            film: &film,
-            spp_done,
-            spp_total: job.spp,
-            samples: samples_taken,
-            elapsed: start.elapsed(),
-        });
-    }
+        Ok(())
+    })?;
     progress.finish();
     Ok(RenderOutput {
         image: film.to_bitmap(),
@@ -289,6 +310,28 @@ pub fn render_with_passes(
         samples: samples_taken,
         cancelled: cancel.load(Ordering::Relaxed),
     })
+}
+
+/// The AOV sums of `aovs` (a film from [`render::render_aovs`]) for the
+/// image film `film`, which divides them by its own weight sums: the GPU
+/// draws its samples elsewhere in the pixel than the CPU drew the AOVs',
+/// so each pixel's sums are rescaled by the ratio of the two weight sums
+/// (exactly 1 with a box filter of radius 1/2, whose samples all weigh 1).
+fn aovs_for(aovs: &Film, film: &Film) -> Vec<f32> {
+    let n = aovs.aov_channels();
+    let (mine, theirs) = (film.data(), aovs.data());
+    let mut sums = aovs.aov_sums().to_vec();
+    for (i, pixel) in sums.chunks_mut(n.max(1)).enumerate() {
+        let scale = if theirs[i].1 != 0.0 {
+            mine[i].1 / theirs[i].1
+        } else {
+            0.0
+        };
+        if scale != 1.0 {
+            pixel.iter_mut().for_each(|v| *v *= scale);
+        }
+    }
+    sums
 }
 
 /// The film the GPU has accumulated so far, copied back to memory.
