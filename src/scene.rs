@@ -47,6 +47,9 @@ pub struct Scene {
     pub camera: Camera,
     /// The top-level shapes, then each group's shapes (in the group's space).
     pub geometry: Vec<Geometry>,
+    /// Each shape group's range of `geometry` (the top-level shapes are
+    /// those before the first); the BVH holds the groups' placements.
+    pub group_shapes: Vec<std::ops::Range<usize>>,
     pub bsdfs: Vec<Bsdf>,
     /// For each shape, whether its BSDF reads dp/du and dp/dv (bump maps).
     pub differentials: Vec<bool>,
@@ -131,6 +134,7 @@ impl Scene {
         }
         emitters.extend(desc.emitters);
         let bvh = Bvh::build_instanced(&geometry, top, &group_ranges, desc.instances);
+        let group_shapes = group_ranges;
         let mut bounds = bvh.bounds();
         for e in &emitters {
             match e {
@@ -165,6 +169,7 @@ impl Scene {
         Ok(Scene {
             camera,
             geometry,
+            group_shapes,
             bsdfs,
             differentials,
             shape_emitter,

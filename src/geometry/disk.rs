@@ -23,6 +23,11 @@ impl Disk {
         Disk::on(PlaneFrame::new(t)?)
     }
 
+    /// This disk carried by `t`.
+    pub fn transformed(&self, t: &Transform) -> Result<Disk, PlaneError> {
+        Disk::on(self.frame.transformed(t)?)
+    }
+
     fn on(frame: PlaneFrame) -> Result<Disk, PlaneError> {
         // The exact box of the ellipse: centre +- sqrt(ex_i^2 + ey_i^2).
         let half = (frame.ex * frame.ex + frame.ey * frame.ey).powf(0.5);

@@ -13,7 +13,7 @@ use crate::color::Rgb;
 use crate::emitter::Emitter;
 use crate::geometry::{Geometry, SphereUv};
 use crate::integrator::{Integrator, Strategy};
-use crate::math::{Vec2, Vec3};
+use crate::math::{Transform, Vec2, Vec3};
 use crate::render::RenderJob;
 use crate::sampling::Distribution1D;
 use crate::scene::Scene;
@@ -100,6 +100,12 @@ pub const WRAP_CLAMP: u32 = 2;
 /// The most texels the GPU backend takes from a scene's textures (each
 /// texel is a vec4 in the shapes buffer, which must fit one binding).
 pub const MAX_TEXELS: usize = 1 << 22;
+
+/// Most primitives the GPU takes once instances are placed (each is a
+/// copy of its group's): 48 bytes each in the primitive buffer, the BVH
+/// beside them. A scene of many placements of a large group is an
+/// error naming the count, not an allocation that never ends.
+pub const MAX_PLACED_PRIMS: usize = 1 << 24;
 
 /// Microfacet distributions (`shapes[SHAPE_WORDS s + 2].w`).
 pub const DISTR_BECKMANN: u32 = 0;
@@ -200,7 +206,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, textured reflectances, transmittances and roughness), area, point, spot and directional lights, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, textured reflectances, transmittances and roughness), area, point, spot and directional lights, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -245,6 +251,65 @@ enum Prim {
 }
 
 impl Prim {
+    /// This primitive (of a shape group) where an instance's `t` places it:
+    /// triangles rewound where `t` mirrors, so that their front stays
+    /// where the CPU's normals (transformed as normals) put it; spheres
+    /// only under similarities (else they are ellipsoids).
+    fn placed(&self, t: &Transform) -> Result<Prim, Unsupported> {
+        Ok(match *self {
+            Prim::Triangle {
+                shape,
+                v,
+                normals,
+                uvs,
+            } => {
+                let order = if t.flips_handedness() {
+                    [0, 2, 1]
+                } else {
+                    [0, 1, 2]
+                };
+                Prim::Triangle {
+                    shape,
+                    v: order.map(|i| t.point(v[i])),
+                    normals: normals.map(|n| order.map(|i| t.normal(n[i]).normalize_or_zero())),
+                    uvs: uvs.map(|uv| order.map(|i| uv[i])),
+                }
+            }
+            Prim::Sphere {
+                shape,
+                center,
+                radius,
+                uv_frame,
+            } => {
+                if !t.is_similarity() {
+                    return unsupported("a sphere placed by an instance that scales it unevenly");
+                }
+                Prim::Sphere {
+                    shape,
+                    center: t.point(center),
+                    radius: radius * t.vector(Vec3::X).length(),
+                    uv_frame: uv_frame
+                        .map(|(axes, uv)| (axes.map(|a| t.vector(a).normalize_or_zero()), uv)),
+                }
+            }
+            Prim::Disk { shape, disk } => Prim::Disk {
+                shape,
+                disk: disk
+                    .transformed(t)
+                    .map_err(|_| Unsupported("an instance that flattens a disk".into()))?,
+            },
+        })
+    }
+
+    /// The shape it belongs to.
+    fn shape(&self) -> u32 {
+        match *self {
+            Prim::Triangle { shape, .. }
+            | Prim::Sphere { shape, .. }
+            | Prim::Disk { shape, .. } => shape,
+        }
+    }
+
     fn bounds(&self) -> OAabb {
         match *self {
             Prim::Triangle { v, .. } => {
@@ -555,9 +620,6 @@ impl GpuScene {
         if !scene.media.is_empty() || scene.camera_medium.is_some() {
             return unsupported("participating media");
         }
-        if scene.bvh.instance_count() > 0 {
-            return unsupported("instances");
-        }
         let cam = &scene.camera.params;
         if cam.projection != crate::camera::Projection::Perspective {
             return unsupported("an orthographic camera");
@@ -568,11 +630,23 @@ impl GpuScene {
 
         // Primitives, materials, emission.
         let mut prims = Vec::new();
+        let mut placed = Vec::new();
         let mut shapes = Vec::new();
         let mut tables = Vec::new();
         let table_base = SHAPE_WORDS * scene.geometry.len();
         let mut emissions = Vec::with_capacity(scene.geometry.len());
+        // The primitives of every shape, in its own space (a group's
+        // shapes in the group's): the top-level ones are placed as they
+        // are, a group's wherever its instances put it.
+        let top = scene
+            .group_shapes
+            .first()
+            .map_or(scene.geometry.len(), |g| g.start);
         for (s, geometry) in scene.geometry.iter().enumerate() {
+            if s == top {
+                // Group shapes from here on: collected apart.
+                placed = std::mem::take(&mut prims);
+            }
             let shape = s as u32;
             let mut words = material(&scene.bsdfs[s], table_base, &mut tables)?;
             if scene.shape_emitter[s].is_some() {
@@ -640,6 +714,37 @@ impl GpuScene {
                 Geometry::Curve(_) => return unsupported("curves"),
             }
         }
+        if top == scene.geometry.len() {
+            placed = std::mem::take(&mut prims);
+        }
+        // `prims` now holds the groups' primitives, by shape: place them.
+        let group_prims: Vec<usize> = (scene.group_shapes.iter())
+            .map(|g| {
+                prims
+                    .iter()
+                    .filter(|p| g.contains(&(p.shape() as usize)))
+                    .count()
+            })
+            .collect();
+        let total = (0..scene.bvh.instance_count() as u32)
+            .map(|i| group_prims[scene.bvh.instance(i).group as usize])
+            .fold(placed.len(), usize::saturating_add);
+        if total > MAX_PLACED_PRIMS {
+            return unsupported(format!(
+                "{total} primitives once the instances are placed (at most {MAX_PLACED_PRIMS})"
+            ));
+        }
+        for i in 0..scene.bvh.instance_count() {
+            let instance = scene.bvh.instance(i as u32);
+            let shapes = scene.group_shapes[instance.group as usize].clone();
+            for p in prims
+                .iter()
+                .filter(|p| shapes.contains(&(p.shape() as usize)))
+            {
+                placed.push(p.placed(&instance.to_world)?);
+            }
+        }
+        let prims = placed;
         if prims.is_empty() {
             return unsupported("a scene without shapes");
         }
@@ -1080,13 +1185,58 @@ mod tests {
         let slots: Vec<u32> = flat.prims.chunks(3).filter_map(slot).collect();
         assert!(slots.iter().all(|&s| s != NONE));
         assert_eq!(flat.normals.len(), slots.len() * SLOT_WORDS);
-        let Geometry::Sphere(sp) = &scene.geometry[scene.geometry.len() - 2] else {
-            panic!("the sphere is the last shape but one");
+        let s = (scene.geometry.iter())
+            .position(|g| matches!(g, Geometry::Sphere(_)))
+            .expect("a sphere");
+        let Geometry::Sphere(sp) = &scene.geometry[s] else {
+            unreachable!()
         };
-        let sphere = flat.prims.chunks(3).find(|p| p[1][3].to_bits() == SPHERE);
+        let sphere = (flat.prims.chunks(3))
+            .find(|p| p[1][3].to_bits() == SPHERE && p[0][3].to_bits() as usize == s);
         let k = sphere.unwrap()[1][1].to_bits() as usize * SLOT_WORDS;
         assert_eq!(flat.normals[k], v4(sp.x_axis, 0.0));
         assert_eq!(flat.normals[k + 2], v4(sp.axis, 0.0));
+    }
+
+    /// Instances place copies of their group's primitives; too many
+    /// copies are an error naming the count, before anything is allocated
+    /// for them. (That a mirror rewinds its triangles, the image test's
+    /// mirrored instance shows: without it, its faceted one-sided gold
+    /// turns black, block |z| 76.)
+    #[test]
+    fn instances_are_placed_copies_within_a_bound() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/gpu/instances.xml");
+        let (desc, _) = crate::load::load_scene_with(&path, &[]).unwrap();
+        let (mut desc, job) = (desc.scene, desc.job);
+        let scene = Scene::new(desc.clone()).unwrap();
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        // The group: an icosphere of 80 triangles, a sphere, a rectangle
+        // (two triangles); the floor and the light are two triangles each.
+        let group = 80 + 1 + 2;
+        assert_eq!(scene.bvh.instance_count(), 3);
+        assert_eq!(flat.prims.len() / 3, 4 + 3 * group);
+
+        // Placed on a grid (identical placements make the CPU's PLOC
+        // build crawl: see the note of 2026-11-27).
+        let one = desc.instances[0];
+        desc.instances = (0..MAX_PLACED_PRIMS / group + 1)
+            .map(|i| crate::geometry::Instance {
+                to_world: crate::math::Transform::new(glam::Mat4::from_translation(Vec3::new(
+                    (i % 512) as f32 * 2.0,
+                    0.0,
+                    (i / 512) as f32 * 2.0,
+                )))
+                .unwrap(),
+                ..one
+            })
+            .collect();
+        let scene = Scene::new(desc).unwrap();
+        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
+        assert!(
+            err.to_string()
+                .contains("primitives once the instances are placed"),
+            "{err}"
+        );
     }
 
     /// A rough conductor with a textured roughness and specular

@@ -100,6 +100,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "scenes/showcase/showcase-mirror.xml",
         "tests/gpu/hidden_emitters.xml",
         "tests/gpu/textured.xml",
+        "tests/gpu/instances.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();
