@@ -134,7 +134,6 @@ impl Scene {
         }
         emitters.extend(desc.emitters);
         let bvh = Bvh::build_instanced(&geometry, top, &group_ranges, desc.instances);
-        let group_shapes = group_ranges;
         let mut bounds = bvh.bounds();
         for e in &emitters {
             match e {
@@ -169,7 +168,7 @@ impl Scene {
         Ok(Scene {
             camera,
             geometry,
-            group_shapes,
+            group_shapes: group_ranges,
             bsdfs,
             differentials,
             shape_emitter,

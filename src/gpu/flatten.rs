@@ -301,15 +301,6 @@ impl Prim {
         })
     }
 
-    /// The shape it belongs to.
-    fn shape(&self) -> u32 {
-        match *self {
-            Prim::Triangle { shape, .. }
-            | Prim::Sphere { shape, .. }
-            | Prim::Disk { shape, .. } => shape,
-        }
-    }
-
     fn bounds(&self) -> OAabb {
         match *self {
             Prim::Triangle { v, .. } => {
@@ -630,23 +621,16 @@ impl GpuScene {
 
         // Primitives, materials, emission.
         let mut prims = Vec::new();
-        let mut placed = Vec::new();
         let mut shapes = Vec::new();
         let mut tables = Vec::new();
         let table_base = SHAPE_WORDS * scene.geometry.len();
         let mut emissions = Vec::with_capacity(scene.geometry.len());
-        // The primitives of every shape, in its own space (a group's
-        // shapes in the group's): the top-level ones are placed as they
-        // are, a group's wherever its instances put it.
-        let top = scene
-            .group_shapes
-            .first()
-            .map_or(scene.geometry.len(), |g| g.start);
+        // The primitives of every shape in shape order, each in its own
+        // space (a group's shapes in the group's); shape `s`'s begin at
+        // `first_prim[s]`.
+        let mut first_prim = Vec::with_capacity(scene.geometry.len() + 1);
         for (s, geometry) in scene.geometry.iter().enumerate() {
-            if s == top {
-                // Group shapes from here on: collected apart.
-                placed = std::mem::take(&mut prims);
-            }
+            first_prim.push(prims.len());
             let shape = s as u32;
             let mut words = material(&scene.bsdfs[s], table_base, &mut tables)?;
             if scene.shape_emitter[s].is_some() {
@@ -714,37 +698,34 @@ impl GpuScene {
                 Geometry::Curve(_) => return unsupported("curves"),
             }
         }
-        if top == scene.geometry.len() {
-            placed = std::mem::take(&mut prims);
-        }
-        // `prims` now holds the groups' primitives, by shape: place them.
-        let group_prims: Vec<usize> = (scene.group_shapes.iter())
-            .map(|g| {
-                prims
-                    .iter()
-                    .filter(|p| g.contains(&(p.shape() as usize)))
-                    .count()
-            })
-            .collect();
-        let total = (0..scene.bvh.instance_count() as u32)
-            .map(|i| group_prims[scene.bvh.instance(i).group as usize])
-            .fold(placed.len(), usize::saturating_add);
+        first_prim.push(prims.len());
+        // The top-level primitives stay as they are; a group's are placed
+        // wherever its instances put it (its shapes, and so its
+        // primitives, are contiguous).
+        let top = scene
+            .group_shapes
+            .first()
+            .map_or(scene.geometry.len(), |g| g.start);
+        let groups = prims.split_off(first_prim[top]);
+        let of_group = |g: u32| {
+            let shapes = &scene.group_shapes[g as usize];
+            &groups[first_prim[shapes.start] - first_prim[top]
+                ..first_prim[shapes.end] - first_prim[top]]
+        };
+        let placements = (0..scene.bvh.instance_count() as u32).map(|i| scene.bvh.instance(i));
+        let total = (placements.clone())
+            .map(|instance| of_group(instance.group).len())
+            .fold(prims.len(), usize::saturating_add);
         if total > MAX_PLACED_PRIMS {
             return unsupported(format!(
                 "{total} primitives once the instances are placed (at most {MAX_PLACED_PRIMS})"
             ));
         }
-        for i in 0..scene.bvh.instance_count() {
-            let instance = scene.bvh.instance(i as u32);
-            let shapes = scene.group_shapes[instance.group as usize].clone();
-            for p in prims
-                .iter()
-                .filter(|p| shapes.contains(&(p.shape() as usize)))
-            {
-                placed.push(p.placed(&instance.to_world)?);
+        for instance in placements {
+            for p in of_group(instance.group) {
+                prims.push(p.placed(&instance.to_world)?);
             }
         }
-        let prims = placed;
         if prims.is_empty() {
             return unsupported("a scene without shapes");
         }
