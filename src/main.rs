@@ -1116,8 +1116,9 @@ fn cmd_info(scene_path: &Path, defines: &[(String, String)]) -> Result<()> {
         );
     }
     println!(
-        "bvh         {} primitives, built in {:.1} ms",
+        "bvh         {} primitives, {} levels, built in {:.1} ms",
         scene.bvh.primitive_count(),
+        scene.bvh.depth(),
         scene.bvh.build_time.as_secs_f64() * 1e3
     );
     Ok(())

@@ -13,6 +13,7 @@ use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 use super::wide_bvh::WideBvh;
 use super::{CurveSegment, Disk, Geometry, Instance, Rectangle, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
+use crate::sampling::mix64;
 
 /// A primitive with its data copied in BVH order, so traversal touches one
 /// contiguous array of 48-byte records: a triangle's vertices by
@@ -95,7 +96,8 @@ struct PrimRef {
     index: u32,
 }
 
-struct BoundsOnly(OAabb);
+/// A box as obvhs's builders take it.
+pub struct BoundsOnly(pub OAabb);
 
 impl Boundable for BoundsOnly {
     fn aabb(&self) -> OAabb {
@@ -154,6 +156,36 @@ pub struct Bvh {
     bounds: Aabb,
     /// Wall time spent building.
     pub build_time: Duration,
+}
+
+/// The boxes obvhs builds the tree from: each of `boxes` moved by its own
+/// pseudo-random offset (at most 0.001% of its size along each axis). PLOC
+/// merges clusters whose cheapest neighbour is each other; among identical
+/// boxes (a mesh of one triangle repeated, an instance placed many times at
+/// one spot) every merge costs the same, ties go one way, and one pair
+/// merged per round made the build quadratic and the tree a chain (20,000
+/// copies of one triangle: 28 s). Scattered a little,
+/// such boxes build like a point cloud. The tree's node boxes are
+/// recomputed from the exact boxes (`WideBvh::from_cwbvh`; the GPU's BVH2
+/// is refitted), so only the tree's shape depends on the offsets.
+pub fn build_boxes(boxes: &[Aabb]) -> Vec<BoundsOnly> {
+    // Zero-sized boxes move by a share of the scene's size instead.
+    let scene = boxes.iter().fold(Aabb::EMPTY, |acc, b| acc.union(*b));
+    let floor = scene.diagonal().max_element() * 1e-7;
+    boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let h = mix64(i as u64);
+            let unit = |k: u32| ((h >> (k * 21)) & 0x1f_ffff) as f32 * (1.0 / (1 << 21) as f32);
+            let offset = (Vec3::new(unit(0), unit(1), unit(2)) - 0.5)
+                * ((b.diagonal().max_element() + floor) * 2e-5);
+            BoundsOnly(OAabb::new(
+                Vec3A::from(b.min + offset),
+                Vec3A::from(b.max + offset),
+            ))
+        })
+        .collect()
 }
 
 impl Bvh {
@@ -284,10 +316,7 @@ impl Bvh {
                 }
             })
             .collect();
-        let oboxes: Vec<BoundsOnly> = padded
-            .iter()
-            .map(|b| BoundsOnly(OAabb::new(Vec3A::from(b.min), Vec3A::from(b.max))))
-            .collect();
+        let oboxes = build_boxes(&padded);
         let mut core = Duration::default();
         let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
         // Reorder primitives into leaf order so the traversal id indexes directly.
@@ -323,6 +352,11 @@ impl Bvh {
 
     pub fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// The top-level tree's depth in nodes (0 when empty).
+    pub fn depth(&self) -> usize {
+        self.bvh.as_ref().map_or(0, WideBvh::depth)
     }
 
     pub fn primitive_count(&self) -> usize {
@@ -448,5 +482,28 @@ fn planar_hit(t: f32, l: glam::Vec2, shape: u32) -> BvhHit {
         b1: l.x,
         b2: l.y,
         ..BvhHit::none(t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::TriangleMesh;
+
+    /// One triangle repeated 20,000 times: PLOC's merge costs all tie, and
+    /// before `build_boxes` broke the ties the tree came out a chain of
+    /// thousands of levels (a quadratic build: 28 s).
+    #[test]
+    fn identical_primitives_build_a_shallow_tree() {
+        let n = 20_000;
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mesh = TriangleMesh::new(p, vec![], vec![], vec![[0, 1, 2]; n]).unwrap();
+        let bvh = Bvh::build(&[Geometry::Mesh(mesh)]);
+        assert_eq!(bvh.primitive_count(), n);
+        // A balanced 8-wide tree over 2,500 leaves of 8 is 4 deep.
+        assert!(bvh.depth() <= 12, "depth {}", bvh.depth());
+        let ray = Ray::new(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z);
+        let hit = bvh.intersect(&ray).expect("the triangle is hit");
+        assert!((hit.t - 1.0).abs() < 1e-6);
     }
 }

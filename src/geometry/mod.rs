@@ -17,7 +17,7 @@ mod triangle;
 mod wide_bvh;
 
 pub use attribute::MeshAttribute;
-pub use bvh::{Bvh, BvhHit};
+pub use bvh::{build_boxes, BoundsOnly, Bvh, BvhHit};
 pub use curve::{load_curve, Curve, CurveBasis, CurveError, CurveSegment};
 pub use disk::Disk;
 pub use instance::Instance;

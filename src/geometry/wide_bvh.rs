@@ -322,6 +322,28 @@ impl WideBvh {
         WideBvh { nodes }
     }
 
+    /// The number of nodes on the longest path from the root to a leaf
+    /// (0 for an empty tree): what a traversal's stack must hold.
+    pub fn depth(&self) -> usize {
+        let mut deepest = 0;
+        let mut todo = if self.nodes.is_empty() {
+            vec![]
+        } else {
+            vec![(0u32, 1usize)]
+        };
+        while let Some((ni, d)) = todo.pop() {
+            deepest = deepest.max(d);
+            let n = &self.nodes[ni as usize];
+            for slot in 0..8 {
+                let inner = n.count[slot] == 0 && n.bounds[0][slot] <= n.bounds[1][slot];
+                if inner {
+                    todo.push((n.child[slot], d + 1));
+                }
+            }
+        }
+        deepest
+    }
+
     /// Visits, nearest first, every primitive whose leaf box the ray meets
     /// before the closest hit so far: `hit(prim, tmax)` returns the
     /// distance of a hit closer than `tmax`. True if anything was hit.

@@ -5,15 +5,15 @@
 //! support yet is an error naming it, never a silently different image.
 
 use bytemuck::{Pod, Zeroable};
-use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, Boundable, BvhBuildParams};
+use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, BvhBuildParams};
 
 use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
 use crate::bsdf::{Bsdf, BsdfParam};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
-use crate::geometry::{Geometry, SphereUv};
+use crate::geometry::{build_boxes, Geometry, SphereUv};
 use crate::integrator::{Integrator, Strategy};
-use crate::math::{Transform, Vec2, Vec3};
+use crate::math::{Aabb, Transform, Vec2, Vec3};
 use crate::render::RenderJob;
 use crate::sampling::Distribution1D;
 use crate::scene::Scene;
@@ -301,30 +301,18 @@ impl Prim {
         })
     }
 
-    fn bounds(&self) -> OAabb {
+    fn bounds(&self) -> Aabb {
         match *self {
-            Prim::Triangle { v, .. } => {
-                let lo = v[0].min(v[1]).min(v[2]);
-                let hi = v[0].max(v[1]).max(v[2]);
-                OAabb::new(lo.into(), hi.into())
-            }
-            Prim::Sphere { center, radius, .. } => {
-                let r = Vec3::splat(radius);
-                OAabb::new((center - r).into(), (center + r).into())
-            }
-            Prim::Disk { disk, .. } => {
-                let b = disk.bounds();
-                OAabb::new(b.min.into(), b.max.into())
-            }
+            Prim::Triangle { v, .. } => Aabb {
+                min: v[0].min(v[1]).min(v[2]),
+                max: v[0].max(v[1]).max(v[2]),
+            },
+            Prim::Sphere { center, radius, .. } => Aabb {
+                min: center - radius,
+                max: center + radius,
+            },
+            Prim::Disk { disk, .. } => disk.bounds(),
         }
-    }
-}
-
-struct Bounded(OAabb);
-
-impl Boundable for Bounded {
-    fn aabb(&self) -> OAabb {
-        self.0
     }
 }
 
@@ -898,9 +886,23 @@ impl GpuScene {
         };
 
         // The BVH, primitives in its leaf order.
-        let bounded: Vec<Bounded> = prims.iter().map(|p| Bounded(p.bounds())).collect();
+        // Built over scattered boxes (`build_boxes`: identical primitives
+        // would make the build quadratic), then refitted to the exact ones.
+        let exact: Vec<Aabb> = prims.iter().map(Prim::bounds).collect();
         let mut build_time = std::time::Duration::ZERO;
-        let bvh = build_bvh2(&bounded, BvhBuildParams::medium_build(), &mut build_time);
+        let mut bvh = build_bvh2(
+            &build_boxes(&exact),
+            BvhBuildParams::medium_build(),
+            &mut build_time,
+        );
+        for n in bvh.nodes.iter_mut().filter(|n| n.is_leaf()) {
+            let first = n.first_index as usize;
+            let leaf = bvh.primitive_indices[first..first + n.prim_count as usize]
+                .iter()
+                .fold(Aabb::EMPTY, |acc, &i| acc.union(exact[i as usize]));
+            n.set_aabb(OAabb::new(leaf.min.into(), leaf.max.into()));
+        }
+        bvh.refit_all();
         let mut nodes = Vec::with_capacity(bvh.nodes.len() * 2);
         for n in &bvh.nodes {
             nodes.push([

@@ -11,8 +11,8 @@ pub struct Sampler {
 
 const MULT: u64 = 6364136223846793005;
 
-/// SplitMix64 finaliser: decorrelates nearby seeds.
-fn mix64(mut z: u64) -> u64 {
+/// SplitMix64 finaliser: decorrelates nearby seeds (and scatters indices).
+pub fn mix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E3779B97F4A7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
