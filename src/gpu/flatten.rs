@@ -9,6 +9,7 @@ use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, BvhBuildParams};
 
 use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
 use crate::bsdf::{Bsdf, BsdfParam};
+use crate::camera::{Aperture, Projection};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
 use crate::geometry::{build_boxes, Geometry, SphereUv};
@@ -41,7 +42,7 @@ pub const LIGHT_DIRECTIONAL: u32 = 4;
 pub const LIGHT_DISK: u32 = 5;
 
 /// Vec4 words per shape's material record in `shapes`.
-pub const SHAPE_WORDS: usize = 3;
+pub const SHAPE_WORDS: usize = 4;
 
 /// Material kinds (`shapes[SHAPE_WORDS s].w`), as `bsdf.wgsl` names them.
 /// Kinds from `MAT_MIRROR` on are purely specular (no light sampling).
@@ -79,8 +80,22 @@ pub const MAT_TEXTURED_ALPHA: u32 = 0x800;
 /// Set in a `twosided` material's kind word: the same BSDF on both sides.
 pub const MAT_TWO_SIDED: u32 = 0x1000;
 
+/// Set in a `mask`'s kind word (the nested BSDF's record with this flag):
+/// word D's first value is the opacity.
+pub const MAT_MASK: u32 = 0x2000;
+
+/// Set when the mask's opacity is a texture (read as one value): word D's
+/// first value is then its record index as bits.
+pub const MAT_TEXTURED_MASK: u32 = 0x4000;
+
+/// Set in the front record of a `twosided` material with a different
+/// back: word D's second value is the index (as bits) of the back's three
+/// words in the shapes buffer (flagged `MAT_TWO_SIDED`).
+pub const MAT_BACK: u32 = 0x8000;
+
 /// Every texture flag.
-pub const MAT_TEXTURED_ANY: u32 = MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA;
+pub const MAT_TEXTURED_ANY: u32 =
+    MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA | MAT_TEXTURED_MASK;
 
 /// Vec4 words per vertex-data slot in `normals`: a triangle's three vertex
 /// normals (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2,
@@ -162,6 +177,12 @@ pub struct Params {
     /// Mitsuba's `hide_emitters` (1): camera rays pass through emitting
     /// shapes and see no environment.
     pub hide_emitters: u32,
+    /// 1 for Mitsuba's orthographic camera (`Projection::Orthographic`).
+    pub orthographic: u32,
+    /// The thin lens's regular polygon (0: a disk) and its rotation.
+    pub aperture_blades: u32,
+    pub aperture_rotation: f32,
+    pub _pad: u32,
 }
 
 /// `Params::env_kind`.
@@ -347,7 +368,54 @@ fn plastic_diffuse(kd: Rgb, internal: f32, nonlinear: bool) -> Rgb {
     }
 }
 
-/// A shape's `SHAPE_WORDS` material words, as `bsdf.wgsl` reads them:
+/// A shape's `SHAPE_WORDS` material words: [`material`]'s three, then (D,
+/// back, 0, 0) with D a `mask`'s opacity (1 for other BSDFs), or its
+/// texture's record index as bits (`MAT_TEXTURED_MASK`), and `back` a
+/// different back's record (`MAT_BACK`). The mask's nested BSDF gives
+/// the three words, with `MAT_MASK` set. A `twosided` material with a
+/// different back gives its front's words, and appends its back's to
+/// `tables`; both sides have `MAT_TWO_SIDED`.
+fn shape_record(
+    bsdf: &Bsdf,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<[[f32; 4]; SHAPE_WORDS], Unsupported> {
+    let flag = |w: &mut [f32; 4], f: u32| w[3] = bits(w[3].to_bits() | f);
+    match bsdf {
+        Bsdf::Mask(mask) => {
+            if matches!(mask.nested, Bsdf::Mask(_)) {
+                return unsupported("a mask inside a mask");
+            }
+            let [mut a, b, c, [_, back, ..]] = shape_record(&mask.nested, table_base, tables)?;
+            flag(&mut a, MAT_MASK);
+            let d = match mask.opacity.constant() {
+                Some(_) => mask.opacity.eval_1(Vec2::ZERO).clamp(0.0, 1.0),
+                None => {
+                    let record = bits((table_base + tables.len()) as u32);
+                    texture_record(&mask.opacity, table_base, tables)?;
+                    flag(&mut a, MAT_TEXTURED_MASK);
+                    record
+                }
+            };
+            Ok([a, b, c, [d, back, 0.0, 0.0]])
+        }
+        Bsdf::TwoSided(t) if t.front != t.back => {
+            let [mut a, b, c] = material(&t.front, table_base, tables)?;
+            flag(&mut a, MAT_TWO_SIDED | MAT_BACK);
+            let mut back = material(&t.back, table_base, tables)?;
+            flag(&mut back[0], MAT_TWO_SIDED);
+            let index = bits((table_base + tables.len()) as u32);
+            tables.extend(back);
+            Ok([a, b, c, [1.0, index, 0.0, 0.0]])
+        }
+        other => {
+            let [a, b, c] = material(other, table_base, tables)?;
+            Ok([a, b, c, [1.0, 0.0, 0.0, 0.0]])
+        }
+    }
+}
+
+/// A BSDF's first three material words, as `bsdf.wgsl` reads them:
 /// (A, kind), (B, alpha), (C, distribution) with, per kind, A the
 /// diffuse reflectance (diffuse), the specular reflectance (conductors,
 /// rough and thin dielectric) or the diffuse term (plastics); B (eta, 0,
@@ -422,7 +490,10 @@ fn material(
             words[0][3] = bits(words[0][3].to_bits() | MAT_TWO_SIDED);
             words
         }
-        Bsdf::TwoSided(_) => return unsupported("a two-sided BSDF with a different back"),
+        // A different back: only at the top (`shape_record`).
+        Bsdf::TwoSided(_) => {
+            return unsupported("a two-sided BSDF with a different back inside another BSDF")
+        }
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
@@ -600,12 +671,10 @@ impl GpuScene {
             return unsupported("participating media");
         }
         let cam = &scene.camera.params;
-        if cam.projection != crate::camera::Projection::Perspective {
-            return unsupported("an orthographic camera");
-        }
-        if cam.lens_radius > 0.0 && cam.aperture != crate::camera::Aperture::Circular {
-            return unsupported("a polygonal aperture");
-        }
+        let (aperture_blades, aperture_rotation) = match cam.aperture {
+            Aperture::Circular => (0, 0.0),
+            Aperture::Polygon { blades, rotation } => (blades, rotation),
+        };
 
         // Primitives, materials, emission.
         let mut prims = Vec::new();
@@ -620,7 +689,7 @@ impl GpuScene {
         for (s, geometry) in scene.geometry.iter().enumerate() {
             first_prim.push(prims.len());
             let shape = s as u32;
-            let mut words = material(&scene.bsdfs[s], table_base, &mut tables)?;
+            let mut words = shape_record(&scene.bsdfs[s], table_base, &mut tables)?;
             if scene.shape_emitter[s].is_some() {
                 words[0][3] = bits(words[0][3].to_bits() | MAT_EMITS);
             }
@@ -633,7 +702,11 @@ impl GpuScene {
                 None => Rgb::ZERO,
             };
             emissions.push(emission);
-            let textured = words[0][3].to_bits() & MAT_TEXTURED_ANY != 0;
+            // Either side's textures need the hit's uv.
+            let kind = words[0][3].to_bits();
+            let back_kind = (kind & MAT_BACK != 0)
+                .then(|| tables[words[3][1].to_bits() as usize - table_base][3].to_bits());
+            let textured = (kind | back_kind.unwrap_or(0)) & MAT_TEXTURED_ANY != 0;
             match geometry {
                 Geometry::Mesh(m) => {
                     let has_normals = !m.normals().is_empty();
@@ -1016,6 +1089,9 @@ impl GpuScene {
             env_kind,
             env_visible: 1,
             hide_emitters: hide_emitters as u32,
+            orthographic: (cam.projection == Projection::Orthographic) as u32,
+            aperture_blades,
+            aperture_rotation,
             ..Params::zeroed()
         };
         if let Some(t) = &tables {
@@ -1111,6 +1187,47 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let (desc, _) = crate::load::load_scene_with(&path, &[]).unwrap();
         (Scene::new(desc.scene).unwrap(), desc.job)
+    }
+
+    /// A mask is its nested BSDF's record with `MAT_MASK` and the opacity
+    /// (a value, or a texture's record); a two-sided material with a
+    /// different back points at the back's words, both sides flagged
+    /// two-sided; a mask around it keeps the pointer.
+    #[test]
+    fn masks_and_different_backs_are_flagged_records() {
+        let (scene, job) = load("tests/gpu/masks_and_sides.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let words = |k: usize| &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+        let kind = |w: &[[f32; 4]]| w[0][3].to_bits();
+        let find = |f: &dyn Fn(&Bsdf) -> bool| scene.bsdfs.iter().position(f).unwrap();
+
+        // The pane: a checkerboard opacity over a different back.
+        let pane = find(&|b| matches!(b, Bsdf::Mask(m) if matches!(m.nested, Bsdf::TwoSided(_))));
+        let w = words(pane);
+        let flags = MAT_MASK | MAT_TEXTURED_MASK | MAT_TWO_SIDED | MAT_BACK;
+        assert_eq!(kind(w), MAT_DIFFUSE | flags, "{:#x}", kind(w));
+        let opacity = w[3][0].to_bits() as usize;
+        assert_eq!(flat.shapes[opacity + 2][1].to_bits(), TEX_CHECKERBOARD);
+        let back = w[3][1].to_bits() as usize;
+        assert_eq!(
+            kind(&flat.shapes[back..]),
+            MAT_ROUGH_PLASTIC | MAT_TWO_SIDED
+        );
+
+        // The gold disk: a constant opacity, no back.
+        let disk = find(&|b| matches!(b, Bsdf::Mask(m) if matches!(m.nested, Bsdf::Conductor(_))));
+        let w = words(disk);
+        assert_eq!(kind(w), MAT_CONDUCTOR | MAT_MASK);
+        assert_eq!(w[3][0], 0.5);
+
+        // The panels: rough copper in front, a textured diffuse behind.
+        let panel = find(&|b| matches!(b, Bsdf::TwoSided(_)));
+        let w = words(panel);
+        assert_eq!(kind(w), MAT_ROUGH_CONDUCTOR | MAT_TWO_SIDED | MAT_BACK);
+        assert_eq!(w[3][0], 1.0);
+        let back = w[3][1].to_bits() as usize;
+        let back_kind = kind(&flat.shapes[back..]);
+        assert_eq!(back_kind, MAT_DIFFUSE | MAT_TWO_SIDED | MAT_TEXTURED);
     }
 
     /// A textured diffuse shape points at its texture's record, whose

@@ -4,11 +4,11 @@
 //! threshold at 1% for all blocks together). The scenes cover what the GPU
 //! renders: rectangles, disks, spheres, cubes and OBJ meshes; diffuse,
 //! two-sided diffuse, mirror, smooth and rough dielectric, conductor,
-//! rough conductor (GGX and Beckmann), plastic and rough plastic;
+//! rough conductor (GGX and Beckmann), plastic and rough plastic, masks;
 //! rectangle, disk, sphere and mesh area lights, point, spot and directional lights, a constant sky and
 //! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
-//! sun); perspective and thin-lens cameras; hide_emitters; and the
-//! showcase.
+//! sun); perspective, thin-lens (disk and polygon) and orthographic
+//! cameras; hide_emitters; and the showcase.
 //!
 //! Runs where wgpu finds an adapter (CI: Mesa's lavapipe, installed by
 //! `.ci/run`, which sets LENTE_REQUIRE_GPU so that a missing adapter fails
@@ -101,6 +101,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/hidden_emitters.xml",
         "tests/gpu/textured.xml",
         "tests/gpu/instances.xml",
+        "tests/gpu/masks_and_sides.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

@@ -11,6 +11,10 @@
 // C k (conductors), (eta, 0, 0) (rough and thin dielectric) or (eta,
 // specular sampling weight, transmittance table) (plastics). The thin
 // dielectric's A and B are its specular reflectance and transmittance.
+// [3] = (D, back, 0, 0): a `mask`'s opacity (1 otherwise; mask.rs), the
+// other words its nested BSDF's; where the kind has MAT_BACK, `back` is
+// the index of a two-sided material's different back: its three words,
+// read instead of these when the hit is seen from behind.
 //
 // Rough lobes are isotropic. Their microfacet normals are drawn from the
 // visible normals for GGX (Heitz 2018) and from D(m) cos(theta_m) for
@@ -18,7 +22,7 @@
 // inverse that the GPU does not port): a different density, the same
 // BSDF, so the same image in expectation.
 
-const SHAPE_WORDS: u32 = 3u;
+const SHAPE_WORDS: u32 = 4u;
 
 const MAT_DIFFUSE: u32 = 0u;
 const MAT_ROUGH_CONDUCTOR: u32 = 2u;
@@ -45,8 +49,12 @@ fn no_sample() -> BsdfSample {
     return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, 1.0, false);
 }
 
-fn material_word(shape: u32, k: u32) -> vec4<f32> {
-    return shapes[SHAPE_WORDS * shape + k];
+// Word k of the record `load_material` chose: the shape's, or the back's
+// of a two-sided material with a different back seen from behind.
+var<private> mat_base: u32;
+
+fn material_word(k: u32) -> vec4<f32> {
+    return shapes[mat_base + k];
 }
 
 // Set in the kind word of shapes with an area emitter (flatten.rs).
@@ -61,10 +69,17 @@ const MAT_TEXTURED: u32 = 0x200u;
 const MAT_TEXTURED_B: u32 = 0x400u;
 // The roughness is a texture read as one value: B.w is its record's index.
 const MAT_TEXTURED_ALPHA: u32 = 0x800u;
-const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA | MAT_TWO_SIDED;
+// A `mask` over the BSDF: D is its opacity, or its texture's record index
+// if MAT_TEXTURED_MASK (read as one value).
+const MAT_MASK: u32 = 0x2000u;
+const MAT_TEXTURED_MASK: u32 = 0x4000u;
+// A two-sided material's front whose back differs (D.y: the back's record).
+const MAT_BACK: u32 = 0x8000u;
+const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA
+    | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK;
 
 fn material_kind(shape: u32) -> u32 {
-    return bitcast<u32>(material_word(shape, 0u).w) & ~MAT_FLAGS;
+    return bitcast<u32>(material_word(0u).w) & ~MAT_FLAGS;
 }
 
 // The shaded point's material values, its textures read once per hit
@@ -73,25 +88,38 @@ fn material_kind(shape: u32) -> u32 {
 // small): A, the diffuse reflectance, the specular reflectance or the
 // plastics' diffuse term (the reflectance over what the coating reflects
 // back inside: flatten.rs's `plastic_diffuse`); B, word B's colour; the
-// roughness.
+// roughness; a mask's opacity (1 without a mask).
 var<private> mat_a: vec3<f32>;
 var<private> mat_b: vec3<f32>;
 var<private> mat_alpha: f32;
+var<private> mat_opacity: f32;
 
-fn load_material(shape: u32, uv: vec2<f32>) {
-    let w0 = material_word(shape, 0u);
-    let w1 = material_word(shape, 1u);
-    let flags = bitcast<u32>(w0.w);
+fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
+    mat_base = SHAPE_WORDS * shape;
+    // The mask's words stay the front record's.
+    let w3 = material_word(3u);
+    let front_flags = bitcast<u32>(material_word(0u).w);
+    if (from_behind && (front_flags & MAT_BACK) != 0u) {
+        mat_base = bitcast<u32>(w3.y);
+    }
+    let w0 = material_word(0u);
+    let w1 = material_word(1u);
+    let flags = (bitcast<u32>(w0.w) & ~(MAT_MASK | MAT_TEXTURED_MASK))
+        | (front_flags & (MAT_MASK | MAT_TEXTURED_MASK));
     mat_a = w0.xyz;
     mat_b = w1.xyz;
     mat_alpha = w1.w;
-    // One loop, so the texture lookup is inlined once: A, B, alpha.
-    for (var k = 0u; k < 3u; k++) {
-        if ((flags & (MAT_TEXTURED << k)) == 0u) {
+    mat_opacity = w3.x;
+    let textured = array<u32, 4>(MAT_TEXTURED, MAT_TEXTURED_B, MAT_TEXTURED_ALPHA, MAT_TEXTURED_MASK);
+    let records = array<f32, 4>(w0.x, w1.x, w1.w, w3.x);
+    // One loop, so the texture lookup is inlined once: A, B, alpha, opacity.
+    for (var k = 0u; k < 4u; k++) {
+        if ((flags & textured[k]) == 0u) {
             continue;
         }
-        let record = bitcast<u32>(select(select(w1.w, w1.x, k == 1u), w0.x, k == 0u));
-        let c = texture_lookup(record, uv, k == 2u);
+        let record = bitcast<u32>(records[k]);
+        // Roughness and opacity are read as one value (`eval_1`).
+        let c = texture_lookup(record, uv, k >= 2u);
         if (k == 0u) {
             let base = flags & ~MAT_FLAGS;
             if (base != MAT_PLASTIC && base != MAT_ROUGH_PLASTIC) {
@@ -103,15 +131,18 @@ fn load_material(shape: u32, uv: vec2<f32>) {
             }
         } else if (k == 1u) {
             mat_b = c;
-        } else {
+        } else if (k == 2u) {
             // textured.rs: at least distribution.rs's MIN_ALPHA.
             mat_alpha = max(texture_value_1(record, c), 1e-4);
+        } else {
+            mat_opacity = clamp(texture_value_1(record, c), 0.0, 1.0);
         }
     }
 }
 
+// Read before `load_material`: the shape's own record.
 fn shape_emits(shape: u32) -> bool {
-    return (bitcast<u32>(material_word(shape, 0u).w) & MAT_EMITS) != 0u;
+    return (bitcast<u32>(shapes[SHAPE_WORDS * shape].w) & MAT_EMITS) != 0u;
 }
 
 // Purely specular materials: no light sampling at their surfaces.
@@ -172,7 +203,7 @@ struct Microfacet {
 }
 
 fn microfacet(shape: u32) -> Microfacet {
-    let distr = bitcast<u32>(material_word(shape, 2u).w);
+    let distr = bitcast<u32>(material_word(2u).w);
     return Microfacet(mat_alpha, distr == DISTR_GGX);
 }
 
@@ -291,7 +322,7 @@ fn half_vector(wi: vec3<f32>, wo: vec3<f32>, eta_in: f32) -> HalfVector {
 }
 
 fn rough_dielectric_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let eta_ext = material_word(shape, 2u).x;
+    let eta_ext = material_word(2u).x;
     let h = half_vector(wi, wo, eta_ext);
     if (h.m.z > 1.0 || wo.z == 0.0) {
         return vec3<f32>(0.0);
@@ -315,7 +346,7 @@ fn rough_dielectric_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> 
 }
 
 fn rough_dielectric_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let eta_ext = material_word(shape, 2u).x;
+    let eta_ext = material_word(2u).x;
     let h = half_vector(wi, wo, eta_ext);
     if (h.m.z > 1.0) {
         return 0.0;
@@ -350,7 +381,7 @@ fn rough_dielectric_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32)
         return no_sample();
     }
     let dim = dot(wi, m);
-    let fr = fresnel_dielectric(dim, material_word(shape, 2u).x);
+    let fr = fresnel_dielectric(dim, material_word(2u).x);
     let reflection = u_lobe <= fr.x;
     var wo: vec3<f32>;
     var eta = 1.0;
@@ -384,7 +415,7 @@ fn prob_specular(f: f32, weight: f32) -> f32 {
 // The rough plastic's coating transmittance at `cos` (rough_plastic.rs's
 // 64-entry table, linear between entries).
 fn coating_transmittance(shape: u32, cos: f32) -> f32 {
-    let base = 4u * bitcast<u32>(material_word(shape, 2u).z);
+    let base = 4u * bitcast<u32>(material_word(2u).z);
     let x = cos * 63.0;
     let i = min(u32(max(x, 0.0)), 62u);
     let t = x - f32(i);
@@ -396,7 +427,7 @@ fn coating_transmittance(shape: u32, cos: f32) -> f32 {
 // Probability of the rough plastic's glossy lobe seen from `wi`.
 fn rough_plastic_glossy_prob(shape: u32, wi: vec3<f32>) -> f32 {
     let t = coating_transmittance(shape, wi.z);
-    return prob_specular(1.0 - t, material_word(shape, 2u).y);
+    return prob_specular(1.0 - t, material_word(2u).y);
 }
 
 // --- The BSDF interface the path tracer calls.
@@ -423,7 +454,7 @@ fn front_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
         return a * INV_PI;
     }
     let b = mat_b;
-    let c = material_word(shape, 2u);
+    let c = material_word(2u);
     if (kind == MAT_PLASTIC) {
         let eta = c.x;
         let f_i = fresnel_dielectric(wi.z, eta).x;
@@ -459,7 +490,7 @@ fn front_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
         return wo.z * INV_PI;
     }
     if (kind == MAT_PLASTIC) {
-        let c = material_word(shape, 2u);
+        let c = material_word(2u);
         let f_i = fresnel_dielectric(wi.z, c.x).x;
         return (1.0 - prob_specular(f_i, c.y)) * wo.z * INV_PI;
     }
@@ -504,7 +535,7 @@ fn front_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSam
         return rough_dielectric_sample(shape, wi, u, u_lobe);
     }
     if (kind == MAT_DIELECTRIC) {
-        let eta = material_word(shape, 1u).x;
+        let eta = material_word(1u).x;
         let f = fresnel_dielectric(wi.z, eta);
         if (u_lobe < f.x) {
             return BsdfSample(vec3<f32>(-wi.x, -wi.y, wi.z), vec3<f32>(1.0), f.x, true, 1.0, true);
@@ -517,7 +548,7 @@ fn front_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSam
     if (kind == MAT_THIN_DIELECTRIC) {
         // thin_dielectric.rs: the faces' reflections summed, 2R / (1 + R);
         // the rest passes straight through.
-        let f = fresnel_dielectric(abs(wi.z), material_word(shape, 2u).x).x;
+        let f = fresnel_dielectric(abs(wi.z), material_word(2u).x).x;
         let r = 2.0 * f / (1.0 + f);
         if (u_lobe <= r) {
             return BsdfSample(vec3<f32>(-wi.x, -wi.y, wi.z), a, r, true, 1.0, true);
@@ -533,7 +564,7 @@ fn front_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSam
         return BsdfSample(mirror, vec3<f32>(1.0), 1.0, true, 1.0, true);
     }
     let b = mat_b;
-    let c = material_word(shape, 2u);
+    let c = material_word(2u);
     if (kind == MAT_CONDUCTOR) {
         return BsdfSample(mirror, a * fresnel_conductor(wi.z, b, c.xyz), 1.0, true, 1.0, true);
     }
@@ -570,23 +601,34 @@ const MAT_TWO_SIDED: u32 = 0x1000u;
 // (1, 1, -1) where the point is seen from the back of a two-sided
 // material, else (1, 1, 1).
 fn side_flip(shape: u32, wi: vec3<f32>) -> vec3<f32> {
-    let two_sided = (bitcast<u32>(material_word(shape, 0u).w) & MAT_TWO_SIDED) != 0u;
+    let two_sided = (bitcast<u32>(material_word(0u).w) & MAT_TWO_SIDED) != 0u;
     return vec3<f32>(1.0, 1.0, select(1.0, -1.0, two_sided && wi.z < 0.0));
 }
 
+// A mask (mask.rs) scales its nested BSDF's value and density by the
+// opacity, and samples it with that probability, else passes straight
+// through (a delta lobe of weight 1).
+
 fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let f = side_flip(shape, wi);
-    return front_eval(shape, wi * f, wo * f);
+    return front_eval(shape, wi * f, wo * f) * mat_opacity;
 }
 
 fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let f = side_flip(shape, wi);
-    return front_pdf(shape, wi * f, wo * f);
+    return front_pdf(shape, wi * f, wo * f) * mat_opacity;
 }
 
 fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+    let opacity = mat_opacity;
+    if (u_lobe >= opacity) {
+        return BsdfSample(-wi, vec3<f32>(1.0), 1.0 - opacity, true, 1.0, true);
+    }
     let f = side_flip(shape, wi);
-    var s = front_sample(shape, wi * f, u, u_lobe);
+    // 1 - f32::EPSILON, as mask.rs clamps it.
+    let u_nested = min(u_lobe / opacity, 0.99999988);
+    var s = front_sample(shape, wi * f, u, u_nested);
     s.wo *= f;
+    s.pdf *= opacity;
     return s;
 }

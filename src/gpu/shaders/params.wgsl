@@ -36,6 +36,10 @@ struct Params {
     off_band_cdf: u32,
     off_col_cdf: u32,
     hide_emitters: u32,
+    orthographic: u32,
+    aperture_blades: u32,
+    aperture_rotation: f32,
+    _pad: u32,
 }
 
 const ENV_NONE: u32 = 0u;

@@ -18,10 +18,30 @@ struct Ray {
     tmax: f32,
 }
 
-// camera.rs's generate_ray for the perspective and thin-lens cameras.
+// camera.rs's sample_regular_polygon: a uniform point of the regular
+// polygon with `P.aperture_blades` sides inscribed in the unit circle.
+fn sample_regular_polygon(u: vec2<f32>) -> vec2<f32> {
+    let n = f32(P.aperture_blades);
+    let k = min(u32(u.x * n), P.aperture_blades - 1u);
+    let ux = u.x * n - f32(k);
+    let a0 = P.aperture_rotation + 2.0 * PI * f32(k) / n;
+    let a1 = P.aperture_rotation + 2.0 * PI * f32(k + 1u) / n;
+    let b = square_to_uniform_triangle(vec2<f32>(ux, u.y));
+    return b.x * vec2<f32>(cos(a0), sin(a0)) + b.y * vec2<f32>(cos(a1), sin(a1));
+}
+
+// camera.rs's generate_ray: perspective, thin-lens (disk or polygon) and
+// orthographic cameras.
 fn camera_ray(film: vec2<f32>, aperture: vec2<f32>) -> Ray {
     let sx = film.x / f32(P.width);
     let sy = film.y / f32(P.height);
+    if (P.orthographic != 0u) {
+        // From the near plane along +z (camera.rs's orthographic_ray).
+        let p = vec3<f32>(1.0 - 2.0 * sx, (1.0 - 2.0 * sy) * P.inv_aspect, P.near_clip);
+        let wo = (P.to_world * vec4<f32>(p, 1.0)).xyz;
+        let wd = normalize((P.to_world * vec4<f32>(0.0, 0.0, 1.0, 0.0)).xyz);
+        return Ray(wo, wd, 0.0, P.far_clip - P.near_clip);
+    }
     let dc = vec3<f32>(
         (1.0 - 2.0 * sx) * P.tan_half_x,
         (1.0 - 2.0 * sy) * P.tan_half_x * P.inv_aspect,
@@ -30,8 +50,11 @@ fn camera_ray(film: vec2<f32>, aperture: vec2<f32>) -> Ray {
     var o = vec3<f32>(0.0);
     var d = normalize(dc);
     if (P.lens_radius > 0.0) {
-        let lens = P.lens_radius * square_to_uniform_disk(aperture);
-        o = vec3<f32>(lens, 0.0);
+        var unit = square_to_uniform_disk(aperture);
+        if (P.aperture_blades > 0u) {
+            unit = sample_regular_polygon(aperture);
+        }
+        o = vec3<f32>(P.lens_radius * unit, 0.0);
         d = normalize(dc * P.focal_distance - o);
     }
     let inv_z = 1.0 / d.z;
@@ -93,7 +116,8 @@ fn li(camera: Ray) -> vec3<f32> {
             break;
         }
         let s = surface_at(h, ray.o, ray.d);
-        load_material(s.shape, s.uv);
+        // Seen from behind the shading normal: a two-sided material's back.
+        load_material(s.shape, s.uv, dot(ray.d, s.ns) > 0.0);
         // Emission found by following the path (front side only).
         if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide)) {
             var w = 1.0;
