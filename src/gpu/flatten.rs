@@ -214,8 +214,10 @@ pub struct GpuScene {
     /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
     /// 0; area or the spot's cos cutoff), (p2 or row 1; CDF up to and
     /// including it), (radiance, intensity or irradiance; shape or NONE),
-    /// (row 2 or a disk's front normal; the spot's cos beam). A disk's
-    /// (p0, p1, p2) are its centre and axes ex, ey.
+    /// (row 2, a disk's front normal or a triangle's or sphere's
+    /// vertex-data slot (uvs, (u, v) frame) as bits; the spot's cos beam or
+    /// an area light's radiance texture record as bits, NONE if
+    /// untextured). A disk's (p0, p1, p2) are its centre and axes ex, ey.
     pub lights: Vec<[f32; 4]>,
     /// The filter's weight at `radius * i / (FILTER_TABLE - 1)`.
     pub filter_table: Vec<f32>,
@@ -682,6 +684,8 @@ impl GpuScene {
         let mut tables = Vec::new();
         let table_base = SHAPE_WORDS * scene.geometry.len();
         let mut emissions = Vec::with_capacity(scene.geometry.len());
+        // Per shape: its emitter's radiance texture's record, or NONE.
+        let mut emission_textures = Vec::with_capacity(scene.geometry.len());
         // The primitives of every shape in shape order, each in its own
         // space (a group's shapes in the group's); shape `s`'s begin at
         // `first_prim[s]`.
@@ -694,19 +698,29 @@ impl GpuScene {
                 words[0][3] = bits(words[0][3].to_bits() | MAT_EMITS);
             }
             shapes.extend(words);
-            let emission = match scene.shape_emitter[s] {
+            // A textured radiance: its mean weighs the light's choice.
+            let (emission, texture) = match scene.shape_emitter[s] {
                 Some(e) => match &scene.emitters[e as usize] {
-                    Emitter::Area(a) if a.texture.is_none() => a.radiance,
-                    _ => return unsupported("a textured area light"),
+                    Emitter::Area(a) => match &a.texture {
+                        None => (a.radiance, NONE),
+                        Some(t) => {
+                            let record = (table_base + tables.len()) as u32;
+                            texture_record(t, table_base, &mut tables)?;
+                            (a.radiance, record)
+                        }
+                    },
+                    _ => return unsupported("an emitter on a shape other than an area light"),
                 },
-                None => Rgb::ZERO,
+                None => (Rgb::ZERO, NONE),
             };
             emissions.push(emission);
-            // Either side's textures need the hit's uv.
+            emission_textures.push(texture);
+            // Either side's textures and the emitter's need the hit's uv.
             let kind = words[0][3].to_bits();
             let back_kind = (kind & MAT_BACK != 0)
                 .then(|| tables[words[3][1].to_bits() as usize - table_base][3].to_bits());
-            let textured = (kind | back_kind.unwrap_or(0)) & MAT_TEXTURED_ANY != 0;
+            let textured =
+                (kind | back_kind.unwrap_or(0)) & MAT_TEXTURED_ANY != 0 || texture != NONE;
             match geometry {
                 Geometry::Mesh(m) => {
                     let has_normals = !m.normals().is_empty();
@@ -932,11 +946,14 @@ impl GpuScene {
                 prim_light[pi] = weights.len() as u32;
                 lights.extend(rec);
                 lights.push(v4(radiance, bits(shape)));
-                let front = match p {
-                    Prim::Disk { disk, .. } => disk.frame.n,
-                    _ => Vec3::ZERO,
-                };
-                lights.push(v4(front, 0.0));
+                // A disk's front; a triangle's or sphere's vertex-data slot
+                // (set below, once slots are given out); the radiance
+                // texture's record or NONE.
+                let texture = bits(emission_textures[shape as usize]);
+                lights.push(match p {
+                    Prim::Disk { disk, .. } => v4(disk.frame.n, texture),
+                    _ => [bits(NONE), 0.0, 0.0, texture],
+                });
                 weights.push(power);
             }
         }
@@ -1010,6 +1027,9 @@ impl GpuScene {
                     flat.push(v4(v[0], bits(shape)));
                     flat.push(v4(v[1], bits(slot)));
                     flat.push(v4(v[2], light));
+                    if light.to_bits() != NONE {
+                        lights[LIGHT_WORDS * light.to_bits() as usize + 4][0] = bits(slot);
+                    }
                 }
                 Prim::Sphere {
                     shape,
@@ -1037,6 +1057,9 @@ impl GpuScene {
                     flat.push(v4(center, bits(shape)));
                     flat.push([radius, bits(slot), 0.0, bits(SPHERE)]);
                     flat.push([0.0, 0.0, 0.0, light]);
+                    if light.to_bits() != NONE {
+                        lights[LIGHT_WORDS * light.to_bits() as usize + 4][0] = bits(slot);
+                    }
                 }
                 Prim::Disk { shape, disk } => {
                     let f = &disk.frame;
@@ -1187,6 +1210,41 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let (desc, _) = crate::load::load_scene_with(&path, &[]).unwrap();
         (Scene::new(desc.scene).unwrap(), desc.job)
+    }
+
+    /// A textured area light's records point at its texture's record and
+    /// at the vertex-data slot its uvs come from (triangles) or its (u, v)
+    /// frame (spheres); an untextured one has no texture.
+    #[test]
+    fn textured_lights_point_at_their_texture_and_uvs() {
+        let (scene, job) = load("tests/conformance/textured_area.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let mut kinds = Vec::new();
+        for rec in flat.lights.chunks(LIGHT_WORDS) {
+            let kind = rec[0][3].to_bits();
+            if kind > LIGHT_SPHERE {
+                continue;
+            }
+            let texture = rec[4][3].to_bits() as usize;
+            assert_ne!(texture as u32, NONE, "light kind {kind} is textured");
+            let filter = flat.shapes[texture + 2][1].to_bits();
+            let slot = rec[4][0].to_bits();
+            assert_ne!(slot, NONE, "light kind {kind} has its uvs");
+            kinds.push((kind, filter));
+        }
+        assert!(kinds.contains(&(LIGHT_TRIANGLE, TEX_BILINEAR)), "{kinds:?}");
+        assert!(
+            kinds.contains(&(LIGHT_SPHERE, TEX_CHECKERBOARD)),
+            "{kinds:?}"
+        );
+
+        let (scene, job) = load("tests/gpu/diffuse_box.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        for rec in flat.lights.chunks(LIGHT_WORDS) {
+            if rec[0][3].to_bits() <= LIGHT_SPHERE {
+                assert_eq!(rec[4][3].to_bits(), NONE);
+            }
+        }
     }
 
     /// A mask is its nested BSDF's record with `MAT_MASK` and the opacity

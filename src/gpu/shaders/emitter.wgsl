@@ -267,6 +267,26 @@ fn sample_delta_light(i: u32, p: vec3<f32>) -> LightSample {
     return LightSample(wi, dist, le, pdf, true, max(le.x, max(le.y, le.z)) > 0.0);
 }
 
+// Area light `i`'s radiance at surface coordinates `uv` (area.rs's
+// radiance_at): its texture's value there, or its constant radiance.
+fn light_radiance(i: u32, uv: vec2<f32>) -> vec3<f32> {
+    let record = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].w);
+    if (record == NONE) {
+        return lights[LIGHT_WORDS * i + 3u].xyz;
+    }
+    return texture_lookup(record, uv, false);
+}
+
+// The (u, v) of a textured sphere light's point along unit `n` from its
+// centre (intersect.wgsl's surface_at), (0, 0) for an untextured one.
+fn light_sphere_uv(i: u32, n: vec3<f32>) -> vec2<f32> {
+    let slot = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].x);
+    if (slot == NONE) {
+        return vec2<f32>(0.0);
+    }
+    return sphere_uv(n, SLOT_WORDS * slot);
+}
+
 fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     if (u_choice < P.env_prob) {
         return sample_env(u);
@@ -295,6 +315,11 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     }
     var q: vec3<f32>;
     var n: vec3<f32>;
+    var uv = vec2<f32>(0.0);
+    // A direction drawn in a sphere's cone: its distance and density.
+    var cone_wi = vec3<f32>(0.0);
+    var cone_t = 0.0;
+    var cone_pdf = 0.0;
     if (kind == LIGHT_SPHERE) {
         // A sphere seen from outside: uniformly in the cone it fills
         // (geometry/sphere.rs's sample_cone), else by area.
@@ -311,21 +336,37 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
             let oc = p - r0.xyz;
             let b = dot(oc, wi);
             let disc = max(b * b - (dot(oc, oc) - r1.x * r1.x), 0.0);
-            let t = -b - sqrt(disc);
-            let pdf = light_choice_pdf(i) / (2.0 * PI * (1.0 - cos_max));
-            return LightSample(wi, t, lights[LIGHT_WORDS * i + 3u].xyz, pdf, false, t > 0.0);
+            cone_wi = wi;
+            cone_t = -b - sqrt(disc);
+            cone_pdf = light_choice_pdf(i) / (2.0 * PI * (1.0 - cos_max));
+            n = normalize(oc + cone_t * wi);
+        } else {
+            n = square_to_uniform_sphere(u);
+            q = r0.xyz + r1.x * n;
         }
-        n = square_to_uniform_sphere(u);
-        q = r0.xyz + r1.x * n;
+        uv = light_sphere_uv(i, n);
     } else if (kind == LIGHT_DISK) {
         let l = square_to_uniform_disk(u);
         q = r0.xyz + l.x * r1.xyz + l.y * lights[LIGHT_WORDS * i + 2u].xyz;
         n = lights[LIGHT_WORDS * i + 4u].xyz;
+        uv = disk_uv(l);
     } else {
         let b = square_to_uniform_triangle(u);
         let p2 = lights[LIGHT_WORDS * i + 2u].xyz;
         q = (1.0 - b.x - b.y) * r0.xyz + b.x * r1.xyz + b.y * p2;
         n = normalize(cross(r1.xyz - r0.xyz, p2 - r0.xyz));
+        // The triangle's vertex uvs, as surface_at interpolates them.
+        let slot = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].x);
+        if (slot != NONE) {
+            let k = SLOT_WORDS * slot;
+            let t01 = normals[k + 3u];
+            uv = (1.0 - b.x - b.y) * t01.xy + b.x * t01.zw + b.y * normals[k + 4u].xy;
+        }
+    }
+    // One texture read for every kind (shaders inline each call).
+    let le = light_radiance(i, uv);
+    if (cone_pdf > 0.0) {
+        return LightSample(cone_wi, cone_t, le, cone_pdf, false, cone_t > 0.0);
     }
     let d = q - p;
     let dist = length(d);
@@ -338,5 +379,5 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
         return no_light();
     }
     let pdf = light_choice_pdf(i) * dist * dist / (cos_l * r1.w);
-    return LightSample(wi, dist, lights[LIGHT_WORDS * i + 3u].xyz, pdf, false, true);
+    return LightSample(wi, dist, le, pdf, false, true);
 }

@@ -124,7 +124,7 @@ fn li(camera: Ray) -> vec3<f32> {
             if (!specular) {
                 w = power_heuristic(prev_pdf, area_pdf(s.light, prev_p, s.p, s.ng));
             }
-            l += beta * lights[LIGHT_WORDS * s.light + 3u].xyz * w;
+            l += beta * light_radiance(s.light, s.uv) * w;
         }
         depth++;
         if (depth >= P.max_depth) {
