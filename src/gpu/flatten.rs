@@ -182,7 +182,8 @@ pub struct Params {
     /// The thin lens's regular polygon (0: a disk) and its rotation.
     pub aperture_blades: u32,
     pub aperture_rotation: f32,
-    pub _pad: u32,
+    /// Where the env map's density values start in `env_data`.
+    pub off_density: u32,
 }
 
 /// `Params::env_kind`.
@@ -870,7 +871,7 @@ impl GpuScene {
             }
         }
         let mut env_data: Vec<f32> = Vec::new();
-        let mut offsets = [0u32; 5];
+        let mut offsets = [0u32; 6];
         if let Some(t) = &tables {
             env_data.extend(t.texels.iter().flatten());
             for (k, part) in [
@@ -879,6 +880,7 @@ impl GpuScene {
                 t.rows.iter().map(|&r| bits(r)).collect(),
                 t.band_cdf.clone(),
                 t.col_cdf.clone(),
+                t.density.clone(),
             ]
             .into_iter()
             .enumerate()
@@ -1134,6 +1136,7 @@ impl GpuScene {
                 params.off_rows,
                 params.off_band_cdf,
                 params.off_col_cdf,
+                params.off_density,
             ] = offsets;
         }
         Ok(GpuScene {

@@ -1,14 +1,13 @@
 //! An environment map as the GPU backend reads it (`src/gpu/`): the scaled
 //! texels, the grid's cells exactly as [`TexelGrid`] lays them out (so the
-//! GPU's lookup is this one), the rotation both ways, and a piecewise-
-//! constant sampling density over the cells (marginal and conditional
-//! CDFs). The density is simpler than the CPU's (no bilinear warp, no MIS
-//! compensation, no facing densities) and, like it, positive wherever the
-//! map shines.
+//! GPU's lookup is this one), the rotation both ways, and the CPU's own
+//! MIS-compensated sampling density (`warp.rs`: bilinear in each cell for
+//! the bilinear filter, what `path`'s MIS samples with; not the facing
+//! densities) as its values and CDFs over bands and cells in place of the
+//! alias tables (binary searches suit a GPU).
 
 use super::{EnvFilter, EnvMap};
-use crate::color::luminance;
-use crate::math::PI;
+use crate::emitter::LightPdf;
 use crate::sampling::Distribution1D;
 
 /// The tables (see the module's doc).
@@ -30,6 +29,9 @@ pub struct EnvGpuTables {
     /// at 1; a band of zero weight has a uniform one).
     pub band_cdf: Vec<f32>,
     pub col_cdf: Vec<f32>,
+    /// The density's values (`EnvWarp::values`): per vertex row
+    /// (bilinear; a cell's shape inside it) or per band (nearest).
+    pub density: Vec<f32>,
     /// Rows of the rotation to the world and back.
     pub to_world: [[f32; 3]; 3],
     pub to_local: [[f32; 3]; 3],
@@ -53,27 +55,18 @@ impl EnvMap {
         let bands = g.bands();
         let bilinear = g.filter == EnvFilter::Bilinear;
         let px = &self.image.pixels;
-        let lum = |row: usize, col: usize| luminance(px[row * w + col]).max(0.0) as f64;
+        let warp = &self.warp(LightPdf::MisCompensated)?.map;
+        // Band and cell weights as `EnvWarp::new` gives them to its alias
+        // tables: a cell's integral over (u, v) is its weight times its
+        // band's height / W (/ 4 for the bilinear filter).
+        let scale = if bilinear { 0.25 } else { 1.0 };
         let mut band_w = Vec::with_capacity(bands);
         let mut col_cdf = Vec::with_capacity(bands * w);
         for b in 0..bands {
             let (v0, v1) = g.band_range(b);
-            let solid = (2.0 * PI as f64 / w as f64)
-                * ((PI as f64 * v0 as f64).cos() - (PI as f64 * v1 as f64).cos());
-            // The largest texel the lookup interpolates in a cell bounds it.
-            let cells: Vec<f32> = (0..w)
-                .map(|c| {
-                    let most = if bilinear {
-                        let c1 = (c + 1) % w;
-                        let (r0, r1) = (g.texel_row(b), g.texel_row(b + 1));
-                        lum(r0, c).max(lum(r0, c1)).max(lum(r1, c)).max(lum(r1, c1))
-                    } else {
-                        lum(g.texel_row(b), c)
-                    };
-                    (most * solid.max(0.0)) as f32
-                })
-                .collect();
-            band_w.push(cells.iter().map(|&c| c as f64).sum::<f64>() as f32);
+            let cells: Vec<f32> = (0..w).map(|c| warp.cell_weight(c, b)).collect();
+            let total: f64 = cells.iter().map(|&c| c as f64).sum();
+            band_w.push((total * scale * (v1 - v0) as f64 / w as f64) as f32);
             col_cdf.extend(cdf(&cells));
         }
         let rows = if bilinear { bands + 1 } else { bands };
@@ -95,6 +88,7 @@ impl EnvMap {
             rows: (0..rows).map(|k| g.texel_row(k) as u32).collect(),
             band_cdf: cdf(&band_w),
             col_cdf,
+            density: warp.values().to_vec(),
             to_world: rot(m),
             to_local: rot(inv),
             visible: self.visible,

@@ -116,6 +116,13 @@ impl EnvWarp {
         })
     }
 
+    /// The density's values: at the (bands + 1) x W interpolation
+    /// vertices (bilinear) or the bands x W cells (nearest), row-major,
+    /// unnormalised (the GPU backend's tables, `gpu_tables.rs`).
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+
     /// Cell (`col`, `band`)'s weight: its integral is that times its
     /// band's height / W (/ 4 for the bilinear filter).
     #[inline]

@@ -71,7 +71,9 @@ fn area_pdf(i: u32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
 
 // --- The environment: constant (uniform sphere) or a lat-long map
 // (emitter/envmap/: latlong.rs's (u, v), grid.rs's cells and lookup,
-// gpu_tables.rs's piecewise-constant density over the cells).
+// warp.rs's MIS-compensated density: a band and a cell drawn from CDFs,
+// then, for the bilinear filter, a point of the cell from the bilinear
+// interpolant of the density's values at its corners).
 
 fn env_u32(i: u32) -> u32 {
     return bitcast<u32>(env_data[i]);
@@ -138,14 +140,52 @@ fn env_cell_prob(band: u32, col: u32) -> f32 {
     return pb * (env_data[base + col] - left);
 }
 
-// Solid-angle density of a cell's uniform (u, v) at sin(theta).
+// The density's values at a bilinear cell's corners: (top-left,
+// top-right, bottom-left, bottom-right) (warp.rs's corners).
+fn env_corners(band: u32, col: u32) -> vec4<f32> {
+    let w = P.env_width;
+    let c1 = select(col + 1u, 0u, col + 1u == w);
+    let t = P.off_density + band * w;
+    let b = t + w;
+    return vec4<f32>(env_data[t + col], env_data[t + c1], env_data[b + col], env_data[b + c1]);
+}
+
+// The density at (fx, fy) of its cell over the cell's mean (1 for the
+// nearest filter, whose density is constant per cell).
+fn env_cell_shape(c: EnvCell) -> f32 {
+    if (P.env_bilinear == 0u) {
+        return 1.0;
+    }
+    let v = env_corners(c.band, c.col);
+    let sum = v.x + v.y + v.z + v.w;
+    if (sum <= 0.0) {
+        return 0.0;
+    }
+    let top = mix(v.x, v.y, c.fx);
+    let bottom = mix(v.z, v.w, c.fx);
+    return 4.0 * mix(top, bottom, c.fy) / sum;
+}
+
+// Solid-angle density of a point of a cell at sin(theta): the cell's
+// probability over its (u, v) area, times its shape there.
 fn env_cell_pdf(c: EnvCell, sin_theta: f32) -> f32 {
     if (sin_theta <= 0.0) {
         return 0.0;
     }
     let dv = env_data[P.off_edges + c.band + 1u] - env_data[P.off_edges + c.band];
-    let pdf_uv = env_cell_prob(c.band, c.col) * f32(P.env_width) / dv;
+    let pdf_uv = env_cell_prob(c.band, c.col) * f32(P.env_width) / dv * env_cell_shape(c);
     return pdf_uv / (2.0 * PI * PI * sin_theta);
+}
+
+// sampling/linear.rs's sample_linear: x in [0, 1] with density
+// proportional to (1 - x) a + x b.
+fn sample_linear(a: f32, b: f32, u: f32) -> f32 {
+    let root = sqrt((1.0 - u) * a * a + u * b * b);
+    let denom = a + root;
+    if (denom > 0.0) {
+        return clamp(u * (a + b) / denom, 0.0, 1.0);
+    }
+    return 0.0;
 }
 
 // Radiance along world direction `d` (rgb) and the density emitter
@@ -195,32 +235,48 @@ fn sample_env(u: vec2<f32>) -> LightSample {
     if (band > 0u) {
         b0 = env_data[P.off_band_cdf + band - 1u];
     }
-    let fy = clamp((u.y - b0) / (env_data[P.off_band_cdf + band] - b0), 0.0, 1.0);
+    let fy_u = clamp((u.y - b0) / (env_data[P.off_band_cdf + band] - b0), 0.0, 1.0);
     let base = P.off_col_cdf + band * P.env_width;
     let col = env_search(base, P.env_width, u.x);
     var c0 = 0.0;
     if (col > 0u) {
         c0 = env_data[base + col - 1u];
     }
-    let fx = clamp((u.x - c0) / (env_data[base + col] - c0), 0.0, 1.0);
-    var uu = (f32(col) + fx + P.env_col_offset) / f32(P.env_width);
-    if (uu >= 1.0) {
-        uu -= 1.0;
+    var fx = clamp((u.x - c0) / (env_data[base + col] - c0), 0.0, 1.0);
+    var fy = fy_u;
+    if (P.env_bilinear != 0u) {
+        // warp.rs's place: the marginal in u is linear between the column
+        // sums, the conditional in v linear between the edges at that u.
+        let v = env_corners(band, col);
+        fx = sample_linear(v.x + v.z, v.y + v.w, fx);
+        fy = sample_linear(mix(v.x, v.y, fx), mix(v.z, v.w, fx), fy);
     }
     let v0 = env_data[P.off_edges + band];
-    let v = v0 + fy * (env_data[P.off_edges + band + 1u] - v0);
-    let phi = 2.0 * PI * clamp(uu, 0.0, 1.0);
-    let theta = PI * v;
-    let sin_theta = sin(theta);
-    let l = vec3<f32>(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi));
-    let wi = normalize(env_rotate(P.env_to_world, l));
-    // Radiance and density where the direction lands (the same cell but
-    // for rounding).
-    let e = env_eval_pdf(wi);
-    if (e.w <= 0.0) {
-        return no_light();
+    let dv = env_data[P.off_edges + band + 1u] - v0;
+    // A point where the density vanishes (a pole, the border of the
+    // compensated density's support) is pulled towards its cell's centre,
+    // as mod.rs's sample does.
+    let shrinks = array<f32, 5>(1.0, 0.999, 0.99, 0.5, 0.0);
+    for (var k = 0u; k < 5u; k++) {
+        let px = 0.5 + (fx - 0.5) * shrinks[k];
+        let py = 0.5 + (fy - 0.5) * shrinks[k];
+        var uu = (f32(col) + px + P.env_col_offset) / f32(P.env_width);
+        if (uu >= 1.0) {
+            uu -= 1.0;
+        }
+        let phi = 2.0 * PI * clamp(uu, 0.0, 1.0);
+        let theta = PI * (v0 + py * dv);
+        let sin_theta = sin(theta);
+        let l = vec3<f32>(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi));
+        let wi = normalize(env_rotate(P.env_to_world, l));
+        // Radiance and density where the direction lands (the same cell
+        // but for rounding).
+        let e = env_eval_pdf(wi);
+        if (e.w > 0.0) {
+            return LightSample(wi, INF, e.xyz, e.w, false, true);
+        }
     }
-    return LightSample(wi, INF, e.xyz, e.w, false, true);
+    return no_light();
 }
 
 // Spot falloff (emitter/spot.rs's intensity_towards, untextured) towards

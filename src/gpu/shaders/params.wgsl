@@ -39,7 +39,7 @@ struct Params {
     orthographic: u32,
     aperture_blades: u32,
     aperture_rotation: f32,
-    _pad: u32,
+    off_density: u32,
 }
 
 const ENV_NONE: u32 = 0u;
