@@ -101,9 +101,9 @@ impl SpotLight {
         self.to_local
     }
 
-    /// Whether a texture is projected through the cone.
-    pub fn is_textured(&self) -> bool {
-        self.texture.is_some()
+    /// The texture projected through the cone, if any.
+    pub fn texture(&self) -> Option<&Texture> {
+        self.texture.as_ref()
     }
 
     /// Luminance of the power it emits: the intensity (times the

@@ -214,7 +214,8 @@ pub struct GpuScene {
     /// `LIGHT_WORDS` per light: (p0, centre, position or direction to the
     /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
     /// 0; area or the spot's cos cutoff), (p2 or row 1; CDF up to and
-    /// including it), (radiance, intensity or irradiance; shape or NONE),
+    /// including it), (radiance, intensity or irradiance; shape, a spot's
+    /// projected texture's record as bits, or NONE),
     /// (row 2, a disk's front normal or a triangle's or sphere's
     /// vertex-data slot (uvs, (u, v) frame) as bits; the spot's cos beam or
     /// an area light's radiance texture record as bits, NONE if
@@ -842,16 +843,23 @@ impl GpuScene {
                     e.power(&ctx),
                 )),
                 Emitter::Spot(s) => {
-                    if s.is_textured() {
-                        return unsupported("a textured spot light");
-                    }
+                    // A projected texture: its record in word 3's last value.
+                    let texture = match s.texture() {
+                        Some(t) => {
+                            // (The records and tables are in `shapes` by now.)
+                            let record = bits(shapes.len() as u32);
+                            texture_record(t, 0, &mut shapes)?;
+                            record
+                        }
+                        None => none,
+                    };
                     let rows = s.to_local().transpose();
                     delta_lights.push((
                         [
                             v4(s.position, bits(LIGHT_SPOT)),
                             v4(rows.x_axis, s.cos_cutoff()),
                             v4(rows.y_axis, 0.0),
-                            v4(s.intensity, none),
+                            v4(s.intensity, texture),
                             v4(rows.z_axis, s.cos_beam()),
                         ],
                         e.power(&ctx),
@@ -1217,9 +1225,10 @@ mod tests {
 
     /// A textured area light's records point at its texture's record and
     /// at the vertex-data slot its uvs come from (triangles) or its (u, v)
-    /// frame (spheres); an untextured one has no texture.
+    /// frame (spheres); an untextured one has no texture; a spot points at
+    /// the texture it projects.
     #[test]
-    fn textured_lights_point_at_their_texture_and_uvs() {
+    fn textured_lights_point_at_their_textures_and_uvs() {
         let (scene, job) = load("tests/conformance/textured_area.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         let mut kinds = Vec::new();
@@ -1248,6 +1257,18 @@ mod tests {
                 assert_eq!(rec[4][3].to_bits(), NONE);
             }
         }
+
+        // Spots: one plain, one projecting a bitmap (word 3's last value).
+        let (scene, job) = load("tests/conformance/spot.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let spots: Vec<u32> = (flat.lights.chunks(LIGHT_WORDS))
+            .filter(|rec| rec[0][3].to_bits() == LIGHT_SPOT)
+            .map(|rec| rec[3][3].to_bits())
+            .collect();
+        assert_eq!(spots.len(), 2);
+        assert!(spots.contains(&NONE), "{spots:?}");
+        let record = *spots.iter().find(|&&r| r != NONE).unwrap() as usize;
+        assert_eq!(flat.shapes[record + 2][1].to_bits(), TEX_BILINEAR);
     }
 
     /// A mask is its nested BSDF's record with `MAT_MASK` and the opacity

@@ -6,7 +6,8 @@
 //! two-sided diffuse, mirror, smooth and rough dielectric, conductor,
 //! rough conductor (GGX and Beckmann), plastic and rough plastic, masks;
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
-//! checkerboard radiance), point, spot and directional lights, a constant sky and
+//! checkerboard radiance), point, spot (plain and projecting a bitmap) and
+//! directional lights, a constant sky and
 //! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
 //! sun); perspective, thin-lens (disk and polygon) and orthographic
 //! cameras; hide_emitters; and the showcase.
@@ -104,6 +105,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/instances.xml",
         "tests/gpu/masks_and_sides.xml",
         "tests/conformance/textured_area.xml",
+        "tests/conformance/spot.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

@@ -119,6 +119,7 @@ impl EnvWarp {
     /// The density's values: at the (bands + 1) x W interpolation
     /// vertices (bilinear) or the bands x W cells (nearest), row-major,
     /// unnormalised (the GPU backend's tables, `gpu_tables.rs`).
+    #[cfg(feature = "gpu")]
     pub fn values(&self) -> &[f32] {
         &self.values
     }

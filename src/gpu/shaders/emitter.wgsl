@@ -302,6 +302,18 @@ fn spot_falloff(i: u32, d: vec3<f32>) -> f32 {
 // Point, spot and directional light `i` seen from `p` (emitter/point.rs,
 // spot.rs, directional.rs): intensity / dist^2 or the irradiance, with the
 // probability of the choice as its pdf.
+// Where world direction `d` from spot light `i` reads its projected
+// texture (spot.rs's intensity_towards): 0.5 + 0.5 (x, y) / (z tan(cutoff))
+// of the local direction.
+fn spot_uv(i: u32, d: vec3<f32>) -> vec2<f32> {
+    let r1 = lights[LIGHT_WORDS * i + 1u];
+    let local = vec3<f32>(dot(r1.xyz, d), dot(lights[LIGHT_WORDS * i + 2u].xyz, d), dot(lights[LIGHT_WORDS * i + 4u].xyz, d));
+    let cos_cutoff = r1.w;
+    let tan_cutoff = sqrt(max(1.0 - cos_cutoff * cos_cutoff, 0.0)) / cos_cutoff;
+    let k = 0.5 / (local.z * tan_cutoff);
+    return vec2<f32>(0.5 + local.x * k, 0.5 + local.y * k);
+}
+
 fn sample_delta_light(i: u32, p: vec3<f32>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let power = lights[LIGHT_WORDS * i + 3u].xyz;
@@ -363,15 +375,40 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
         }
     }
     let i = lo;
+    let kind = bitcast<u32>(lights[LIGHT_WORDS * i].w);
+    // One texture read for every kind (shaders inline each call): an area
+    // light's radiance (its record in word 4) or a spot's projected tint
+    // (word 3), at `uv`.
+    var uv = vec2<f32>(0.0);
+    var record = NONE;
+    var ls: LightSample;
+    if (kind >= LIGHT_POINT && kind <= LIGHT_DIRECTIONAL) {
+        ls = sample_delta_light(i, p);
+        if (kind == LIGHT_SPOT) {
+            record = bitcast<u32>(lights[LIGHT_WORDS * i + 3u].w);
+            uv = spot_uv(i, -ls.wi);
+        }
+    } else {
+        ls = sample_area_light(i, p, u, &uv);
+        record = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].w);
+    }
+    if (record != NONE && ls.ok) {
+        let t = texture_lookup(record, uv, false);
+        // A spot's texture tints its intensity; an area light's is its
+        // radiance.
+        ls.le = select(t, ls.le * t, kind == LIGHT_SPOT);
+    }
+    return ls;
+}
+
+// Area light `i` sampled from `p`: its constant radiance (the mean of a
+// textured one, which the caller reads at `*uv`).
+fn sample_area_light(i: u32, p: vec3<f32>, u: vec2<f32>, uv: ptr<function, vec2<f32>>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let r1 = lights[LIGHT_WORDS * i + 1u];
     let kind = bitcast<u32>(r0.w);
-    if (kind >= LIGHT_POINT && kind <= LIGHT_DIRECTIONAL) {
-        return sample_delta_light(i, p);
-    }
     var q: vec3<f32>;
     var n: vec3<f32>;
-    var uv = vec2<f32>(0.0);
     // A direction drawn in a sphere's cone: its distance and density.
     var cone_wi = vec3<f32>(0.0);
     var cone_t = 0.0;
@@ -400,12 +437,12 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
             n = square_to_uniform_sphere(u);
             q = r0.xyz + r1.x * n;
         }
-        uv = light_sphere_uv(i, n);
+        *uv = light_sphere_uv(i, n);
     } else if (kind == LIGHT_DISK) {
         let l = square_to_uniform_disk(u);
         q = r0.xyz + l.x * r1.xyz + l.y * lights[LIGHT_WORDS * i + 2u].xyz;
         n = lights[LIGHT_WORDS * i + 4u].xyz;
-        uv = disk_uv(l);
+        *uv = disk_uv(l);
     } else {
         let b = square_to_uniform_triangle(u);
         let p2 = lights[LIGHT_WORDS * i + 2u].xyz;
@@ -416,11 +453,10 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
         if (slot != NONE) {
             let k = SLOT_WORDS * slot;
             let t01 = normals[k + 3u];
-            uv = (1.0 - b.x - b.y) * t01.xy + b.x * t01.zw + b.y * normals[k + 4u].xy;
+            *uv = (1.0 - b.x - b.y) * t01.xy + b.x * t01.zw + b.y * normals[k + 4u].xy;
         }
     }
-    // One texture read for every kind (shaders inline each call).
-    let le = light_radiance(i, uv);
+    let le = lights[LIGHT_WORDS * i + 3u].xyz;
     if (cone_pdf > 0.0) {
         return LightSample(cone_wi, cone_t, le, cone_pdf, false, cone_t > 0.0);
     }
