@@ -231,7 +231,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective and thin-lens cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, textured reflectances, transmittances and roughness), area, point, spot and directional lights, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -395,10 +395,8 @@ fn shape_record(
             let d = match mask.opacity.constant() {
                 Some(_) => mask.opacity.eval_1(Vec2::ZERO).clamp(0.0, 1.0),
                 None => {
-                    let record = bits((table_base + tables.len()) as u32);
-                    texture_record(&mask.opacity, table_base, tables)?;
                     flag(&mut a, MAT_TEXTURED_MASK);
-                    record
+                    texture_record(&mask.opacity, table_base, tables)?
                 }
             };
             Ok([a, b, c, [d, back, 0.0, 0.0]])
@@ -450,7 +448,17 @@ fn material(
                         variant_name(base)
                     ));
                 };
-                let record = bits((table_base + tables.len()) as u32);
+                // An isotropic texture names both alphas; another is
+                // anisotropic. The second name adds no record.
+                if let TextureSlot::AlphaV = slot {
+                    let same =
+                        |(p, x): &(BsdfParam, Texture)| *p == BsdfParam::Alpha && x == texture;
+                    if !t.textures().iter().any(same) {
+                        return unsupported("anisotropic roughness");
+                    }
+                    continue;
+                }
+                let record = texture_record(texture, table_base, tables)?;
                 match slot {
                     TextureSlot::A => {
                         // The plastics' diffuse term is computed from the
@@ -472,17 +480,8 @@ fn material(
                         words[1][3] = record;
                         kind |= MAT_TEXTURED_ALPHA;
                     }
-                    // An isotropic texture names both; another is anisotropic.
-                    TextureSlot::AlphaV => {
-                        let same =
-                            |(p, x): &(BsdfParam, Texture)| *p == BsdfParam::Alpha && x == texture;
-                        if !t.textures().iter().any(same) {
-                            return unsupported("anisotropic roughness");
-                        }
-                        continue;
-                    }
+                    TextureSlot::AlphaV => {}
                 }
-                texture_record(texture, table_base, tables)?;
             }
             words[0][3] = bits(kind);
             words
@@ -595,7 +594,7 @@ fn texture_slot(param: BsdfParam, base: &Bsdf) -> Option<TextureSlot> {
 }
 
 /// Appends a texture's record to `words` (which start at index `base` of
-/// the shapes buffer): (to_uv row 0, index of its first texel as bits),
+/// the shapes buffer) and returns its index there, as bits: (to_uv row 0, index of its first texel as bits),
 /// (to_uv row 1, width as bits), (height, filter, wrap, 0 as bits), then
 /// its texels (RGB, 0), row by row from the top, looked up as
 /// `texture/bitmap.rs` does; a checkerboard has `TEX_CHECKERBOARD` for its
@@ -604,7 +603,7 @@ fn texture_record(
     texture: &Texture,
     base: usize,
     words: &mut Vec<[f32; 4]>,
-) -> Result<(), Unsupported> {
+) -> Result<f32, Unsupported> {
     let colours;
     let (to_uv, (width, height), filter, wrap, texels) = match texture {
         Texture::Bitmap(b) => {
@@ -638,13 +637,14 @@ fn texture_record(
             "textures of more than {MAX_TEXELS} texels in all (this one has {width} x {height})"
         ));
     }
-    let first = (base + words.len() + 3) as u32;
+    let record = base + words.len();
+    let first = (record + 3) as u32;
     let (r0, r1) = (to_uv.row0, to_uv.row1);
     words.push([r0[0], r0[1], r0[2], bits(first)]);
     words.push([r1[0], r1[1], r1[2], bits(width as u32)]);
     words.push([bits(height as u32), bits(filter), bits(wrap), 0.0]);
     words.extend(texels.iter().map(|&c| v4(c, 0.0)));
-    Ok(())
+    Ok(bits(record as u32))
 }
 
 impl GpuScene {
@@ -685,9 +685,9 @@ impl GpuScene {
         let mut shapes = Vec::new();
         let mut tables = Vec::new();
         let table_base = SHAPE_WORDS * scene.geometry.len();
+        // Per shape: its emitter's radiance (a texture's mean, which weighs
+        // the light's choice) and the texture's record as bits, or NONE.
         let mut emissions = Vec::with_capacity(scene.geometry.len());
-        // Per shape: its emitter's radiance texture's record, or NONE.
-        let mut emission_textures = Vec::with_capacity(scene.geometry.len());
         // The primitives of every shape in shape order, each in its own
         // space (a group's shapes in the group's); shape `s`'s begin at
         // `first_prim[s]`.
@@ -700,29 +700,23 @@ impl GpuScene {
                 words[0][3] = bits(words[0][3].to_bits() | MAT_EMITS);
             }
             shapes.extend(words);
-            // A textured radiance: its mean weighs the light's choice.
             let (emission, texture) = match scene.shape_emitter[s] {
                 Some(e) => match &scene.emitters[e as usize] {
                     Emitter::Area(a) => match &a.texture {
-                        None => (a.radiance, NONE),
-                        Some(t) => {
-                            let record = (table_base + tables.len()) as u32;
-                            texture_record(t, table_base, &mut tables)?;
-                            (a.radiance, record)
-                        }
+                        None => (a.radiance, bits(NONE)),
+                        Some(t) => (a.radiance, texture_record(t, table_base, &mut tables)?),
                     },
                     _ => return unsupported("an emitter on a shape other than an area light"),
                 },
-                None => (Rgb::ZERO, NONE),
+                None => (Rgb::ZERO, bits(NONE)),
             };
-            emissions.push(emission);
-            emission_textures.push(texture);
+            emissions.push((emission, texture));
             // Either side's textures and the emitter's need the hit's uv.
             let kind = words[0][3].to_bits();
             let back_kind = (kind & MAT_BACK != 0)
                 .then(|| tables[words[3][1].to_bits() as usize - table_base][3].to_bits());
-            let textured =
-                (kind | back_kind.unwrap_or(0)) & MAT_TEXTURED_ANY != 0 || texture != NONE;
+            let textured = (kind | back_kind.unwrap_or(0)) & MAT_TEXTURED_ANY != 0
+                || texture.to_bits() != NONE;
             match geometry {
                 Geometry::Mesh(m) => {
                     let has_normals = !m.normals().is_empty();
@@ -847,9 +841,7 @@ impl GpuScene {
                     let texture = match s.texture() {
                         Some(t) => {
                             // (The records and tables are in `shapes` by now.)
-                            let record = bits(shapes.len() as u32);
-                            texture_record(t, 0, &mut shapes)?;
-                            record
+                            texture_record(t, 0, &mut shapes)?
                         }
                         None => none,
                     };
@@ -950,7 +942,7 @@ impl GpuScene {
                     )
                 }
             };
-            let radiance = emissions[shape as usize];
+            let (radiance, texture) = emissions[shape as usize];
             let power = area * luminance(radiance);
             if power > 0.0 && power.is_finite() {
                 prim_light[pi] = weights.len() as u32;
@@ -959,7 +951,6 @@ impl GpuScene {
                 // A disk's front; a triangle's or sphere's vertex-data slot
                 // (set below, once slots are given out); the radiance
                 // texture's record or NONE.
-                let texture = bits(emission_textures[shape as usize]);
                 lights.push(match p {
                     Prim::Disk { disk, .. } => v4(disk.frame.n, texture),
                     _ => [bits(NONE), 0.0, 0.0, texture],
@@ -1017,7 +1008,9 @@ impl GpuScene {
         let mut normals = Vec::new();
         for &i in &bvh.primitive_indices {
             let light = bits(prim_light[i as usize]);
-            match prims[i as usize] {
+            // A triangle's or sphere's vertex-data slot, which its light
+            // record (if it emits) names too.
+            let slot = match prims[i as usize] {
                 Prim::Triangle {
                     shape,
                     v,
@@ -1037,9 +1030,7 @@ impl GpuScene {
                     flat.push(v4(v[0], bits(shape)));
                     flat.push(v4(v[1], bits(slot)));
                     flat.push(v4(v[2], light));
-                    if light.to_bits() != NONE {
-                        lights[LIGHT_WORDS * light.to_bits() as usize + 4][0] = bits(slot);
-                    }
+                    Some(slot)
                 }
                 Prim::Sphere {
                     shape,
@@ -1067,9 +1058,7 @@ impl GpuScene {
                     flat.push(v4(center, bits(shape)));
                     flat.push([radius, bits(slot), 0.0, bits(SPHERE)]);
                     flat.push([0.0, 0.0, 0.0, light]);
-                    if light.to_bits() != NONE {
-                        lights[LIGHT_WORDS * light.to_bits() as usize + 4][0] = bits(slot);
-                    }
+                    Some(slot)
                 }
                 Prim::Disk { shape, disk } => {
                     let f = &disk.frame;
@@ -1082,7 +1071,12 @@ impl GpuScene {
                     flat.push(v4(f.center, bits(shape)));
                     flat.push(v4(dx, bits(marker)));
                     flat.push(v4(dy, light));
+                    None
                 }
+            };
+            let emits = prim_light[i as usize];
+            if let Some(slot) = slot.filter(|_| emits != NONE) {
+                lights[LIGHT_WORDS * emits as usize + 4][0] = bits(slot);
             }
         }
         if normals.is_empty() {
@@ -1398,8 +1392,7 @@ mod tests {
         assert_eq!(scene.bvh.instance_count(), 3);
         assert_eq!(flat.prims.len() / 3, 4 + 3 * group);
 
-        // Placed on a grid (identical placements make the CPU's PLOC
-        // build crawl: see the note of 2026-11-27).
+        // Placed on a grid.
         let one = desc.instances[0];
         desc.instances = (0..MAX_PLACED_PRIMS / group + 1)
             .map(|i| crate::geometry::Instance {

@@ -6,6 +6,7 @@
 //! densities) as its values and CDFs over bands and cells in place of the
 //! alias tables (binary searches suit a GPU).
 
+use super::warp::band_integral;
 use super::{EnvFilter, EnvMap};
 use crate::emitter::LightPdf;
 use crate::sampling::Distribution1D;
@@ -57,16 +58,13 @@ impl EnvMap {
         let px = &self.image.pixels;
         let warp = &self.warp(LightPdf::MisCompensated)?.map;
         // Band and cell weights as `EnvWarp::new` gives them to its alias
-        // tables: a cell's integral over (u, v) is its weight times its
-        // band's height / W (/ 4 for the bilinear filter).
-        let scale = if bilinear { 0.25 } else { 1.0 };
+        // tables.
         let mut band_w = Vec::with_capacity(bands);
         let mut col_cdf = Vec::with_capacity(bands * w);
         for b in 0..bands {
-            let (v0, v1) = g.band_range(b);
             let cells: Vec<f32> = (0..w).map(|c| warp.cell_weight(c, b)).collect();
             let total: f64 = cells.iter().map(|&c| c as f64).sum();
-            band_w.push((total * scale * (v1 - v0) as f64 / w as f64) as f32);
+            band_w.push(band_integral(g, b, total) as f32);
             col_cdf.extend(cdf(&cells));
         }
         let rows = if bilinear { bands + 1 } else { bands };

@@ -90,12 +90,8 @@ impl EnvWarp {
             .map(|(c, b)| cell_weight(&values, w, bilinear, c, b))
             .collect();
         let cells = AliasRows::new(&cell_weights, w);
-        let scale = if bilinear { 0.25 } else { 1.0 };
         let band_weights: Vec<f64> = (0..grid.bands())
-            .map(|b| {
-                let (v0, v1) = grid.band_range(b);
-                cells.total(b) as f64 * scale * (v1 - v0) as f64 / w as f64
-            })
+            .map(|b| band_integral(grid, b, cells.total(b) as f64))
             .collect();
         let integral: f64 = band_weights.iter().sum();
         if !(integral > 0.0 && integral.is_finite()) {
@@ -226,6 +222,19 @@ impl EnvWarp {
         };
         value * self.inv_integral
     }
+}
+
+/// Band `band`'s integral over (u, v) from the sum of its cells' weights
+/// ([`EnvWarp::cell_weight`]): times its height / W (/ 4 for the bilinear
+/// filter, whose weights sum four corners).
+pub(super) fn band_integral(grid: &TexelGrid, band: usize, cell_weights: f64) -> f64 {
+    let (v0, v1) = grid.band_range(band);
+    let scale = if grid.filter == EnvFilter::Bilinear {
+        0.25
+    } else {
+        1.0
+    };
+    cell_weights * scale * (v1 - v0) as f64 / grid.width as f64
 }
 
 /// A cell's weight from the density's values (rows of `w`): the sum of its
