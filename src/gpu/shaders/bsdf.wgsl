@@ -78,7 +78,7 @@ const MAT_BACK: u32 = 0x8000u;
 const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA
     | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK;
 
-fn material_kind(shape: u32) -> u32 {
+fn material_kind() -> u32 {
     return bitcast<u32>(material_word(0u).w) & ~MAT_FLAGS;
 }
 
@@ -146,8 +146,8 @@ fn shape_emits(shape: u32) -> bool {
 }
 
 // Purely specular materials: no light sampling at their surfaces.
-fn is_specular(shape: u32) -> bool {
-    return material_kind(shape) >= MAT_MIRROR;
+fn is_specular() -> bool {
+    return material_kind() >= MAT_MIRROR;
 }
 
 fn reflect_about(wi: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
@@ -202,7 +202,7 @@ struct Microfacet {
     ggx: bool,
 }
 
-fn microfacet(shape: u32) -> Microfacet {
+fn microfacet() -> Microfacet {
     let distr = bitcast<u32>(material_word(2u).w);
     return Microfacet(mat_alpha, distr == DISTR_GGX);
 }
@@ -321,13 +321,13 @@ fn half_vector(wi: vec3<f32>, wo: vec3<f32>, eta_in: f32) -> HalfVector {
     return HalfVector(select(-m, m, m.z >= 0.0), reflect, eta);
 }
 
-fn rough_dielectric_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+fn rough_dielectric_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let eta_ext = material_word(2u).x;
     let h = half_vector(wi, wo, eta_ext);
     if (h.m.z > 1.0 || wo.z == 0.0) {
         return vec3<f32>(0.0);
     }
-    let md = microfacet(shape);
+    let md = microfacet();
     let dg = microfacet_d(md, h.m) * smith_g1(md, wi, h.m) * smith_g1(md, wo, h.m);
     if (dg == 0.0) {
         return vec3<f32>(0.0);
@@ -345,7 +345,7 @@ fn rough_dielectric_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> 
     return mat_b * (value / cos_o);
 }
 
-fn rough_dielectric_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+fn rough_dielectric_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let eta_ext = material_word(2u).x;
     let h = half_vector(wi, wo, eta_ext);
     if (h.m.z > 1.0) {
@@ -365,15 +365,15 @@ fn rough_dielectric_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     }
     let f = fresnel_dielectric(dim, eta_ext).x;
     let lobe = select(1.0 - f, f, h.reflect);
-    return abs(microfacet_normal_pdf(microfacet(shape), select(-wi, wi, wi.z >= 0.0), h.m) * lobe * dwh_dwo);
+    return abs(microfacet_normal_pdf(microfacet(), select(-wi, wi, wi.z >= 0.0), h.m) * lobe * dwh_dwo);
 }
 
-fn rough_dielectric_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+fn rough_dielectric_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     if (wi.z == 0.0) {
         return no_sample();
     }
     let up = select(-wi, wi, wi.z >= 0.0);
-    let m = sample_microfacet(microfacet(shape), up, u);
+    let m = sample_microfacet(microfacet(), up, u);
     // A normal facing away from wi (Beckmann's D cos sampling draws them)
     // is not one the pdf counts: the direction it would give may also come
     // from a facing normal, and counting it would add light.
@@ -396,11 +396,11 @@ fn rough_dielectric_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32)
     if ((wo.z * wi.z > 0.0) != reflection || wo.z == 0.0 || not_finite(wo.x + wo.y + wo.z)) {
         return no_sample();
     }
-    let pdf = rough_dielectric_pdf(shape, wi, wo);
+    let pdf = rough_dielectric_pdf(wi, wo);
     if (pdf <= 0.0) {
         return no_sample();
     }
-    let weight = rough_dielectric_eval(shape, wi, wo) * (abs(wo.z) / pdf);
+    let weight = rough_dielectric_eval(wi, wo) * (abs(wo.z) / pdf);
     return BsdfSample(wo, weight, pdf, false, eta, true);
 }
 
@@ -414,7 +414,7 @@ fn prob_specular(f: f32, weight: f32) -> f32 {
 
 // The rough plastic's coating transmittance at `cos` (rough_plastic.rs's
 // 64-entry table, linear between entries).
-fn coating_transmittance(shape: u32, cos: f32) -> f32 {
+fn coating_transmittance(cos: f32) -> f32 {
     let base = 4u * bitcast<u32>(material_word(2u).z);
     let x = cos * 63.0;
     let i = min(u32(max(x, 0.0)), 62u);
@@ -425,8 +425,8 @@ fn coating_transmittance(shape: u32, cos: f32) -> f32 {
 }
 
 // Probability of the rough plastic's glossy lobe seen from `wi`.
-fn rough_plastic_glossy_prob(shape: u32, wi: vec3<f32>) -> f32 {
-    let t = coating_transmittance(shape, wi.z);
+fn rough_plastic_glossy_prob(wi: vec3<f32>) -> f32 {
+    let t = coating_transmittance(wi.z);
     return prob_specular(1.0 - t, material_word(2u).y);
 }
 
@@ -438,13 +438,13 @@ fn both_in_front(wi: vec3<f32>, wo: vec3<f32>) -> bool {
 }
 
 // f(wi, wo) of the non-specular part, of the front of a two-sided one.
-fn front_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let kind = material_kind(shape);
+fn front_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let kind = material_kind();
     if (kind >= MAT_MIRROR) {
         return vec3<f32>(0.0);
     }
     if (kind == MAT_ROUGH_DIELECTRIC) {
-        return rough_dielectric_eval(shape, wi, wo);
+        return rough_dielectric_eval(wi, wo);
     }
     if (!both_in_front(wi, wo)) {
         return vec3<f32>(0.0);
@@ -461,7 +461,7 @@ fn front_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
         let f_o = fresnel_dielectric(wo.z, eta).x;
         return a * (INV_PI / (eta * eta) * (1.0 - f_i) * (1.0 - f_o));
     }
-    let md = microfacet(shape);
+    let md = microfacet();
     let h = normalize(wi + wo);
     let dg = microfacet_d(md, h) * smith_g1(md, wi, h) * smith_g1(md, wo, h) / (4.0 * wi.z * wo.z);
     if (kind == MAT_ROUGH_CONDUCTOR) {
@@ -470,18 +470,18 @@ fn front_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     // Rough plastic.
     let eta = c.x;
     let f = fresnel_dielectric(dot(wi, h), eta).x;
-    let t = coating_transmittance(shape, wi.z) * coating_transmittance(shape, wo.z);
+    let t = coating_transmittance(wi.z) * coating_transmittance(wo.z);
     return b * (dg * f) + a * (INV_PI / (eta * eta) * t);
 }
 
 // Solid-angle density of front_sample's non-specular part.
-fn front_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let kind = material_kind(shape);
+fn front_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let kind = material_kind();
     if (kind >= MAT_MIRROR) {
         return 0.0;
     }
     if (kind == MAT_ROUGH_DIELECTRIC) {
-        return rough_dielectric_pdf(shape, wi, wo);
+        return rough_dielectric_pdf(wi, wo);
     }
     if (!both_in_front(wi, wo)) {
         return 0.0;
@@ -494,35 +494,35 @@ fn front_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
         let f_i = fresnel_dielectric(wi.z, c.x).x;
         return (1.0 - prob_specular(f_i, c.y)) * wo.z * INV_PI;
     }
-    let glossy = microfacet_reflection_pdf(microfacet(shape), wi, wo);
+    let glossy = microfacet_reflection_pdf(microfacet(), wi, wo);
     if (kind == MAT_ROUGH_CONDUCTOR) {
         return glossy;
     }
-    let p = rough_plastic_glossy_prob(shape, wi);
+    let p = rough_plastic_glossy_prob(wi);
     return p * glossy + (1.0 - p) * wo.z * INV_PI;
 }
 
 // A rough lobe's sample: reflected about a microfacet normal if `glossy`,
 // else cosine-distributed, weighted by f cos / pdf of the whole BSDF.
-fn sample_rough(shape: u32, wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
+fn sample_rough(wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
     var wo: vec3<f32>;
     if (glossy) {
-        wo = reflect_about(wi, sample_microfacet(microfacet(shape), wi, u));
+        wo = reflect_about(wi, sample_microfacet(microfacet(), wi, u));
     } else {
         wo = square_to_cosine_hemisphere(u);
     }
     if (wo.z <= 0.0 || not_finite(wo.x + wo.y + wo.z)) {
         return no_sample();
     }
-    let pdf = front_pdf(shape, wi, wo);
+    let pdf = front_pdf(wi, wo);
     if (pdf <= 0.0) {
         return no_sample();
     }
-    return BsdfSample(wo, front_eval(shape, wi, wo) * (wo.z / pdf), pdf, false, 1.0, true);
+    return BsdfSample(wo, front_eval(wi, wo) * (wo.z / pdf), pdf, false, 1.0, true);
 }
 
-fn front_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
-    let kind = material_kind(shape);
+fn front_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+    let kind = material_kind();
     let a = mat_a;
     if (kind == MAT_DIFFUSE) {
         let wo = square_to_cosine_hemisphere(u);
@@ -532,7 +532,7 @@ fn front_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSam
         return BsdfSample(wo, a, wo.z * INV_PI, false, 1.0, true);
     }
     if (kind == MAT_ROUGH_DIELECTRIC) {
-        return rough_dielectric_sample(shape, wi, u, u_lobe);
+        return rough_dielectric_sample(wi, u, u_lobe);
     }
     if (kind == MAT_DIELECTRIC) {
         let eta = material_word(1u).x;
@@ -585,10 +585,10 @@ fn front_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSam
         return BsdfSample(wo, weight, p_diff * wo.z * INV_PI, false, 1.0, true);
     }
     if (kind == MAT_ROUGH_CONDUCTOR) {
-        return sample_rough(shape, wi, u, true);
+        return sample_rough(wi, u, true);
     }
     // Rough plastic.
-    return sample_rough(shape, wi, u, u_lobe < rough_plastic_glossy_prob(shape, wi));
+    return sample_rough(wi, u, u_lobe < rough_plastic_glossy_prob(wi));
 }
 
 // --- Two-sided materials (two_sided.rs): the front seen from either side,
@@ -600,7 +600,7 @@ const MAT_TWO_SIDED: u32 = 0x1000u;
 
 // (1, 1, -1) where the point is seen from the back of a two-sided
 // material, else (1, 1, 1).
-fn side_flip(shape: u32, wi: vec3<f32>) -> vec3<f32> {
+fn side_flip(wi: vec3<f32>) -> vec3<f32> {
     let two_sided = (bitcast<u32>(material_word(0u).w) & MAT_TWO_SIDED) != 0u;
     return vec3<f32>(1.0, 1.0, select(1.0, -1.0, two_sided && wi.z < 0.0));
 }
@@ -609,25 +609,25 @@ fn side_flip(shape: u32, wi: vec3<f32>) -> vec3<f32> {
 // opacity, and samples it with that probability, else passes straight
 // through (a delta lobe of weight 1).
 
-fn bsdf_eval(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let f = side_flip(shape, wi);
-    return front_eval(shape, wi * f, wo * f) * mat_opacity;
+fn bsdf_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let f = side_flip(wi);
+    return front_eval(wi * f, wo * f) * mat_opacity;
 }
 
-fn bsdf_pdf(shape: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let f = side_flip(shape, wi);
-    return front_pdf(shape, wi * f, wo * f) * mat_opacity;
+fn bsdf_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let f = side_flip(wi);
+    return front_pdf(wi * f, wo * f) * mat_opacity;
 }
 
-fn bsdf_sample(shape: u32, wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+fn bsdf_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let opacity = mat_opacity;
     if (u_lobe >= opacity) {
         return BsdfSample(-wi, vec3<f32>(1.0), 1.0 - opacity, true, 1.0, true);
     }
-    let f = side_flip(shape, wi);
+    let f = side_flip(wi);
     // 1 - f32::EPSILON, as mask.rs clamps it.
     let u_nested = min(u_lobe / opacity, 0.99999988);
-    var s = front_sample(shape, wi * f, u, u_nested);
+    var s = front_sample(wi * f, u, u_nested);
     s.wo *= f;
     s.pdf *= opacity;
     return s;

@@ -279,16 +279,20 @@ fn sample_env(u: vec2<f32>) -> LightSample {
     return no_light();
 }
 
-// Spot falloff (emitter/spot.rs's intensity_towards, untextured) towards
-// world direction `d` from spot light `i`: 1 inside the beam, linear in
-// angle to 0 at the cutoff.
+// World direction `d` in spot light `i`'s frame (its axis along +z).
+fn spot_local(i: u32, d: vec3<f32>) -> vec3<f32> {
+    let rows = LIGHT_WORDS * i;
+    return vec3<f32>(dot(lights[rows + 1u].xyz, d), dot(lights[rows + 2u].xyz, d), dot(lights[rows + 4u].xyz, d));
+}
+
+// Spot falloff (emitter/spot.rs's intensity_towards, before its texture)
+// towards world direction `d` from spot light `i`: 1 inside the beam,
+// linear in angle to 0 at the cutoff.
 fn spot_falloff(i: u32, d: vec3<f32>) -> f32 {
-    let r1 = lights[LIGHT_WORDS * i + 1u];
-    let r4 = lights[LIGHT_WORDS * i + 4u];
-    let local = vec3<f32>(dot(r1.xyz, d), dot(lights[LIGHT_WORDS * i + 2u].xyz, d), dot(r4.xyz, d));
+    let local = spot_local(i, d);
     let cos_t = local.z / length(local);
-    let cos_cutoff = r1.w;
-    let cos_beam = r4.w;
+    let cos_cutoff = lights[LIGHT_WORDS * i + 1u].w;
+    let cos_beam = lights[LIGHT_WORDS * i + 4u].w;
     if (!(cos_t > cos_cutoff)) {
         return 0.0;
     }
@@ -299,21 +303,20 @@ fn spot_falloff(i: u32, d: vec3<f32>) -> f32 {
     return (cutoff - acos(clamp(cos_t, -1.0, 1.0))) / (cutoff - acos(cos_beam));
 }
 
-// Point, spot and directional light `i` seen from `p` (emitter/point.rs,
-// spot.rs, directional.rs): intensity / dist^2 or the irradiance, with the
-// probability of the choice as its pdf.
 // Where world direction `d` from spot light `i` reads its projected
 // texture (spot.rs's intensity_towards): 0.5 + 0.5 (x, y) / (z tan(cutoff))
 // of the local direction.
 fn spot_uv(i: u32, d: vec3<f32>) -> vec2<f32> {
-    let r1 = lights[LIGHT_WORDS * i + 1u];
-    let local = vec3<f32>(dot(r1.xyz, d), dot(lights[LIGHT_WORDS * i + 2u].xyz, d), dot(lights[LIGHT_WORDS * i + 4u].xyz, d));
-    let cos_cutoff = r1.w;
+    let local = spot_local(i, d);
+    let cos_cutoff = lights[LIGHT_WORDS * i + 1u].w;
     let tan_cutoff = sqrt(max(1.0 - cos_cutoff * cos_cutoff, 0.0)) / cos_cutoff;
     let k = 0.5 / (local.z * tan_cutoff);
     return vec2<f32>(0.5 + local.x * k, 0.5 + local.y * k);
 }
 
+// Point, spot and directional light `i` seen from `p` (emitter/point.rs,
+// spot.rs, directional.rs): intensity / dist^2 or the irradiance, with the
+// probability of the choice as its pdf.
 fn sample_delta_light(i: u32, p: vec3<f32>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let power = lights[LIGHT_WORDS * i + 3u].xyz;

@@ -137,11 +137,11 @@ fn li(camera: Ray) -> vec3<f32> {
         // Next-event estimation.
         let u_choice = next_1d();
         let u_light = next_2d();
-        if (!is_specular(s.shape)) {
+        if (!is_specular()) {
             let ls = sample_light(s.p, u_choice, u_light);
             if (ls.ok) {
                 let wo = to_local(frame, ls.wi);
-                let f = bsdf_eval(s.shape, wi, wo);
+                let f = bsdf_eval(wi, wo);
                 if (max3(f) > 0.0 && max3(ls.le) > 0.0) {
                     let o = spawn_origin(s.p, s.ng, ls.wi);
                     // Towards the sampled point itself from the offset
@@ -159,7 +159,7 @@ fn li(camera: Ray) -> vec3<f32> {
                     if (!occluded(o, d, tmax)) {
                         var w = 1.0;
                         if (!ls.delta) {
-                            w = power_heuristic(ls.pdf, bsdf_pdf(s.shape, wi, wo));
+                            w = power_heuristic(ls.pdf, bsdf_pdf(wi, wo));
                         }
                         l += beta * f * abs(wo.z) * ls.le * (w / ls.pdf);
                     }
@@ -170,7 +170,7 @@ fn li(camera: Ray) -> vec3<f32> {
         // Continue the path by sampling the BSDF.
         let u = next_2d();
         let u_lobe = next_1d();
-        let bs = bsdf_sample(s.shape, wi, u, u_lobe);
+        let bs = bsdf_sample(wi, u, u_lobe);
         if (!bs.ok) {
             break;
         }
