@@ -124,6 +124,13 @@ enum Command {
         /// Do not measure Mitsuba 3.
         #[arg(long)]
         no_mitsuba: bool,
+        /// Embree 3's library, for its ray queries beside lente's (a path,
+        /// or a name for the system's loader; Debian: libembree3-3).
+        #[arg(long, value_name = "LIB", default_value = lente::bench::embree::DEFAULT_LIBRARY)]
+        embree: PathBuf,
+        /// Only the ray queries (lente's and Embree's), no renders.
+        #[arg(long)]
+        rays_only: bool,
     },
     /// Run Nori test files (t-tests and chi-square tests).
     ///
@@ -407,7 +414,19 @@ fn main() -> ExitCode {
             root,
             mitsuba,
             no_mitsuba,
-        } => cmd_bench(spp, threads, repeat, scenes, root, mitsuba, no_mitsuba),
+            embree,
+            rays_only,
+        } => cmd_bench(BenchArgs {
+            spp,
+            threads,
+            repeat,
+            scenes,
+            root,
+            mitsuba,
+            no_mitsuba,
+            embree,
+            rays_only,
+        }),
         Command::Warptest {
             name,
             params,
@@ -425,7 +444,8 @@ fn main() -> ExitCode {
     }
 }
 
-fn cmd_bench(
+/// `lente bench`'s options.
+struct BenchArgs {
     spp: u32,
     threads: Vec<usize>,
     repeat: u32,
@@ -433,7 +453,22 @@ fn cmd_bench(
     root: PathBuf,
     mitsuba: Option<PathBuf>,
     no_mitsuba: bool,
-) -> Result<()> {
+    embree: PathBuf,
+    rays_only: bool,
+}
+
+fn cmd_bench(args: BenchArgs) -> Result<()> {
+    let BenchArgs {
+        spp,
+        threads,
+        repeat,
+        scenes,
+        root,
+        mitsuba,
+        no_mitsuba,
+        embree,
+        rays_only,
+    } = args;
     if spp == 0 || repeat == 0 || threads.is_empty() || threads.contains(&0) {
         bail!("--spp, --repeat and every --threads value must be at least 1");
     }
@@ -456,6 +491,8 @@ fn cmd_bench(
         repeat,
         only: scenes,
         mitsuba_python,
+        embree_library: embree,
+        rays_only,
     };
     Ok(lente::bench::run(&opts)?)
 }

@@ -2,7 +2,9 @@
 //! kept in the repository (bench/speed/), per core and in total, beside
 //! Mitsuba 3's `scalar_rgb` and `llvm_ad_rgb` on the same files in the same
 //! run when a Python with the mitsuba wheel is at hand; and rays per second
-//! of closest-hit and any-hit queries on a mesh of 102,400 triangles.
+//! of closest-hit and any-hit queries on a mesh of 102,400 triangles,
+//! beside Embree 3's on the same mesh and rays where its library is
+//! installed ([`embree`]).
 //!
 //! Renders are timed without loading (both renderers), best of a few runs
 //! with different seeds; Mitsuba warm (its kernel compilation is timed
@@ -16,11 +18,14 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::geometry::{Bvh, Geometry};
 use crate::load::{load_scene_with, SceneError};
 use crate::math::Ray;
 use crate::render::{render, RenderJob, RenderOptions};
 use crate::sampling::{warp, Sampler};
 use crate::scene::{BuildError, Scene};
+
+pub mod embree;
 
 /// One scene of the suite: a file relative to the repository root and the
 /// Mitsuba `$parameters` it is rendered with.
@@ -99,6 +104,10 @@ pub struct BenchOptions {
     pub only: Vec<String>,
     /// A Python with the mitsuba wheel, or None to skip Mitsuba.
     pub mitsuba_python: Option<PathBuf>,
+    /// Embree 3's library (a path, or a name for the system's loader).
+    pub embree_library: PathBuf,
+    /// Only the ray queries, no renders.
+    pub rays_only: bool,
 }
 
 /// Why the benchmark could not run.
@@ -198,26 +207,102 @@ pub fn time_lente(
     })
 }
 
-/// Closest-hit and any-hit rays per second on the suite's big mesh, on
-/// `threads` workers: (closest, any, triangles).
-pub fn ray_queries(root: &Path, threads: usize) -> Result<(f64, f64, usize), BenchError> {
+/// Closest-hit and any-hit rays per second on one mesh and one set of rays.
+#[derive(Clone, Debug)]
+pub struct RayFigures {
+    /// Which rays: "coherent" or "incoherent".
+    pub rays: &'static str,
+    pub triangles: usize,
+    pub closest: f64,
+    pub any: f64,
+    /// Embree 3's (closest, any) on the same mesh and rays, or why not.
+    pub embree: Result<(f64, f64), String>,
+    /// Rays whose closest hit Embree and lente place at different
+    /// triangles and distances (a check that both answer the same queries).
+    pub disagreements: usize,
+}
+
+/// The number of rays of each set.
+const RAY_COUNT: usize = 1 << 20;
+
+/// The suite's big mesh, alone (the scene's ground left out), in world
+/// space.
+fn ray_mesh(root: &Path) -> Result<crate::geometry::TriangleMesh, BenchError> {
     let (scene, _) = load(root, RAY_SCENE, &[])?;
-    let centre = scene.bounds.center();
-    let radius = 0.5 * scene.bounds.diagonal().length();
-    // Rays from a sphere around the scene towards points near its centre:
-    // most meet the mesh, some graze it, a few miss.
+    let mesh = scene
+        .geometry
+        .into_iter()
+        .filter_map(|g| match g {
+            Geometry::Mesh(m) => Some(m),
+            _ => None,
+        })
+        .max_by_key(|m| m.triangle_count())
+        .expect("the ray scene has a mesh");
+    Ok(mesh)
+}
+
+/// Incoherent rays, each from its own random point on a sphere around
+/// `bounds` towards a random point near its centre (almost all meet the
+/// mesh): consecutive rays share no nodes, so every query waits on memory.
+fn incoherent_rays(bounds: &crate::math::Aabb) -> Vec<Ray> {
+    let centre = bounds.center();
+    let radius = 0.5 * bounds.diagonal().length();
     let mut s = Sampler::new(7, 0);
-    let rays: Vec<Ray> = (0..1 << 20)
+    (0..RAY_COUNT)
         .map(|_| {
             let o = centre + warp::square_to_uniform_sphere(s.next_2d()) * radius * 1.5;
             let target = centre + warp::square_to_uniform_sphere(s.next_2d()) * radius * 0.4;
             Ray::new(o, (target - o).normalize())
         })
-        .collect();
+        .collect()
+}
+
+/// Coherent rays: a pinhole camera's 1024 x 1024 pixels in 16 x 16 tiles
+/// (a render's order), framing `bounds` from a diagonal.
+fn coherent_rays(bounds: &crate::math::Aabb) -> Vec<Ray> {
+    let centre = bounds.center();
+    let radius = 0.5 * bounds.diagonal().length();
+    let eye = centre + crate::math::Vec3::new(1.0, 0.6, 1.4).normalize() * radius * 2.5;
+    let forward = (centre - eye).normalize();
+    let right = forward.cross(crate::math::Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let (side, tile) = (1024usize, 16usize);
+    let half = 0.5;
+    let mut rays = Vec::with_capacity(RAY_COUNT);
+    for ty in (0..side).step_by(tile) {
+        for tx in (0..side).step_by(tile) {
+            for y in ty..ty + tile {
+                for x in tx..tx + tile {
+                    let sx = ((x as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
+                    let sy = (1.0 - (y as f32 + 0.5) / side as f32 * 2.0) * half;
+                    rays.push(Ray::new(eye, (forward + right * sx + up * sy).normalize()));
+                }
+            }
+        }
+    }
+    rays
+}
+
+/// Closest-hit and any-hit rays per second on the suite's big mesh
+/// (102,400 triangles) on `threads` workers, lente's and Embree's, for
+/// coherent and for incoherent rays.
+pub fn ray_queries(
+    root: &Path,
+    threads: usize,
+    embree_library: &Path,
+) -> Result<Vec<RayFigures>, BenchError> {
+    let mesh = ray_mesh(root)?;
+    let sets = [
+        ("coherent", coherent_rays(&mesh.bounds())),
+        ("incoherent", incoherent_rays(&mesh.bounds())),
+    ];
+    let embree = embree::EmbreeMesh::build(embree_library, mesh.positions(), mesh.indices());
+    let triangles = mesh.triangle_count();
+    let bvh = Bvh::build(&[Geometry::Mesh(mesh)]);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let time = |f: &(dyn Fn(&Ray) -> bool + Sync)| {
+    let time = |rays: &[Ray], f: &(dyn Fn(&Ray) -> bool + Sync)| {
         pool.install(|| {
             let mut best = f64::INFINITY;
             for _ in 0..3 {
@@ -231,9 +316,37 @@ pub fn ray_queries(root: &Path, threads: usize) -> Result<(f64, f64, usize), Ben
             rays.len() as f64 / best
         })
     };
-    let closest = time(&|r| scene.bvh.intersect(r).is_some());
-    let any = time(&|r| scene.bvh.occluded(r));
-    Ok((closest, any, scene.triangle_count()))
+    let mut figures = Vec::new();
+    for (name, rays) in &sets {
+        let closest = time(rays, &|r| bvh.intersect(r).is_some());
+        let any = time(rays, &|r| bvh.occluded(r));
+        let (embree, disagreements) = match &embree {
+            Ok(e) => {
+                let speeds = (
+                    time(rays, &|r| e.intersect(r).is_some()),
+                    time(rays, &|r| e.occluded(r)),
+                );
+                let differ = |r: &Ray| match (bvh.intersect(r), e.intersect(r)) {
+                    (None, None) => false,
+                    (Some(a), Some((t, tri))) => {
+                        a.index != tri && (a.t - t).abs() > 1e-4 * t.max(1.0)
+                    }
+                    _ => true,
+                };
+                (Ok(speeds), rays.iter().filter(|r| differ(r)).count())
+            }
+            Err(e) => (Err(e.clone()), 0),
+        };
+        figures.push(RayFigures {
+            rays: name,
+            triangles,
+            closest,
+            any,
+            embree,
+            disagreements,
+        });
+    }
+    Ok(figures)
 }
 
 /// Mitsuba's timings keyed by (scene name, variant, threads).
@@ -320,6 +433,14 @@ pub fn geometric_mean(values: &[f64]) -> Option<f64> {
 /// core, Mitsuba's per core where measured, and lente's ratio to each;
 /// then the geometric means and the ray-query figures.
 pub fn run(opts: &BenchOptions) -> Result<(), BenchError> {
+    if !opts.rays_only {
+        run_suite(opts)?;
+    }
+    print_ray_queries(opts)
+}
+
+/// The suite's renders, lente's and Mitsuba's, and their table.
+fn run_suite(opts: &BenchOptions) -> Result<(), BenchError> {
     let scenes = selected(&opts.only)?;
     let mut lente = HashMap::new();
     for s in &scenes {
@@ -400,13 +521,36 @@ pub fn run(opts: &BenchOptions) -> Result<(), BenchError> {
     for n in notes {
         println!("note: {n}");
     }
+    Ok(())
+}
+
+/// The ray-query lines, one per thread count.
+fn print_ray_queries(opts: &BenchOptions) -> Result<(), BenchError> {
+    let m = |x: f64| x / 1e6;
     for &t in &opts.threads {
-        let (closest, any, triangles) = ray_queries(&opts.root, t)?;
-        println!(
-            "rays on {triangles} triangles, {t} thread(s): closest hit {:.2} M rays/s, any hit {:.2} M rays/s",
-            m(closest),
-            m(any)
-        );
+        for f in ray_queries(&opts.root, t, &opts.embree_library)? {
+            let mut line = format!(
+                "{} rays on {} triangles, {t} thread(s): closest hit {:.2} M rays/s, any hit {:.2} M rays/s",
+                f.rays,
+                f.triangles,
+                m(f.closest),
+                m(f.any)
+            );
+            match &f.embree {
+                Ok((closest, any)) => {
+                    line += &format!(
+                        "; Embree 3: {:.2} and {:.2} ({:.2}x, {:.2}x lente's; {} of {RAY_COUNT} closest hits differ)",
+                        m(*closest),
+                        m(*any),
+                        closest / f.closest,
+                        any / f.any,
+                        f.disagreements,
+                    )
+                }
+                Err(e) => line += &format!("; Embree not measured ({e})"),
+            }
+            println!("{line}");
+        }
     }
     Ok(())
 }
