@@ -7,6 +7,7 @@
 use super::{Bitmap, Filter, FilterEval, MAX_FILTER_RADIUS};
 use crate::color::Rgb;
 use crate::math::{ceil_i32, floor_i32, Vec2};
+use glam::Vec4;
 
 /// Accumulated weighted radiance and weight for one tile plus its border.
 #[derive(Clone, Debug)]
@@ -16,8 +17,9 @@ pub struct FilmBlock {
     pub y0: i32,
     pub width: usize,
     pub height: usize,
-    /// (sum of w * L, sum of w) per pixel.
-    pub data: Vec<(Rgb, f32)>,
+    /// (sum of w * L, sum of w) per pixel, as (r, g, b, w): one SIMD
+    /// multiply-add per cell a sample reaches.
+    pub data: Vec<Vec4>,
     /// AOV channels per pixel, and their filter-weighted sums (`aov_channels`
     /// per pixel; the weights are the image's).
     pub aov_channels: usize,
@@ -26,6 +28,9 @@ pub struct FilmBlock {
     radius: f32,
     /// The filter is Mitsuba's box (radius 1/2): see [`FilmBlock::splat`].
     pixel_box: bool,
+    /// The filter is a Gaussian of radius at most 2 (Mitsuba's default is
+    /// 2): see [`FilmBlock::splat`].
+    gaussian_4: bool,
 }
 
 /// Weights along x kept per sample for filters of radius up to 3.5 pixels
@@ -47,12 +52,13 @@ impl FilmBlock {
             y0: y as i32 - border,
             width,
             height,
-            data: vec![(Rgb::ZERO, 0.0); width * height],
+            data: vec![Vec4::ZERO; width * height],
             aov_channels: 0,
             aov: Vec::new(),
             filter: filter.evaluator(),
             radius,
             pixel_box: filter == Filter::Box { radius: 0.5 },
+            gaussian_4: matches!(filter, Filter::Gaussian { radius, .. } if radius <= 2.0),
         }
     }
 
@@ -74,6 +80,39 @@ impl FilmBlock {
                 && (cy as u32 as usize) < self.height
             {
                 f(self, cy as usize * self.width + cx as usize, 1.0);
+                return;
+            }
+        }
+        // A Gaussian of radius r <= 2 reaches, from a sample off the pixel
+        // grid's lines, the 4 x 4 pixels from floor(p - 1/2) - 1 on (the
+        // general path's window for r = 2; for a smaller r the extra cells
+        // have weight 0, as do those at distance r, where the Gaussian is
+        // cut to 0). Away from the block's edges, a fixed 4 x 4 loop with
+        // the same weights in the same order: zero weights add +-0, which
+        // leaves every sum's bits as the general path leaves them. 15% of
+        // a render's instructions on Mitsuba's default filter.
+        if self.gaussian_4 {
+            let (px, py) = (pos.x - 0.5, pos.y - 0.5);
+            let (fx, fy) = (floor_i32(px), floor_i32(py));
+            let (cx, cy) = (
+                (fx - 1).wrapping_sub(self.x0),
+                (fy - 1).wrapping_sub(self.y0),
+            );
+            if fx as f32 != px
+                && fy as f32 != py
+                && (cx as u32 as usize).saturating_add(4) <= self.width
+                && (cy as u32 as usize).saturating_add(4) <= self.height
+            {
+                let weights = |f0: i32, p: f32| -> [f32; 4] {
+                    std::array::from_fn(|i| self.filter.eval_1d((f0 - 1 + i as i32) as f32 - p))
+                };
+                let (wx, wy) = (weights(fx, px), weights(fy, py));
+                for (j, &wyj) in wy.iter().enumerate() {
+                    let row = (cy as usize + j) * self.width + cx as usize;
+                    for (i, &wxi) in wx.iter().enumerate() {
+                        f(self, row + i, wyj * wxi);
+                    }
+                }
                 return;
             }
         }
@@ -114,10 +153,11 @@ impl FilmBlock {
         if !value.is_finite() {
             return;
         }
+        // (w r, w g, w b, w 1): the products and sums the separate
+        // fields took, lane by lane.
+        let value = value.extend(1.0);
         self.splat(pos, |block, cell, w| {
-            let cell = &mut block.data[cell];
-            cell.0 += w * value;
-            cell.1 += w;
+            block.data[cell] += w * value;
         });
     }
 
@@ -300,8 +340,8 @@ impl Film {
                 }
                 let src = block.data[by * block.width + bx];
                 let dst = &mut self.data[y as usize * self.width + x as usize];
-                dst.0 += src.0;
-                dst.1 += src.1;
+                dst.0 += src.truncate();
+                dst.1 += src.w;
                 let n = self.aov_channels;
                 if n > 0 && block.aov_channels == n {
                     let (s, d) = (by * block.width + bx, y as usize * self.width + x as usize);
@@ -342,6 +382,43 @@ impl Film {
 mod tests {
     use super::*;
 
+    /// The 4 x 4 Gaussian path leaves every cell's bits as the general
+    /// path does: samples anywhere in a tile, on the pixel grid's lines,
+    /// at the block's edges, with negative and zero values, for radii 2,
+    /// 1.5 and 1 (and AOVs alike).
+    #[test]
+    fn the_gaussian_fast_path_adds_what_the_general_path_adds() {
+        let mut s = crate::sampling::Sampler::new(11, 0);
+        for (radius, stddev) in [(2.0, 0.5), (1.5, 0.4), (1.0, 0.5)] {
+            let f = Filter::Gaussian { radius, stddev };
+            let mut fast = FilmBlock::new(16, 16, 8, 8, f).with_aovs(2);
+            let mut general = fast.clone();
+            general.gaussian_4 = false;
+            assert!(fast.gaussian_4);
+            for i in 0..4000 {
+                let mut pos = Vec2::new(16.0 + 8.0 * s.next_1d(), 16.0 + 8.0 * s.next_1d());
+                match i % 5 {
+                    0 => pos.x = pos.x.floor() + 0.5,
+                    1 => pos.y = 16.0,
+                    2 => pos = Vec2::new(23.999, 16.0 + 1e-3),
+                    _ => {}
+                }
+                let v = Rgb::new(s.next_1d() - 0.3, 2.0 * s.next_1d(), 0.0);
+                fast.put(pos, v);
+                general.put(pos, v);
+                fast.put_aovs(pos, &[v.x, -v.y]);
+                general.put_aovs(pos, &[v.x, -v.y]);
+            }
+            let bits = |b: &FilmBlock| -> Vec<u32> {
+                (b.data.iter().flat_map(|c| c.to_array()))
+                    .chain(b.aov.iter().copied())
+                    .map(f32::to_bits)
+                    .collect()
+            };
+            assert_eq!(bits(&fast), bits(&general), "radius {radius}");
+        }
+    }
+
     /// A sample lands on every cell within the radius with the product of
     /// the filter's weights along x and y, for filters whose weights along
     /// x fit the narrow array and for wider ones, and for Mitsuba's box
@@ -370,7 +447,8 @@ mod tests {
             ] {
                 let mut block = FilmBlock::new(16, 16, 8, 8, f);
                 block.put(pos, Rgb::splat(2.0));
-                for (i, &(l, w)) in block.data.iter().enumerate() {
+                for (i, &lw) in block.data.iter().enumerate() {
+                    let (l, w) = (lw.truncate(), lw.w);
                     let x = block.x0 + (i % block.width) as i32;
                     let y = block.y0 + (i / block.width) as i32;
                     let dx = x as f32 - (pos.x - 0.5);
