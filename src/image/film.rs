@@ -128,8 +128,16 @@ impl FilmBlock {
         {
             return None;
         }
+        // Offsets -1, 0, 1, 2 from floor(p), four weights in one call.
         let weights = |f0: i32, p: f32| -> [f32; 4] {
-            std::array::from_fn(|i| self.filter.eval_1d((f0 - 1 + i as i32) as f32 - p))
+            let x = Vec4::new(
+                (f0 - 1) as f32 - p,
+                f0 as f32 - p,
+                (f0 + 1) as f32 - p,
+                (f0 + 2) as f32 - p,
+            );
+            let w = self.filter.gaussian_4(x);
+            w.map_or([0.0; 4], |w| w.to_array())
         };
         let first = cy as usize * self.width + cx as usize;
         Some((first, weights(fx, px), weights(fy, py)))
