@@ -102,36 +102,7 @@ enum Command {
     /// in the same run through scripts/mitsuba_bench.py with the Python
     /// given by --mitsuba (default: target/mitsuba-venv/bin/python if it
     /// exists, as .ci/run makes it).
-    Bench {
-        /// Samples per pixel of every render.
-        #[arg(long, default_value_t = 64)]
-        spp: u32,
-        /// Thread counts to measure at, comma-separated.
-        #[arg(long, value_delimiter = ',', default_value = "1,2")]
-        threads: Vec<usize>,
-        /// Timed renders per scene and thread count; the fastest counts.
-        #[arg(long, default_value_t = 3)]
-        repeat: u32,
-        /// Only these suite scenes (comma-separated names).
-        #[arg(long, value_delimiter = ',')]
-        scenes: Vec<String>,
-        /// The repository root (where bench/speed/ is).
-        #[arg(long, default_value = ".")]
-        root: PathBuf,
-        /// A Python with the mitsuba wheel.
-        #[arg(long, value_name = "PYTHON", conflicts_with = "no_mitsuba")]
-        mitsuba: Option<PathBuf>,
-        /// Do not measure Mitsuba 3.
-        #[arg(long)]
-        no_mitsuba: bool,
-        /// Embree 3's library, for its ray queries beside lente's (a path,
-        /// or a name for the system's loader; Debian: libembree3-3).
-        #[arg(long, value_name = "LIB", default_value = lente::bench::embree::DEFAULT_LIBRARY)]
-        embree: PathBuf,
-        /// Only the ray queries (lente's and Embree's), no renders.
-        #[arg(long)]
-        rays_only: bool,
-    },
+    Bench(BenchArgs),
     /// Run Nori test files (t-tests and chi-square tests).
     ///
     /// Runs the <test type="ttest"> and <test type="chi2test"> files with
@@ -406,27 +377,7 @@ fn main() -> ExitCode {
             tonemap,
         } => cmd_convert(&input, &output, exposure, tonemap),
         Command::Test { files, seed } => cmd_test(&files, seed),
-        Command::Bench {
-            spp,
-            threads,
-            repeat,
-            scenes,
-            root,
-            mitsuba,
-            no_mitsuba,
-            embree,
-            rays_only,
-        } => cmd_bench(BenchArgs {
-            spp,
-            threads,
-            repeat,
-            scenes,
-            root,
-            mitsuba,
-            no_mitsuba,
-            embree,
-            rays_only,
-        }),
+        Command::Bench(args) => cmd_bench(args),
         Command::Warptest {
             name,
             params,
@@ -445,15 +396,35 @@ fn main() -> ExitCode {
 }
 
 /// `lente bench`'s options.
+#[derive(clap::Args)]
 struct BenchArgs {
+    /// Samples per pixel of every render.
+    #[arg(long, default_value_t = 64)]
     spp: u32,
+    /// Thread counts to measure at, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
     threads: Vec<usize>,
+    /// Timed renders per scene and thread count; the fastest counts.
+    #[arg(long, default_value_t = 3)]
     repeat: u32,
+    /// Only these suite scenes (comma-separated names).
+    #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
+    /// The repository root (where bench/speed/ is).
+    #[arg(long, default_value = ".")]
     root: PathBuf,
+    /// A Python with the mitsuba wheel.
+    #[arg(long, value_name = "PYTHON", conflicts_with = "no_mitsuba")]
     mitsuba: Option<PathBuf>,
+    /// Do not measure Mitsuba 3.
+    #[arg(long)]
     no_mitsuba: bool,
+    /// Embree 3's library, for its ray queries beside lente's (a path,
+    /// or a name for the system's loader; Debian: libembree3-3).
+    #[arg(long, value_name = "LIB", default_value = lente::bench::embree::DEFAULT_LIBRARY)]
     embree: PathBuf,
+    /// Only the ray queries (lente's and Embree's), no renders.
+    #[arg(long)]
     rays_only: bool,
 }
 
