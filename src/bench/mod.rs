@@ -207,11 +207,13 @@ pub fn time_lente(
     })
 }
 
-/// Closest-hit and any-hit rays per second on one mesh and one set of rays.
+/// Closest-hit and any-hit rays per second on one mesh, one set of rays
+/// and one thread count.
 #[derive(Clone, Debug)]
 pub struct RayFigures {
     /// Which rays: "coherent" or "incoherent".
     pub rays: &'static str,
+    pub threads: usize,
     pub triangles: usize,
     pub closest: f64,
     pub any: f64,
@@ -284,11 +286,12 @@ fn coherent_rays(bounds: &crate::math::Aabb) -> Vec<Ray> {
 }
 
 /// Closest-hit and any-hit rays per second on the suite's big mesh
-/// (102,400 triangles) on `threads` workers, lente's and Embree's, for
-/// coherent and for incoherent rays.
+/// (102,400 triangles) at each of `threads` worker counts, lente's and
+/// Embree's, for coherent and for incoherent rays. The mesh, the rays and
+/// both BVHs are built once; the hits are compared once per ray set.
 pub fn ray_queries(
     root: &Path,
-    threads: usize,
+    threads: &[usize],
     embree_library: &Path,
 ) -> Result<Vec<RayFigures>, BenchError> {
     let mesh = ray_mesh(root)?;
@@ -299,52 +302,53 @@ pub fn ray_queries(
     let embree = embree::EmbreeMesh::build(embree_library, mesh.positions(), mesh.indices());
     let triangles = mesh.triangle_count();
     let bvh = Bvh::build(&[Geometry::Mesh(mesh)]);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?;
-    let time = |rays: &[Ray], f: &(dyn Fn(&Ray) -> bool + Sync)| {
-        pool.install(|| {
-            let mut best = f64::INFINITY;
-            for _ in 0..3 {
-                let t0 = Instant::now();
-                let hits = rays
-                    .par_chunks(4096)
-                    .map(|c| c.iter().filter(|r| f(r)).count());
-                std::hint::black_box(hits.sum::<usize>());
-                best = best.min(t0.elapsed().as_secs_f64());
-            }
-            rays.len() as f64 / best
-        })
+    let disagreements: Vec<usize> = match &embree {
+        Ok(e) => {
+            let differ = |r: &Ray| match (bvh.intersect(r), e.intersect(r)) {
+                (None, None) => false,
+                (Some(a), Some((t, tri))) => a.index != tri && (a.t - t).abs() > 1e-4 * t.max(1.0),
+                _ => true,
+            };
+            let count = |rays: &[Ray]| rays.par_iter().filter(|r| differ(r)).count();
+            sets.iter().map(|(_, rays)| count(rays)).collect()
+        }
+        Err(_) => vec![0; sets.len()],
     };
     let mut figures = Vec::new();
-    for (name, rays) in &sets {
-        let closest = time(rays, &|r| bvh.intersect(r).is_some());
-        let any = time(rays, &|r| bvh.occluded(r));
-        let (embree, disagreements) = match &embree {
-            Ok(e) => {
-                let speeds = (
+    for &t in threads {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build()?;
+        let time = |rays: &[Ray], f: &(dyn Fn(&Ray) -> bool + Sync)| {
+            pool.install(|| {
+                let mut best = f64::INFINITY;
+                for _ in 0..3 {
+                    let t0 = Instant::now();
+                    let hits = rays
+                        .par_chunks(4096)
+                        .map(|c| c.iter().filter(|r| f(r)).count());
+                    std::hint::black_box(hits.sum::<usize>());
+                    best = best.min(t0.elapsed().as_secs_f64());
+                }
+                rays.len() as f64 / best
+            })
+        };
+        for ((name, rays), &disagreements) in sets.iter().zip(&disagreements) {
+            let embree = match &embree {
+                Ok(e) => Ok((
                     time(rays, &|r| e.intersect(r).is_some()),
                     time(rays, &|r| e.occluded(r)),
-                );
-                let differ = |r: &Ray| match (bvh.intersect(r), e.intersect(r)) {
-                    (None, None) => false,
-                    (Some(a), Some((t, tri))) => {
-                        a.index != tri && (a.t - t).abs() > 1e-4 * t.max(1.0)
-                    }
-                    _ => true,
-                };
-                (Ok(speeds), rays.iter().filter(|r| differ(r)).count())
-            }
-            Err(e) => (Err(e.clone()), 0),
-        };
-        figures.push(RayFigures {
-            rays: name,
-            triangles,
-            closest,
-            any,
-            embree,
-            disagreements,
-        });
+                )),
+                Err(why) => Err(why.clone()),
+            };
+            figures.push(RayFigures {
+                rays: name,
+                threads: t,
+                triangles,
+                closest: time(rays, &|r| bvh.intersect(r).is_some()),
+                any: time(rays, &|r| bvh.occluded(r)),
+                embree,
+                disagreements,
+            });
+        }
     }
     Ok(figures)
 }
@@ -524,33 +528,32 @@ fn run_suite(opts: &BenchOptions) -> Result<(), BenchError> {
     Ok(())
 }
 
-/// The ray-query lines, one per thread count.
+/// The ray-query lines, one per ray set and thread count.
 fn print_ray_queries(opts: &BenchOptions) -> Result<(), BenchError> {
     let m = |x: f64| x / 1e6;
-    for &t in &opts.threads {
-        for f in ray_queries(&opts.root, t, &opts.embree_library)? {
-            let mut line = format!(
-                "{} rays on {} triangles, {t} thread(s): closest hit {:.2} M rays/s, any hit {:.2} M rays/s",
-                f.rays,
-                f.triangles,
-                m(f.closest),
-                m(f.any)
-            );
-            match &f.embree {
-                Ok((closest, any)) => {
-                    line += &format!(
-                        "; Embree 3: {:.2} and {:.2} ({:.2}x, {:.2}x lente's; {} of {RAY_COUNT} closest hits differ)",
-                        m(*closest),
-                        m(*any),
-                        closest / f.closest,
-                        any / f.any,
-                        f.disagreements,
-                    )
-                }
-                Err(e) => line += &format!("; Embree not measured ({e})"),
+    for f in ray_queries(&opts.root, &opts.threads, &opts.embree_library)? {
+        let mut line = format!(
+            "{} rays on {} triangles, {} thread(s): closest hit {:.2} M rays/s, any hit {:.2} M rays/s",
+            f.rays,
+            f.triangles,
+            f.threads,
+            m(f.closest),
+            m(f.any)
+        );
+        match &f.embree {
+            Ok((closest, any)) => {
+                line += &format!(
+                    "; Embree 3: {:.2} and {:.2} ({:.2}x, {:.2}x lente's; {} of {RAY_COUNT} closest hits differ)",
+                    m(*closest),
+                    m(*any),
+                    closest / f.closest,
+                    any / f.any,
+                    f.disagreements,
+                )
             }
-            println!("{line}");
+            Err(e) => line += &format!("; Embree not measured ({e})"),
         }
+        println!("{line}");
     }
     Ok(())
 }

@@ -29,7 +29,7 @@ pub struct FilmBlock {
     /// The filter is Mitsuba's box (radius 1/2): see [`FilmBlock::splat`].
     pixel_box: bool,
     /// The filter is a Gaussian of radius at most 2 (Mitsuba's default is
-    /// 2): see [`FilmBlock::splat`].
+    /// 2): see [`FilmBlock::gaussian_window`].
     gaussian_4: bool,
 }
 
