@@ -13,6 +13,7 @@
 //! per-point sums would cost too much, and bounded lights are chosen by
 //! power.
 
+use super::light_lanes::BoundsLanes;
 use super::{Emitter, EmitterContext};
 use crate::geometry::Geometry;
 use crate::math::Vec3;
@@ -25,7 +26,7 @@ pub const EXHAUSTIVE_MAX: usize = 64;
 /// surface's tangent plane still lights it at grazing angles (f cos of a
 /// glossy BSDF stays finite there), and rounding must not starve a light
 /// that can reach the point.
-const MIN_FACTOR: f32 = 0.02;
+pub(super) const MIN_FACTOR: f32 = 0.02;
 
 /// Where a bounded light is and where it sends light.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -231,6 +232,9 @@ pub struct LightChoice {
     /// Power-proportional choice among `bounded`, when there are too many
     /// to weigh per point.
     bounded_by_power: Option<Distribution1D>,
+    /// `bounded`'s bounds four to a group, for [`LightChoice::at`] (empty
+    /// where it does not weigh them one by one).
+    lanes: Vec<BoundsLanes>,
     /// Emitter indices of the lights at infinity with power, and the
     /// choice among them by power.
     unbounded: Vec<u32>,
@@ -279,9 +283,15 @@ impl LightChoice {
         });
         let unbounded_by_power =
             (!unbounded.is_empty()).then(|| Distribution1D::new(&unbounded_power));
+        let lanes = if bounded_by_power.is_none() && bounded.len() > 1 {
+            BoundsLanes::group(&bounded.iter().map(|(_, b)| *b).collect::<Vec<_>>())
+        } else {
+            Vec::new()
+        };
         Some(LightChoice {
             bounded,
             bounded_by_power,
+            lanes,
             unbounded,
             unbounded_by_power,
             p_unbounded,
@@ -295,19 +305,19 @@ impl LightChoice {
     /// light a BSDF sample from the same point finds.
     pub fn at(&self, p: Vec3, n: Vec3) -> ChoicePoint {
         let mut importance = [0.0f32; KEPT_IMPORTANCE];
-        let total = if self.bounded_by_power.is_none() && self.bounded.len() > 1 {
-            let mut total = 0.0f32;
-            for (k, (_, b)) in self.bounded.iter().enumerate() {
-                let w = b.importance(p, n);
+        // Four lights at a time (bit for bit what `LightBounds::importance`
+        // gives), summed one by one in the lights' order.
+        let mut total = 0.0f32;
+        let count = self.bounded.len();
+        for (g, lanes) in self.lanes.iter().enumerate() {
+            let four = lanes.importance(p, n).to_array();
+            for (k, w) in (4 * g..count).zip(four) {
                 if let Some(slot) = importance.get_mut(k) {
                     *slot = w;
                 }
                 total += w;
             }
-            total
-        } else {
-            0.0
-        };
+        }
         ChoicePoint {
             p,
             n,

@@ -6,6 +6,7 @@ mod constant;
 mod directional;
 mod envmap;
 mod light_choice;
+mod light_lanes;
 mod point;
 mod projector;
 pub mod sky;

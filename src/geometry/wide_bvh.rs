@@ -201,8 +201,12 @@ impl Stack {
 
     #[inline(always)]
     fn pop(&mut self) -> Option<Entry> {
-        if let Some(e) = self.spill.pop() {
-            return Some(e);
+        // The spill holds entries only while the fixed array is full (push
+        // spills only then, and pop drains the spill first).
+        if self.len == Stack::FIXED {
+            if let Some(e) = self.spill.pop() {
+                return Some(e);
+            }
         }
         if self.len == 0 {
             return None;
