@@ -122,10 +122,6 @@ pub const MAX_TEXELS: usize = 1 << 22;
 /// error naming the count, not an allocation that never ends.
 pub const MAX_PLACED_PRIMS: usize = 1 << 24;
 
-/// Microfacet distributions (`shapes[SHAPE_WORDS s + 2].w`).
-pub const DISTR_BECKMANN: u32 = 0;
-pub const DISTR_GGX: u32 = 1;
-
 /// Entries of the filter's 1D weight table (over [0, radius]).
 pub const FILTER_TABLE: usize = 1024;
 
@@ -231,7 +227,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -350,16 +346,30 @@ fn variant_name(v: &impl std::fmt::Debug) -> String {
         .to_string()
 }
 
-/// The microfacet roughness word: alpha, and the distribution as bits.
-fn roughness(d: &MicrofacetDistribution) -> Result<(f32, f32), Unsupported> {
-    if !d.is_isotropic() {
-        return unsupported("anisotropic roughness");
-    }
-    let kind = match d.kind {
-        MicrofacetType::Beckmann => DISTR_BECKMANN,
-        MicrofacetType::Ggx => DISTR_GGX,
+/// The microfacet words: alpha along the shading frame's s axis (dp/du),
+/// and the distribution word, alpha_v / alpha_u (1 where isotropic), negated
+/// for Beckmann's (`bsdf.wgsl`'s `microfacet`).
+fn roughness(d: &MicrofacetDistribution) -> (f32, f32) {
+    let ratio = d.alpha_v / d.alpha_u;
+    let word = match d.kind {
+        MicrofacetType::Beckmann => -ratio,
+        MicrofacetType::Ggx => ratio,
     };
-    Ok((d.alpha_u, bits(kind)))
+    (d.alpha_u, word)
+}
+
+/// Whether a material's roughness differs along u and v: its shapes need
+/// the CPU's dp/du on the GPU (vertex uvs, a sphere's axes).
+fn anisotropic(bsdf: &Bsdf) -> bool {
+    match bsdf {
+        Bsdf::RoughConductor(c) => !c.distr.is_isotropic(),
+        Bsdf::RoughDielectric(d) => !d.distr.is_isotropic(),
+        Bsdf::RoughPlastic(p) => !p.distr.is_isotropic(),
+        Bsdf::Textured(t) => anisotropic(t.base()),
+        Bsdf::Mask(m) => anisotropic(&m.nested),
+        Bsdf::TwoSided(t) => anisotropic(&t.front) || anisotropic(&t.back),
+        _ => false,
+    }
 }
 
 /// A plastic's diffuse term: the diffuse reflectance over what the
@@ -448,14 +458,21 @@ fn material(
                         variant_name(base)
                     ));
                 };
-                // An isotropic texture names both alphas; another is
-                // anisotropic. The second name adds no record.
-                if let TextureSlot::AlphaV = slot {
-                    let same =
-                        |(p, x): &(BsdfParam, Texture)| *p == BsdfParam::Alpha && x == texture;
+                // An isotropic texture names both alphas; a texture on one
+                // of them only, or two textures, is anisotropic. The second
+                // name adds no record.
+                let other = match slot {
+                    TextureSlot::Alpha => Some(BsdfParam::AlphaV),
+                    TextureSlot::AlphaV => Some(BsdfParam::Alpha),
+                    _ => None,
+                };
+                if let Some(other) = other {
+                    let same = |(p, x): &(BsdfParam, Texture)| *p == other && x == texture;
                     if !t.textures().iter().any(same) {
-                        return unsupported("anisotropic roughness");
+                        return unsupported("a textured anisotropic roughness");
                     }
+                }
+                if let TextureSlot::AlphaV = slot {
                     continue;
                 }
                 let record = texture_record(texture, table_base, tables)?;
@@ -478,6 +495,9 @@ fn material(
                     }
                     TextureSlot::Alpha => {
                         words[1][3] = record;
+                        // One texture for both alphas: isotropic, whatever
+                        // the base's constants were.
+                        words[2][3] = words[2][3].signum();
                         kind |= MAT_TEXTURED_ALPHA;
                     }
                     TextureSlot::AlphaV => {}
@@ -514,7 +534,7 @@ fn material(
             v4(c.k, 0.0),
         ],
         Bsdf::RoughConductor(c) => {
-            let (alpha, distr) = roughness(&c.distr)?;
+            let (alpha, distr) = roughness(&c.distr);
             [
                 v4(c.specular_reflectance, bits(MAT_ROUGH_CONDUCTOR)),
                 v4(c.eta, alpha),
@@ -522,7 +542,7 @@ fn material(
             ]
         }
         Bsdf::RoughDielectric(d) => {
-            let (alpha, distr) = roughness(&d.distr)?;
+            let (alpha, distr) = roughness(&d.distr);
             [
                 v4(d.specular_reflectance, bits(MAT_ROUGH_DIELECTRIC)),
                 v4(d.specular_transmittance, alpha),
@@ -538,7 +558,7 @@ fn material(
             [p.eta, p.specular_sampling_weight, 0.0, 0.0],
         ],
         Bsdf::RoughPlastic(p) => {
-            let (alpha, distr) = roughness(&p.distr)?;
+            let (alpha, distr) = roughness(&p.distr);
             let table = (table_base + tables.len()) as u32;
             tables.extend(
                 p.external_transmittance
@@ -715,8 +735,11 @@ impl GpuScene {
             let kind = words[0][3].to_bits();
             let back_kind = (kind & MAT_BACK != 0)
                 .then(|| tables[words[3][1].to_bits() as usize - table_base][3].to_bits());
+            // An anisotropic material needs the CPU's dp/du, which the
+            // vertex uvs and a sphere's axes give.
             let textured = (kind | back_kind.unwrap_or(0)) & MAT_TEXTURED_ANY != 0
-                || texture.to_bits() != NONE;
+                || texture.to_bits() != NONE
+                || anisotropic(&scene.bsdfs[s]);
             match geometry {
                 Geometry::Mesh(m) => {
                     let has_normals = !m.normals().is_empty();
@@ -1441,7 +1464,8 @@ mod tests {
             unreachable!()
         };
         let texture = t.textures()[0].1.clone();
-        let eta = crate::bsdf::Textured::new(t.base().clone(), vec![(BsdfParam::Eta, texture)]);
+        let base = t.base().clone();
+        let eta = crate::bsdf::Textured::new(base.clone(), vec![(BsdfParam::Eta, texture.clone())]);
         scene.bsdfs[k] = Bsdf::Textured(Box::new(eta.unwrap()));
         let err = GpuScene::new(&scene, &job, 1).err().unwrap();
         assert!(
@@ -1449,5 +1473,58 @@ mod tests {
                 .contains("a textured Eta parameter of the RoughConductor BSDF"),
             "{err}"
         );
+
+        // A texture on alpha_u alone is anisotropic: named, not rendered
+        // as if alpha_v followed it.
+        let alpha_u = crate::bsdf::Textured::new(base, vec![(BsdfParam::Alpha, texture)]);
+        scene.bsdfs[k] = Bsdf::Textured(Box::new(alpha_u.unwrap()));
+        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
+        assert!(
+            err.to_string().contains("a textured anisotropic roughness"),
+            "{err}"
+        );
+    }
+
+    /// Anisotropic materials carry alpha_u and the ratio alpha_v / alpha_u
+    /// (negated for Beckmann), and their shapes get vertex-data slots for
+    /// the CPU's dp/du: the cube's triangles their uvs, the turned sphere
+    /// its axes.
+    #[test]
+    fn anisotropic_roughness_words_and_frames() {
+        let (scene, job) = load("tests/gpu/anisotropic.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let mut seen = Vec::new();
+        for (k, b) in scene.bsdfs.iter().enumerate() {
+            let distr = match b {
+                Bsdf::RoughConductor(c) => c.distr,
+                Bsdf::RoughDielectric(d) => d.distr,
+                _ => continue,
+            };
+            let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+            let ratio = distr.alpha_v / distr.alpha_u;
+            let sign = match distr.kind {
+                MicrofacetType::Beckmann => -1.0,
+                MicrofacetType::Ggx => 1.0,
+            };
+            assert_eq!(words[1][3], distr.alpha_u);
+            assert_eq!(words[2][3], sign * ratio);
+            assert!(ratio != 1.0);
+            seen.push(distr.kind);
+        }
+        assert_eq!(seen.len(), 5, "{seen:?}");
+        // Every triangle and sphere of an anisotropic shape has a slot
+        // (disks need none): the floor's 2 triangles, the cube's 12, the
+        // spheres.
+        let mut with_slot = 0;
+        for r in flat.prims.chunks(3) {
+            let (shape, marker) = (r[0][3].to_bits() as usize, r[1][3].to_bits());
+            if marker == DISK || marker == DISK_FLIPPED || !anisotropic(&scene.bsdfs[shape]) {
+                continue;
+            }
+            let slot = if marker == SPHERE { r[1][1] } else { r[1][3] };
+            assert_ne!(slot.to_bits(), NONE, "shape {shape}");
+            with_slot += 1;
+        }
+        assert_eq!(with_slot, 16);
     }
 }

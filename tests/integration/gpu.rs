@@ -106,6 +106,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/masks_and_sides.xml",
         "tests/conformance/textured_area.xml",
         "tests/conformance/spot.xml",
+        "tests/gpu/anisotropic.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

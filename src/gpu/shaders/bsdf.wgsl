@@ -34,8 +34,6 @@ const MAT_DIELECTRIC: u32 = 9u;
 const MAT_CONDUCTOR: u32 = 10u;
 const MAT_THIN_DIELECTRIC: u32 = 11u;
 
-const DISTR_GGX: u32 = 1u;
-
 struct BsdfSample {
     wo: vec3<f32>,
     weight: vec3<f32>,
@@ -195,23 +193,29 @@ fn fresnel_conductor(cos_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec3<f32> {
     return 0.5 * (r_s + r_p);
 }
 
-// --- Isotropic microfacet distributions (distribution.rs).
+// --- Microfacet distributions (distribution.rs), anisotropic: alpha_u
+// along the shading frame's s axis (dp/du), alpha_v along t.
 
 struct Microfacet {
-    alpha: f32,
+    alpha_u: f32,
+    alpha_v: f32,
     ggx: bool,
 }
 
+// The material's distribution: word 2's w is alpha_v / alpha_u, negated for
+// Beckmann's (flatten.rs's `roughness`).
 fn microfacet() -> Microfacet {
-    let distr = bitcast<u32>(material_word(2u).w);
-    return Microfacet(mat_alpha, distr == DISTR_GGX);
+    let word = material_word(2u).w;
+    return Microfacet(mat_alpha, mat_alpha * abs(word), word > 0.0);
 }
 
 // D(m), zero below the horizon.
 fn microfacet_d(md: Microfacet, m: vec3<f32>) -> f32 {
-    let a2 = md.alpha * md.alpha;
     let cos2 = m.z * m.z;
-    let s2 = (m.x * m.x + m.y * m.y) / a2;
+    let sx = m.x / md.alpha_u;
+    let sy = m.y / md.alpha_v;
+    let s2 = sx * sx + sy * sy;
+    let a2 = md.alpha_u * md.alpha_v;
     var d: f32;
     if (md.ggx) {
         let t = s2 + cos2;
@@ -230,7 +234,9 @@ fn smith_g1(md: Microfacet, v: vec3<f32>, m: vec3<f32>) -> f32 {
     if (dot(v, m) * v.z <= 0.0) {
         return 0.0;
     }
-    let xy = md.alpha * md.alpha * (v.x * v.x + v.y * v.y);
+    let xu = md.alpha_u * v.x;
+    let yv = md.alpha_v * v.y;
+    let xy = xu * xu + yv * yv;
     if (xy == 0.0) {
         return 1.0;
     }
@@ -250,12 +256,26 @@ fn smith_g1(md: Microfacet, v: vec3<f32>, m: vec3<f32>) -> f32 {
 // hemisphere), Beckmann's D(m) cos(theta_m).
 fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     if (!md.ggx) {
-        let cos_t = 1.0 / sqrt(1.0 - md.alpha * md.alpha * log(1.0 - u.x));
+        var cos_phi = cos(2.0 * PI * u.y);
+        var sin_phi = sin(2.0 * PI * u.y);
+        var alpha2 = md.alpha_u * md.alpha_u;
+        if (md.alpha_u != md.alpha_v) {
+            // The azimuth of the anisotropic ellipse, quadrant by quadrant.
+            let tmp = (md.alpha_v / md.alpha_u) * tan(2.0 * PI * u.y);
+            cos_phi = 1.0 / sqrt(tmp * tmp + 1.0);
+            if (abs(u.y - 0.5) - 0.25 < 0.0) {
+                cos_phi = -cos_phi;
+            }
+            sin_phi = cos_phi * tmp;
+            let cu = cos_phi / md.alpha_u;
+            let sv = sin_phi / md.alpha_v;
+            alpha2 = 1.0 / (cu * cu + sv * sv);
+        }
+        let cos_t = 1.0 / sqrt(1.0 - alpha2 * log(1.0 - u.x));
         let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-        let phi = 2.0 * PI * u.y;
-        return vec3<f32>(cos(phi) * sin_t, sin(phi) * sin_t, cos_t);
+        return vec3<f32>(cos_phi * sin_t, sin_phi * sin_t, cos_t);
     }
-    let wi_p = normalize(vec3<f32>(md.alpha * wi.x, md.alpha * wi.y, wi.z));
+    let wi_p = normalize(vec3<f32>(md.alpha_u * wi.x, md.alpha_v * wi.y, wi.z));
     let r = sqrt(wi_p.x * wi_p.x + wi_p.y * wi_p.y);
     var sin_phi = 0.0;
     var cos_phi = 1.0;
@@ -271,8 +291,8 @@ fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let sin_i = sqrt(max(1.0 - wi_p.z * wi_p.z, 0.0));
     let norm = 1.0 / (sin_i * p.y + wi_p.z * z);
     let s11 = vec2<f32>((wi_p.z * p.y - sin_i * z) * norm, p.x * norm);
-    let sx = (cos_phi * s11.x - sin_phi * s11.y) * md.alpha;
-    let sy = (sin_phi * s11.x + cos_phi * s11.y) * md.alpha;
+    let sx = (cos_phi * s11.x - sin_phi * s11.y) * md.alpha_u;
+    let sy = (sin_phi * s11.x + cos_phi * s11.y) * md.alpha_v;
     return normalize(vec3<f32>(-sx, -sy, 1.0));
 }
 

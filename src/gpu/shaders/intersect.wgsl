@@ -194,8 +194,13 @@ struct Surface {
     light: u32,
     // The texture coordinates: disks, spheres with a (u, v) frame and
     // triangles with a vertex-data slot (flatten.rs gives those to every
-    // sphere and triangle of a textured shape); zero elsewhere.
+    // sphere and triangle of a textured or anisotropic shape); zero
+    // elsewhere.
     uv: vec2<f32>,
+    // dp/du as the CPU's shapes have it, where the shading frame's s axis
+    // points (anisotropic roughness): disks, spheres with a (u, v) frame
+    // and triangles with a slot; an edge of other triangles.
+    dpdu: vec3<f32>,
 }
 
 // Vec4 words per vertex-data slot (flatten.rs's SLOT_WORDS): three
@@ -234,10 +239,14 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         let n = normalize(o + h.t * d - r0.xyz);
         let frame = bitcast<u32>(r1.y);
         var uv = vec2<f32>(0.0);
+        // geometry/sphere.rs's dp/du: (object x cross object y) cross n.
+        var up = vec3<f32>(0.0, 0.0, 1.0);
         if (frame != NONE) {
-            uv = sphere_uv(n, SLOT_WORDS * frame);
+            let k = SLOT_WORDS * frame;
+            uv = sphere_uv(n, k);
+            up = cross(normals[k].xyz, normals[k + 1u].xyz);
         }
-        return Surface(r0.xyz + r1.x * n, n, n, shape, light, uv);
+        return Surface(r0.xyz + r1.x * n, n, n, shape, light, uv, cross(up, n));
     }
     if (is_disk(slot)) {
         var n = normalize(cross(r1.xyz, r2.xyz));
@@ -245,13 +254,15 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             n = -n;
         }
         // The hit keeps the object coordinates in (b1, b2).
-        return Surface(o + h.t * d, n, n, shape, light, disk_uv(vec2<f32>(h.b1, h.b2)));
+        let l = vec2<f32>(h.b1, h.b2);
+        return Surface(o + h.t * d, n, n, shape, light, disk_uv(l), disk_dpdu(r1.xyz, r2.xyz, l));
     }
     let b0 = 1.0 - h.b1 - h.b2;
     let p = b0 * r0.xyz + h.b1 * r1.xyz + h.b2 * r2.xyz;
     let ng = normalize(cross(r1.xyz - r0.xyz, r2.xyz - r0.xyz));
     var ns = ng;
     var uv = vec2<f32>(0.0);
+    var dpdu = r1.xyz - r0.xyz;
     if (slot != NONE) {
         let k = SLOT_WORDS * slot;
         let n = b0 * normals[k].xyz + h.b1 * normals[k + 1u].xyz + h.b2 * normals[k + 2u].xyz;
@@ -260,9 +271,38 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             ns = n / len;
         }
         let t01 = normals[k + 3u];
-        uv = b0 * t01.xy + h.b1 * t01.zw + h.b2 * normals[k + 4u].xy;
+        let uv2 = normals[k + 4u].xy;
+        uv = b0 * t01.xy + h.b1 * t01.zw + h.b2 * uv2;
+        dpdu = triangle_dpdu(r1.xyz - r0.xyz, r2.xyz - r0.xyz, t01.zw - t01.xy, uv2 - t01.xy);
     }
-    return Surface(p, ng, ns, shape, light, uv);
+    return Surface(p, ng, ns, shape, light, uv, dpdu);
+}
+
+// A triangle's dp/du from its edges and their (u, v) differences (mesh.rs's
+// `dpdu_with`): zero where the uvs are degenerate.
+fn triangle_dpdu(dp0: vec3<f32>, dp1: vec3<f32>, duv0: vec2<f32>, duv1: vec2<f32>) -> vec3<f32> {
+    let det = duv0.x * duv1.y - duv0.y * duv1.x;
+    if (det == 0.0 || not_finite(det)) {
+        return vec3<f32>(0.0);
+    }
+    return (dp0 * duv1.y - dp1 * duv0.y) / det;
+}
+
+// A disk's dp/du at object coordinates `l` (disk.rs's `derivatives`): the
+// radial direction cos ex + sin ey, with the frame's axes ex, ey recovered
+// from the dual basis (dx, dy) that the record keeps (ex is orthogonal to
+// dy in the plane, with ex . dx = 1; ey likewise).
+fn disk_dpdu(dx: vec3<f32>, dy: vec3<f32>, l: vec2<f32>) -> vec3<f32> {
+    let n = cross(dx, dy);
+    let a = cross(dy, n);
+    let b = cross(n, dx);
+    let ex = a / dot(a, dx);
+    let ey = b / dot(b, dy);
+    let r = length(l);
+    if (r > 0.0) {
+        return (l.x / r) * ex + (l.y / r) * ey;
+    }
+    return ex;
 }
 
 // A ray's origin off the surface at `p` on the side `d` leaves to.

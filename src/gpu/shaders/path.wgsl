@@ -130,7 +130,7 @@ fn li(camera: Ray) -> vec3<f32> {
         if (depth >= P.max_depth) {
             break;
         }
-        let frame = frame_from_normal(s.ns);
+        let frame = frame_from_normal_tangent(s.ns, s.dpdu);
         let wi_world = -ray.d;
         let wi = to_local(frame, wi_world);
 

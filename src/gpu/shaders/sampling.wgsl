@@ -81,6 +81,19 @@ fn frame_from_normal(n: vec3<f32>) -> Frame {
     );
 }
 
+// The frame around `n` whose s axis is `tangent` made orthogonal to it
+// (math/frame.rs's `from_normal_tangent`), or `frame_from_normal(n)` where
+// that is degenerate.
+fn frame_from_normal_tangent(n: vec3<f32>, tangent: vec3<f32>) -> Frame {
+    let v = tangent - n * dot(n, tangent);
+    let rcp = inverseSqrt(dot(v, v));
+    if (!(rcp > 0.0) || not_finite(rcp)) {
+        return frame_from_normal(n);
+    }
+    let s = v * rcp;
+    return Frame(s, cross(n, s), n);
+}
+
 fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(v, f.s), dot(v, f.t), dot(v, f.n));
 }
