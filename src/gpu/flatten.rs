@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, BvhBuildParams};
 
 use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
-use crate::bsdf::{Bsdf, BsdfParam};
+use crate::bsdf::{Bsdf, BsdfParam, Tilt, Tilted};
 use crate::camera::{Aperture, Projection};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
@@ -93,9 +93,22 @@ pub const MAT_TEXTURED_MASK: u32 = 0x4000;
 /// words in the shapes buffer (flagged `MAT_TWO_SIDED`).
 pub const MAT_BACK: u32 = 0x8000;
 
+/// Set in a `normalmap`'s kind word (its nested BSDF's record with this
+/// flag): word D's third value is the normal texture's record index (as
+/// bits), its fourth the `TILT_*` flags.
+pub const MAT_NORMAL_MAP: u32 = 0x10000;
+
+/// A normal map's flags (word D's fourth value, as bits): Mitsuba's
+/// `flip_invalid_normals` and `use_shadowing_function`, and a map inside
+/// a `twosided` material (tilted after the back's directions are
+/// mirrored, not before).
+pub const TILT_FLIP: u32 = 1;
+pub const TILT_SHADOW: u32 = 2;
+pub const TILT_INSIDE_TWO_SIDED: u32 = 4;
+
 /// Every texture flag.
 pub const MAT_TEXTURED_ANY: u32 =
-    MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA | MAT_TEXTURED_MASK;
+    MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA | MAT_TEXTURED_MASK | MAT_NORMAL_MAP;
 
 /// Vec4 words per vertex-data slot in `normals`: a triangle's three vertex
 /// normals (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2,
@@ -227,7 +240,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, normal-mapped, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -400,7 +413,8 @@ fn shape_record(
             if matches!(mask.nested, Bsdf::Mask(_)) {
                 return unsupported("a mask inside a mask");
             }
-            let [mut a, b, c, [_, back, ..]] = shape_record(&mask.nested, table_base, tables)?;
+            // A normal map's words (D's last two) stay under the mask.
+            let [mut a, b, c, [_, back, z, w]] = shape_record(&mask.nested, table_base, tables)?;
             flag(&mut a, MAT_MASK);
             let d = match mask.opacity.constant() {
                 Some(_) => mask.opacity.eval_1(Vec2::ZERO).clamp(0.0, 1.0),
@@ -409,7 +423,17 @@ fn shape_record(
                     texture_record(&mask.opacity, table_base, tables)?
                 }
             };
-            Ok([a, b, c, [d, back, 0.0, 0.0]])
+            Ok([a, b, c, [d, back, z, w]])
+        }
+        Bsdf::Tilted(t) => normal_map(t, 0, table_base, tables),
+        // twosided(normalmap(X)): X's record, tilted inside the mirroring.
+        Bsdf::TwoSided(t) if t.front == t.back && matches!(*t.front, Bsdf::Tilted(_)) => {
+            let Bsdf::Tilted(tilted) = &*t.front else {
+                unreachable!()
+            };
+            let mut words = normal_map(tilted, TILT_INSIDE_TWO_SIDED, table_base, tables)?;
+            flag(&mut words[0], MAT_TWO_SIDED);
+            Ok(words)
         }
         Bsdf::TwoSided(t) if t.front != t.back => {
             let [mut a, b, c] = material(&t.front, table_base, tables)?;
@@ -425,6 +449,32 @@ fn shape_record(
             Ok([a, b, c, [1.0, 0.0, 0.0, 0.0]])
         }
     }
+}
+
+/// A `normalmap`'s shape record: its nested BSDF's three words flagged
+/// `MAT_NORMAL_MAP`, then (1, 0, the normal texture's record, the `TILT_*`
+/// flags with `extra`). Bump maps, and masks or different backs under the
+/// map, are named unsupported.
+fn normal_map(
+    t: &Tilted,
+    extra: u32,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<[[f32; 4]; SHAPE_WORDS], Unsupported> {
+    let Tilt::NormalMap(map) = &t.tilt else {
+        return unsupported("bump maps");
+    };
+    let [mut a, b, c] = material(&t.nested, table_base, tables)?;
+    a[3] = bits(a[3].to_bits() | MAT_NORMAL_MAP);
+    let record = texture_record(&map.normals, table_base, tables)?;
+    let mut flags = extra;
+    if t.flip_invalid_normals {
+        flags |= TILT_FLIP;
+    }
+    if t.use_shadowing_function {
+        flags |= TILT_SHADOW;
+    }
+    Ok([a, b, c, [1.0, 0.0, record, bits(flags)]])
 }
 
 /// A BSDF's first three material words, as `bsdf.wgsl` reads them:
@@ -517,6 +567,7 @@ fn material(
         Bsdf::TwoSided(_) => {
             return unsupported("a two-sided BSDF with a different back inside another BSDF")
         }
+        Bsdf::Tilted(_) => return unsupported("a normal or bump map inside another BSDF"),
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
@@ -1481,6 +1532,69 @@ mod tests {
         let err = GpuScene::new(&scene, &job, 1).err().unwrap();
         assert!(
             err.to_string().contains("a textured anisotropic roughness"),
+            "{err}"
+        );
+    }
+
+    /// A normal map is its nested BSDF's record flagged `MAT_NORMAL_MAP`,
+    /// pointing at its texture with its switches; inside a `twosided`
+    /// material it is also flagged two-sided and tilted inside. A bump map,
+    /// or a map inside another BSDF, is named unsupported.
+    #[test]
+    fn normal_maps_are_flagged_records() {
+        let (mut scene, job) = load("tests/gpu/normal_map.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let mut tilts = Vec::new();
+        for k in 0..scene.bsdfs.len() {
+            let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+            let kind = words[0][3].to_bits();
+            if kind & MAT_NORMAL_MAP == 0 {
+                continue;
+            }
+            let header = &flat.shapes[words[3][2].to_bits() as usize..][..3];
+            assert!(header[2][1].to_bits() <= TEX_BILINEAR, "a bitmap");
+            tilts.push((kind & !MAT_TEXTURED_ANY, words[3][3].to_bits()));
+        }
+        assert_eq!(
+            tilts,
+            [
+                (MAT_ROUGH_CONDUCTOR, 0),
+                (MAT_ROUGH_PLASTIC | MAT_MASK, TILT_FLIP | TILT_SHADOW),
+                (
+                    MAT_DIFFUSE | MAT_TWO_SIDED,
+                    TILT_FLIP | TILT_SHADOW | TILT_INSIDE_TWO_SIDED
+                ),
+            ]
+        );
+
+        let k = scene.bsdfs.len() - 1;
+        let Bsdf::TwoSided(t) = scene.bsdfs[k].clone() else {
+            panic!("the sphere is two-sided")
+        };
+        // Under a mask the map keeps its words.
+        scene.bsdfs[k] = Bsdf::Mask(Box::new(crate::bsdf::Mask {
+            opacity: Texture::Constant(Rgb::splat(0.5)),
+            nested: (*t.front).clone(),
+        }));
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+        assert_eq!(
+            words[0][3].to_bits(),
+            MAT_DIFFUSE | MAT_MASK | MAT_NORMAL_MAP
+        );
+        assert_eq!(words[3][0], 0.5);
+        assert_eq!(words[3][3].to_bits(), TILT_FLIP | TILT_SHADOW);
+        // A different back cannot hold one.
+        scene.bsdfs[k] = Bsdf::TwoSided(crate::bsdf::TwoSided {
+            front: t.front.clone(),
+            back: Box::new(Bsdf::Diffuse(
+                crate::bsdf::Diffuse::new(Rgb::splat(0.5)).unwrap(),
+            )),
+        });
+        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
+        assert!(
+            err.to_string()
+                .contains("a normal or bump map inside another BSDF"),
             "{err}"
         );
     }

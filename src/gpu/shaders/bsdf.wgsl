@@ -73,8 +73,11 @@ const MAT_MASK: u32 = 0x2000u;
 const MAT_TEXTURED_MASK: u32 = 0x4000u;
 // A two-sided material's front whose back differs (D.y: the back's record).
 const MAT_BACK: u32 = 0x8000u;
+// A normal map over the BSDF: D.z is the normal texture's record, D.w
+// the TILT_* flags (flatten.rs).
+const MAT_NORMAL_MAP: u32 = 0x10000u;
 const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA
-    | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK;
+    | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK | MAT_NORMAL_MAP;
 
 fn material_kind() -> u32 {
     return bitcast<u32>(material_word(0u).w) & ~MAT_FLAGS;
@@ -91,6 +94,10 @@ var<private> mat_a: vec3<f32>;
 var<private> mat_b: vec3<f32>;
 var<private> mat_alpha: f32;
 var<private> mat_opacity: f32;
+// A normal map's texel as a normal (2c - 1), and its TILT_* flags with
+// TILT_ON (0 without a normal map).
+var<private> mat_tilt_n: vec3<f32>;
+var<private> mat_tilt_flags: u32;
 
 fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
     mat_base = SHAPE_WORDS * shape;
@@ -108,16 +115,18 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
     mat_b = w1.xyz;
     mat_alpha = w1.w;
     mat_opacity = w3.x;
-    let textured = array<u32, 4>(MAT_TEXTURED, MAT_TEXTURED_B, MAT_TEXTURED_ALPHA, MAT_TEXTURED_MASK);
-    let records = array<f32, 4>(w0.x, w1.x, w1.w, w3.x);
-    // One loop, so the texture lookup is inlined once: A, B, alpha, opacity.
-    for (var k = 0u; k < 4u; k++) {
+    mat_tilt_flags = select(0u, bitcast<u32>(w3.w) | TILT_ON, (flags & MAT_NORMAL_MAP) != 0u);
+    let textured = array<u32, 5>(MAT_TEXTURED, MAT_TEXTURED_B, MAT_TEXTURED_ALPHA, MAT_TEXTURED_MASK, MAT_NORMAL_MAP);
+    let records = array<f32, 5>(w0.x, w1.x, w1.w, w3.x, w3.z);
+    // One loop, so the texture lookup is inlined once: A, B, alpha,
+    // opacity, normal.
+    for (var k = 0u; k < 5u; k++) {
         if ((flags & textured[k]) == 0u) {
             continue;
         }
         let record = bitcast<u32>(records[k]);
         // Roughness and opacity are read as one value (`eval_1`).
-        let c = texture_lookup(record, uv, k >= 2u);
+        let c = texture_lookup(record, uv, k == 2u || k == 3u);
         if (k == 0u) {
             let base = flags & ~MAT_FLAGS;
             if (base != MAT_PLASTIC && base != MAT_ROUGH_PLASTIC) {
@@ -132,8 +141,10 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
         } else if (k == 2u) {
             // textured.rs: at least distribution.rs's MIN_ALPHA.
             mat_alpha = max(texture_value_1(record, c), 1e-4);
-        } else {
+        } else if (k == 3u) {
             mat_opacity = clamp(texture_value_1(record, c), 0.0, 1.0);
+        } else {
+            mat_tilt_n = c * 2.0 - vec3<f32>(1.0);
         }
     }
 }
@@ -629,14 +640,142 @@ fn side_flip(wi: vec3<f32>) -> vec3<f32> {
 // opacity, and samples it with that probability, else passes straight
 // through (a delta lobe of weight 1).
 
+// --- Normal maps (tilted.rs): the BSDF seen in a frame tilted to the
+// map's normal, whose s axis is the shading frame's x made orthogonal to
+// it (the shading frame's x is dp/du, as on the CPU); a normal facing away
+// from `wi` is mirrored through the shading normal (flip), directions on
+// opposite sides of the two frames carry nothing, and Estevez et al.'s
+// term softens the terminator (shadow). Outside a two-sided material's
+// mirroring, or inside it (twosided(normalmap(...))).
+
+const TILT_FLIP: u32 = 1u;
+const TILT_SHADOW: u32 = 2u;
+const TILT_INSIDE_TWO_SIDED: u32 = 4u;
+const TILT_ON: u32 = 8u;
+
+// The tilted frame of the hit, in its shading frame (`set_tilt`).
+var<private> mat_tilt: Frame;
+
+// tan^2 theta of a local direction.
+fn tan2_theta(v: vec3<f32>) -> f32 {
+    let c2 = v.z * v.z;
+    return max(1.0 - c2, 0.0) / c2;
+}
+
+// Estevez et al. 2019's shadowing term for the tilted normal, seen from
+// `wo` (untilted frame).
+fn shadow_terminator(n: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let alpha2 = min(0.125 * tan2_theta(n), 1.0);
+    let s = 2.0 / (1.0 + sqrt(1.0 + alpha2 * tan2_theta(wo)));
+    return select(s, 0.0, not_finite(s));
+}
+
+// After `load_material`, for the hit seen from `wi` (shading frame): the
+// normal map's tilted frame (tilted.rs's `frame`).
+fn set_tilt(wi: vec3<f32>) {
+    if (mat_tilt_flags == 0u) {
+        return;
+    }
+    var w = wi;
+    if ((mat_tilt_flags & TILT_INSIDE_TWO_SIDED) != 0u) {
+        w = wi * side_flip(wi);
+    }
+    var n = mat_tilt_n;
+    if ((mat_tilt_flags & TILT_FLIP) != 0u && w.z * dot(w, n) <= 0.0) {
+        n = vec3<f32>(-n.x, -n.y, n.z);
+    }
+    let rcp = inverseSqrt(dot(n, n));
+    if (!(rcp > 0.0) || not_finite(rcp)) {
+        mat_tilt = Frame(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+        return;
+    }
+    mat_tilt = frame_from_normal_tangent(n * rcp, vec3<f32>(1.0, 0.0, 0.0));
+}
+
+fn tilt_outside() -> bool {
+    return (mat_tilt_flags & (TILT_ON | TILT_INSIDE_TWO_SIDED)) == TILT_ON;
+}
+
+fn tilt_inside() -> bool {
+    return (mat_tilt_flags & TILT_INSIDE_TWO_SIDED) != 0u;
+}
+
+// Whether `wo` stays on its side in the tilted frame.
+fn tilt_keeps_side(wo: vec3<f32>) -> bool {
+    return wo.z * to_local(mat_tilt, wo).z > 0.0;
+}
+
+// The tilt's factor on a value: the shadowing term times the cosine in
+// the tilted frame over the untilted one.
+fn tilt_scale(wo: vec3<f32>) -> f32 {
+    var shadow = 1.0;
+    if ((mat_tilt_flags & TILT_SHADOW) != 0u) {
+        shadow = shadow_terminator(mat_tilt.n, wo);
+    }
+    return shadow * abs(to_local(mat_tilt, wo).z) / abs(wo.z);
+}
+
+// A sample of the BSDF in the tilted frame, back in the untilted one.
+fn untilt(s_in: BsdfSample) -> BsdfSample {
+    var s = s_in;
+    let pwo = s.wo;
+    s.wo = to_world(mat_tilt, pwo);
+    if (s.wo.z * pwo.z <= 0.0) {
+        return no_sample();
+    }
+    if ((mat_tilt_flags & TILT_SHADOW) != 0u) {
+        s.weight *= shadow_terminator(mat_tilt.n, s.wo);
+    }
+    return s;
+}
+
 fn bsdf_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let f = side_flip(wi);
-    return front_eval(wi * f, wo * f) * mat_opacity;
+    var a = wi;
+    var b = wo;
+    var scale = mat_opacity;
+    if (tilt_outside()) {
+        if (!tilt_keeps_side(b)) {
+            return vec3<f32>(0.0);
+        }
+        scale *= tilt_scale(b);
+        a = to_local(mat_tilt, a);
+        b = to_local(mat_tilt, b);
+    }
+    let f = side_flip(a);
+    a *= f;
+    b *= f;
+    if (tilt_inside()) {
+        if (!tilt_keeps_side(b)) {
+            return vec3<f32>(0.0);
+        }
+        scale *= tilt_scale(b);
+        a = to_local(mat_tilt, a);
+        b = to_local(mat_tilt, b);
+    }
+    return front_eval(a, b) * scale;
 }
 
 fn bsdf_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let f = side_flip(wi);
-    return front_pdf(wi * f, wo * f) * mat_opacity;
+    var a = wi;
+    var b = wo;
+    if (tilt_outside()) {
+        if (!tilt_keeps_side(b)) {
+            return 0.0;
+        }
+        a = to_local(mat_tilt, a);
+        b = to_local(mat_tilt, b);
+    }
+    let f = side_flip(a);
+    a *= f;
+    b *= f;
+    if (tilt_inside()) {
+        if (!tilt_keeps_side(b)) {
+            return 0.0;
+        }
+        a = to_local(mat_tilt, a);
+        b = to_local(mat_tilt, b);
+    }
+    return front_pdf(a, b) * mat_opacity;
 }
 
 fn bsdf_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
@@ -644,11 +783,31 @@ fn bsdf_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     if (u_lobe >= opacity) {
         return BsdfSample(-wi, vec3<f32>(1.0), 1.0 - opacity, true, 1.0, true);
     }
-    let f = side_flip(wi);
+    var a = wi;
+    if (tilt_outside()) {
+        a = to_local(mat_tilt, a);
+    }
+    let f = side_flip(a);
+    a *= f;
+    if (tilt_inside()) {
+        a = to_local(mat_tilt, a);
+    }
     // 1 - f32::EPSILON, as mask.rs clamps it.
     let u_nested = min(u_lobe / opacity, 0.99999988);
-    var s = front_sample(wi * f, u, u_nested);
+    var s = front_sample(a, u, u_nested);
+    if (!s.ok) {
+        return s;
+    }
+    if (tilt_inside()) {
+        s = untilt(s);
+        if (!s.ok) {
+            return s;
+        }
+    }
     s.wo *= f;
+    if (tilt_outside()) {
+        s = untilt(s);
+    }
     s.pdf *= opacity;
     return s;
 }
