@@ -729,53 +729,53 @@ fn untilt(s_in: BsdfSample) -> BsdfSample {
     return s;
 }
 
+// `wi` and `wo` as the front BSDF sees them: tilted by a normal map
+// outside the two-sided mirroring, mirrored, tilted inside it; `scale` is
+// the tilt's factor on a value, and `kept` false where `wo` changes side
+// in the tilted frame (nothing then).
+struct FrontDirs {
+    wi: vec3<f32>,
+    wo: vec3<f32>,
+    scale: f32,
+    kept: bool,
+}
+
+fn front_dirs(wi: vec3<f32>, wo: vec3<f32>) -> FrontDirs {
+    var d = FrontDirs(wi, wo, 1.0, true);
+    for (var inside = 0u; inside < 2u; inside++) {
+        if (inside == 1u) {
+            let f = side_flip(d.wi);
+            d.wi *= f;
+            d.wo *= f;
+        }
+        let tilted = select(tilt_outside(), tilt_inside(), inside == 1u);
+        if (tilted) {
+            if (!tilt_keeps_side(d.wo)) {
+                d.kept = false;
+                return d;
+            }
+            d.scale *= tilt_scale(d.wo);
+            d.wi = to_local(mat_tilt, d.wi);
+            d.wo = to_local(mat_tilt, d.wo);
+        }
+    }
+    return d;
+}
+
 fn bsdf_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    var a = wi;
-    var b = wo;
-    var scale = mat_opacity;
-    if (tilt_outside()) {
-        if (!tilt_keeps_side(b)) {
-            return vec3<f32>(0.0);
-        }
-        scale *= tilt_scale(b);
-        a = to_local(mat_tilt, a);
-        b = to_local(mat_tilt, b);
+    let d = front_dirs(wi, wo);
+    if (!d.kept) {
+        return vec3<f32>(0.0);
     }
-    let f = side_flip(a);
-    a *= f;
-    b *= f;
-    if (tilt_inside()) {
-        if (!tilt_keeps_side(b)) {
-            return vec3<f32>(0.0);
-        }
-        scale *= tilt_scale(b);
-        a = to_local(mat_tilt, a);
-        b = to_local(mat_tilt, b);
-    }
-    return front_eval(a, b) * scale;
+    return front_eval(d.wi, d.wo) * (d.scale * mat_opacity);
 }
 
 fn bsdf_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    var a = wi;
-    var b = wo;
-    if (tilt_outside()) {
-        if (!tilt_keeps_side(b)) {
-            return 0.0;
-        }
-        a = to_local(mat_tilt, a);
-        b = to_local(mat_tilt, b);
+    let d = front_dirs(wi, wo);
+    if (!d.kept) {
+        return 0.0;
     }
-    let f = side_flip(a);
-    a *= f;
-    b *= f;
-    if (tilt_inside()) {
-        if (!tilt_keeps_side(b)) {
-            return 0.0;
-        }
-        a = to_local(mat_tilt, a);
-        b = to_local(mat_tilt, b);
-    }
-    return front_pdf(a, b) * mat_opacity;
+    return front_pdf(d.wi, d.wo) * mat_opacity;
 }
 
 fn bsdf_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
