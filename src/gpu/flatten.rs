@@ -1256,11 +1256,7 @@ mod tests {
         job.integrator = Integrator::Direct {
             strategy: Strategy::Ems,
         };
-        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
-        assert!(
-            err.to_string().contains("a single sampling strategy"),
-            "{err}"
-        );
+        assert_refused(&scene, &job, "a single sampling strategy");
         job.integrator = Integrator::Path {
             strategy: Strategy::Mis,
             params: PathParams {
@@ -1283,6 +1279,14 @@ mod tests {
         assert_eq!(flat.lights.len(), n * LIGHT_WORDS);
         let last = flat.lights[LIGHT_WORDS * (n - 1) + 2][3];
         assert!((last - 1.0).abs() < 1e-6, "{last}");
+    }
+
+    /// Asserts that the GPU refuses `scene` with an error naming `what`.
+    fn assert_refused(scene: &Scene, job: &RenderJob, what: &str) {
+        let err = GpuScene::new(scene, job, 1)
+            .err()
+            .expect("an unsupported scene");
+        assert!(err.to_string().contains(what), "{err}");
     }
 
     fn load(file: &str) -> (Scene, RenderJob) {
@@ -1480,12 +1484,7 @@ mod tests {
             })
             .collect();
         let scene = Scene::new(desc).unwrap();
-        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
-        assert!(
-            err.to_string()
-                .contains("primitives once the instances are placed"),
-            "{err}"
-        );
+        assert_refused(&scene, &job, "primitives once the instances are placed");
     }
 
     /// A rough conductor with a textured roughness and specular
@@ -1518,22 +1517,17 @@ mod tests {
         let base = t.base().clone();
         let eta = crate::bsdf::Textured::new(base.clone(), vec![(BsdfParam::Eta, texture.clone())]);
         scene.bsdfs[k] = Bsdf::Textured(Box::new(eta.unwrap()));
-        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
-        assert!(
-            err.to_string()
-                .contains("a textured Eta parameter of the RoughConductor BSDF"),
-            "{err}"
+        assert_refused(
+            &scene,
+            &job,
+            "a textured Eta parameter of the RoughConductor BSDF",
         );
 
         // A texture on alpha_u alone is anisotropic: named, not rendered
         // as if alpha_v followed it.
         let alpha_u = crate::bsdf::Textured::new(base, vec![(BsdfParam::Alpha, texture)]);
         scene.bsdfs[k] = Bsdf::Textured(Box::new(alpha_u.unwrap()));
-        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
-        assert!(
-            err.to_string().contains("a textured anisotropic roughness"),
-            "{err}"
-        );
+        assert_refused(&scene, &job, "a textured anisotropic roughness");
     }
 
     /// A normal map is its nested BSDF's record flagged `MAT_NORMAL_MAP`,
@@ -1591,12 +1585,7 @@ mod tests {
                 crate::bsdf::Diffuse::new(Rgb::splat(0.5)).unwrap(),
             )),
         });
-        let err = GpuScene::new(&scene, &job, 1).err().unwrap();
-        assert!(
-            err.to_string()
-                .contains("a normal or bump map inside another BSDF"),
-            "{err}"
-        );
+        assert_refused(&scene, &job, "a normal or bump map inside another BSDF");
     }
 
     /// Anisotropic materials carry alpha_u and the ratio alpha_v / alpha_u
