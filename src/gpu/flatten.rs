@@ -93,18 +93,22 @@ pub const MAT_TEXTURED_MASK: u32 = 0x4000;
 /// words in the shapes buffer (flagged `MAT_TWO_SIDED`).
 pub const MAT_BACK: u32 = 0x8000;
 
-/// Set in a `normalmap`'s kind word (its nested BSDF's record with this
-/// flag): word D's third value is the normal texture's record index (as
-/// bits), its fourth the `TILT_*` flags.
+/// Set in a `normalmap`'s or `bumpmap`'s kind word (its nested BSDF's
+/// record with this flag): word D's third value is the normal or height
+/// texture's record index (as bits), its fourth the `TILT_*` flags, its
+/// second a bump map's scale.
 pub const MAT_NORMAL_MAP: u32 = 0x10000;
 
-/// A normal map's flags (word D's fourth value, as bits): Mitsuba's
+/// A normal or bump map's flags (word D's fourth value, as bits): Mitsuba's
 /// `flip_invalid_normals` and `use_shadowing_function`, and a map inside
 /// a `twosided` material (tilted after the back's directions are
 /// mirrored, not before).
 pub const TILT_FLIP: u32 = 1;
 pub const TILT_SHADOW: u32 = 2;
 pub const TILT_INSIDE_TWO_SIDED: u32 = 4;
+/// A bump map: the fourth word's texture is a height field (its slopes
+/// tilt the normal), its second number the map's scale.
+pub const TILT_BUMP: u32 = 16;
 
 /// Every texture flag.
 pub const MAT_TEXTURED_ANY: u32 =
@@ -240,7 +244,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, normal-mapped, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, normal- and bump-mapped, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -425,13 +429,13 @@ fn shape_record(
             };
             Ok([a, b, c, [d, back, z, w]])
         }
-        Bsdf::Tilted(t) => normal_map(t, 0, table_base, tables),
+        Bsdf::Tilted(t) => tilted(t, 0, table_base, tables),
         // twosided(normalmap(X)): X's record, tilted inside the mirroring.
         Bsdf::TwoSided(t) if t.front == t.back && matches!(*t.front, Bsdf::Tilted(_)) => {
-            let Bsdf::Tilted(tilted) = &*t.front else {
+            let Bsdf::Tilted(map) = &*t.front else {
                 unreachable!()
             };
-            let mut words = normal_map(tilted, TILT_INSIDE_TWO_SIDED, table_base, tables)?;
+            let mut words = tilted(map, TILT_INSIDE_TWO_SIDED, table_base, tables)?;
             flag(&mut words[0], MAT_TWO_SIDED);
             Ok(words)
         }
@@ -451,30 +455,34 @@ fn shape_record(
     }
 }
 
-/// A `normalmap`'s shape record: its nested BSDF's three words flagged
-/// `MAT_NORMAL_MAP`, then (1, 0, the normal texture's record, the `TILT_*`
-/// flags with `extra`). Bump maps, and masks or different backs under the
-/// map, are named unsupported.
-fn normal_map(
+/// A `normalmap`'s or `bumpmap`'s shape record: its nested BSDF's three
+/// words flagged `MAT_NORMAL_MAP`, then (1, the bump map's scale, the
+/// normal or height texture's record, the `TILT_*` flags with `extra`).
+/// Masks or different backs under the map are named unsupported.
+fn tilted(
     t: &Tilted,
     extra: u32,
     table_base: usize,
     tables: &mut Vec<[f32; 4]>,
 ) -> Result<[[f32; 4]; SHAPE_WORDS], Unsupported> {
-    let Tilt::NormalMap(map) = &t.tilt else {
-        return unsupported("bump maps");
-    };
     let [mut a, b, c] = material(&t.nested, table_base, tables)?;
     a[3] = bits(a[3].to_bits() | MAT_NORMAL_MAP);
-    let record = texture_record(&map.normals, table_base, tables)?;
     let mut flags = extra;
+    let (texture, scale) = match &t.tilt {
+        Tilt::NormalMap(map) => (&map.normals, 0.0),
+        Tilt::BumpMap(bump) => {
+            flags |= TILT_BUMP;
+            (&bump.height, bump.scale)
+        }
+    };
+    let record = texture_record(texture, table_base, tables)?;
     if t.flip_invalid_normals {
         flags |= TILT_FLIP;
     }
     if t.use_shadowing_function {
         flags |= TILT_SHADOW;
     }
-    Ok([a, b, c, [1.0, 0.0, record, bits(flags)]])
+    Ok([a, b, c, [1.0, scale, record, bits(flags)]])
 }
 
 /// A BSDF's first three material words, as `bsdf.wgsl` reads them:
@@ -1532,8 +1540,8 @@ mod tests {
 
     /// A normal map is its nested BSDF's record flagged `MAT_NORMAL_MAP`,
     /// pointing at its texture with its switches; inside a `twosided`
-    /// material it is also flagged two-sided and tilted inside. A bump map,
-    /// or a map inside another BSDF, is named unsupported.
+    /// material it is also flagged two-sided and tilted inside. A map
+    /// inside another BSDF is named unsupported.
     #[test]
     fn normal_maps_are_flagged_records() {
         let (mut scene, job) = load("tests/gpu/normal_map.xml");
@@ -1586,6 +1594,61 @@ mod tests {
             )),
         });
         assert_refused(&scene, &job, "a normal or bump map inside another BSDF");
+    }
+
+    /// A bump map is a normal map's record with `TILT_BUMP` and its scale
+    /// in word D; under a mask it keeps both, and its shapes get slots
+    /// (uvs for the dp/du and dp/dv of triangles, a sphere's axes).
+    #[test]
+    fn bump_maps_carry_their_scale() {
+        let (scene, job) = load("tests/gpu/bump_map.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let mut bumps = Vec::new();
+        for k in 0..scene.bsdfs.len() {
+            let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+            let kind = words[0][3].to_bits();
+            if kind & MAT_NORMAL_MAP == 0 {
+                continue;
+            }
+            let header = &flat.shapes[words[3][2].to_bits() as usize..][..3];
+            assert_eq!(header[2][1].to_bits(), TEX_BILINEAR, "a bilinear bitmap");
+            bumps.push((
+                kind & !MAT_TEXTURED_ANY,
+                words[3][0],
+                words[3][1],
+                words[3][3].to_bits(),
+            ));
+        }
+        let on = TILT_BUMP | TILT_FLIP | TILT_SHADOW;
+        assert_eq!(
+            bumps,
+            [
+                (MAT_ROUGH_PLASTIC, 1.0, 0.2, on),
+                (
+                    MAT_DIFFUSE | MAT_TWO_SIDED,
+                    1.0,
+                    -0.08,
+                    on | TILT_INSIDE_TWO_SIDED
+                ),
+                (MAT_ROUGH_CONDUCTOR | MAT_MASK, 0.8, 0.05, TILT_BUMP),
+                (MAT_PLASTIC, 1.0, 0.5, on),
+            ]
+        );
+        // Every triangle and sphere of a bumped shape has a slot (disks
+        // need none): the floor's 2 triangles, the icosphere's 80, the
+        // sphere.
+        let mut with_slot = 0;
+        for r in flat.prims.chunks(3) {
+            let (shape, marker) = (r[0][3].to_bits() as usize, r[1][3].to_bits());
+            let kind = flat.shapes[shape * SHAPE_WORDS][3].to_bits();
+            if marker == DISK || marker == DISK_FLIPPED || kind & MAT_NORMAL_MAP == 0 {
+                continue;
+            }
+            let slot = if marker == SPHERE { r[1][1] } else { r[1][3] };
+            assert_ne!(slot.to_bits(), NONE, "shape {shape}");
+            with_slot += 1;
+        }
+        assert_eq!(with_slot, 83);
     }
 
     /// Anisotropic materials carry alpha_u and the ratio alpha_v / alpha_u

@@ -73,8 +73,9 @@ const MAT_MASK: u32 = 0x2000u;
 const MAT_TEXTURED_MASK: u32 = 0x4000u;
 // A two-sided material's front whose back differs (D.y: the back's record).
 const MAT_BACK: u32 = 0x8000u;
-// A normal map over the BSDF: D.z is the normal texture's record, D.w
-// the TILT_* flags (flatten.rs).
+// A normal or bump map over the BSDF: D.z is the normal or height
+// texture's record, D.w the TILT_* flags (flatten.rs), D.y a bump map's
+// scale.
 const MAT_NORMAL_MAP: u32 = 0x10000u;
 const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA
     | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK | MAT_NORMAL_MAP;
@@ -94,8 +95,9 @@ var<private> mat_a: vec3<f32>;
 var<private> mat_b: vec3<f32>;
 var<private> mat_alpha: f32;
 var<private> mat_opacity: f32;
-// A normal map's texel as a normal (2c - 1), and its TILT_* flags with
-// TILT_ON (0 without a normal map).
+// A normal map's texel as a normal (2c - 1), or a bump map's height
+// slopes along u and v (times its scale) in x and y; the TILT_* flags
+// with TILT_ON (0 without a map).
 var<private> mat_tilt_n: vec3<f32>;
 var<private> mat_tilt_flags: u32;
 
@@ -125,6 +127,10 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
             continue;
         }
         let record = bitcast<u32>(records[k]);
+        if (k == 4u && (mat_tilt_flags & TILT_BUMP) != 0u) {
+            mat_tilt_n = vec3<f32>(texture_gradient_1(record, uv) * w3.y, 0.0);
+            continue;
+        }
         // Roughness and opacity are read as one value (`eval_1`).
         let c = texture_lookup(record, uv, k == 2u || k == 3u);
         if (k == 0u) {
@@ -640,9 +646,11 @@ fn side_flip(wi: vec3<f32>) -> vec3<f32> {
 // opacity, and samples it with that probability, else passes straight
 // through (a delta lobe of weight 1).
 
-// --- Normal maps (tilted.rs): the BSDF seen in a frame tilted to the
-// map's normal, whose s axis is the shading frame's x made orthogonal to
-// it (the shading frame's x is dp/du, as on the CPU); a normal facing away
+// --- Normal and bump maps (tilted.rs): the BSDF seen in a frame tilted to
+// the map's normal, whose s axis is the shading frame's x (normal maps) or
+// dp/du (bump maps) made orthogonal to it (the shading frame's x is dp/du,
+// as on the CPU); a bump map's normal is that of the surface displaced
+// along the shading normal by the height (bump_map.rs); a normal facing away
 // from `wi` is mirrored through the shading normal (flip), directions on
 // opposite sides of the two frames carry nothing, and Estevez et al.'s
 // term softens the terminator (shadow). Outside a two-sided material's
@@ -652,6 +660,7 @@ const TILT_FLIP: u32 = 1u;
 const TILT_SHADOW: u32 = 2u;
 const TILT_INSIDE_TWO_SIDED: u32 = 4u;
 const TILT_ON: u32 = 8u;
+const TILT_BUMP: u32 = 16u;
 
 // The tilted frame of the hit, in its shading frame (`set_tilt`).
 var<private> mat_tilt: Frame;
@@ -670,9 +679,10 @@ fn shadow_terminator(n: vec3<f32>, wo: vec3<f32>) -> f32 {
     return select(s, 0.0, not_finite(s));
 }
 
-// After `load_material`, for the hit seen from `wi` (shading frame): the
-// normal map's tilted frame (tilted.rs's `frame`).
-fn set_tilt(wi: vec3<f32>) {
+// After `load_material`, for the hit seen from `wi`, with dp/du, dp/dv
+// and the geometric normal (all in the shading frame): the map's tilted
+// frame (tilted.rs's `frame`).
+fn set_tilt(wi: vec3<f32>, dpdu: vec3<f32>, dpdv: vec3<f32>, ng: vec3<f32>) {
     if (mat_tilt_flags == 0u) {
         return;
     }
@@ -681,6 +691,18 @@ fn set_tilt(wi: vec3<f32>) {
         w = wi * side_flip(wi);
     }
     var n = mat_tilt_n;
+    var tangent = vec3<f32>(1.0, 0.0, 0.0);
+    if ((mat_tilt_flags & TILT_BUMP) != 0u) {
+        // bump_map.rs's `normal`: dp/du and dp/dv with the height's slopes
+        // as their normal parts, crossed, on the geometric normal's side.
+        n = cross(vec3<f32>(dpdu.xy, mat_tilt_n.x), vec3<f32>(dpdv.xy, mat_tilt_n.y));
+        if (not_finite(n.x) || not_finite(n.y) || not_finite(n.z)) {
+            n = vec3<f32>(0.0);
+        } else if (dot(ng, n) < 0.0) {
+            n = -n;
+        }
+        tangent = dpdu;
+    }
     if ((mat_tilt_flags & TILT_FLIP) != 0u && w.z * dot(w, n) <= 0.0) {
         n = vec3<f32>(-n.x, -n.y, n.z);
     }
@@ -689,7 +711,14 @@ fn set_tilt(wi: vec3<f32>) {
         mat_tilt = Frame(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
         return;
     }
-    mat_tilt = frame_from_normal_tangent(n * rcp, vec3<f32>(1.0, 0.0, 0.0));
+    n *= rcp;
+    // tilted.rs's `frame_around`: the tangent, else x, made orthogonal to n.
+    let v = tangent - n * dot(n, tangent);
+    let rcp_v = inverseSqrt(dot(v, v));
+    if (!(rcp_v > 0.0) || not_finite(rcp_v)) {
+        tangent = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    mat_tilt = frame_from_normal_tangent(n, tangent);
 }
 
 fn tilt_outside() -> bool {

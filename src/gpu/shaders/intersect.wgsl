@@ -197,10 +197,12 @@ struct Surface {
     // sphere and triangle of a textured or anisotropic shape); zero
     // elsewhere.
     uv: vec2<f32>,
-    // dp/du as the CPU's shapes have it, where the shading frame's s axis
-    // points (anisotropic roughness): disks, spheres with a (u, v) frame
-    // and triangles with a slot; an edge of other triangles.
+    // dp/du and dp/dv as the CPU's shapes have them (`dpdu_dpdv`): dp/du is
+    // where the shading frame's s axis points (anisotropic roughness), and
+    // both tilt a bump map's normal: disks, spheres with a (u, v) frame and
+    // triangles with a slot; the edges of other triangles.
     dpdu: vec3<f32>,
+    dpdv: vec3<f32>,
 }
 
 // Vec4 words per vertex-data slot (flatten.rs's SLOT_WORDS): three
@@ -239,14 +241,27 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         let n = normalize(o + h.t * d - r0.xyz);
         let frame = bitcast<u32>(r1.y);
         var uv = vec2<f32>(0.0);
-        // geometry/sphere.rs's dp/du: (object x cross object y) cross n.
+        // geometry/sphere.rs's `dpdu_dpdv`: dp/du = 2 pi r ((object x cross
+        // object y) cross n); dp/dv = pi r (cos(theta) times the horizontal
+        // direction of n, minus sin(theta) times the polar axis).
         var up = vec3<f32>(0.0, 0.0, 1.0);
+        var axis = up;
         if (frame != NONE) {
             let k = SLOT_WORDS * frame;
             uv = sphere_uv(n, k);
             up = cross(normals[k].xyz, normals[k + 1u].xyz);
+            axis = normals[k + 2u].xyz;
         }
-        return Surface(r0.xyz + r1.x * n, n, n, shape, light, uv, cross(up, n));
+        let r = r1.x;
+        let cos_theta = dot(n, axis);
+        let horizontal = n - axis * cos_theta;
+        let sin_theta = length(horizontal);
+        var dpdv = vec3<f32>(0.0);
+        if (sin_theta > 0.0) {
+            dpdv = (horizontal * (cos_theta / sin_theta) - axis * sin_theta) * (PI * r);
+        }
+        let dpdu = cross(up, n) * (2.0 * PI * r);
+        return Surface(r0.xyz + r * n, n, n, shape, light, uv, dpdu, dpdv);
     }
     if (is_disk(slot)) {
         var n = normalize(cross(r1.xyz, r2.xyz));
@@ -255,14 +270,15 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         }
         // The hit keeps the object coordinates in (b1, b2).
         let l = vec2<f32>(h.b1, h.b2);
-        return Surface(o + h.t * d, n, n, shape, light, disk_uv(l), disk_dpdu(r1.xyz, r2.xyz, l));
+        let dp = disk_derivatives(r1.xyz, r2.xyz, l);
+        return Surface(o + h.t * d, n, n, shape, light, disk_uv(l), dp[0], dp[1]);
     }
     let b0 = 1.0 - h.b1 - h.b2;
     let p = b0 * r0.xyz + h.b1 * r1.xyz + h.b2 * r2.xyz;
     let ng = normalize(cross(r1.xyz - r0.xyz, r2.xyz - r0.xyz));
     var ns = ng;
     var uv = vec2<f32>(0.0);
-    var dpdu = r1.xyz - r0.xyz;
+    var dp = array<vec3<f32>, 2>(r1.xyz - r0.xyz, r2.xyz - r0.xyz);
     if (slot != NONE) {
         let k = SLOT_WORDS * slot;
         let n = b0 * normals[k].xyz + h.b1 * normals[k + 1u].xyz + h.b2 * normals[k + 2u].xyz;
@@ -273,36 +289,38 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         let t01 = normals[k + 3u];
         let uv2 = normals[k + 4u].xy;
         uv = b0 * t01.xy + h.b1 * t01.zw + h.b2 * uv2;
-        dpdu = triangle_dpdu(r1.xyz - r0.xyz, r2.xyz - r0.xyz, t01.zw - t01.xy, uv2 - t01.xy);
+        dp = triangle_derivatives(r1.xyz - r0.xyz, r2.xyz - r0.xyz, t01.zw - t01.xy, uv2 - t01.xy);
     }
-    return Surface(p, ng, ns, shape, light, uv, dpdu);
+    return Surface(p, ng, ns, shape, light, uv, dp[0], dp[1]);
 }
 
-// A triangle's dp/du from its edges and their (u, v) differences (mesh.rs's
-// `dpdu_with`): zero where the uvs are degenerate.
-fn triangle_dpdu(dp0: vec3<f32>, dp1: vec3<f32>, duv0: vec2<f32>, duv1: vec2<f32>) -> vec3<f32> {
+// A triangle's dp/du and dp/dv from its edges and their (u, v)
+// differences (mesh.rs's `dpdu_dpdv`): zero where the uvs are degenerate.
+fn triangle_derivatives(dp0: vec3<f32>, dp1: vec3<f32>, duv0: vec2<f32>, duv1: vec2<f32>) -> array<vec3<f32>, 2> {
     let det = duv0.x * duv1.y - duv0.y * duv1.x;
     if (det == 0.0 || not_finite(det)) {
-        return vec3<f32>(0.0);
+        return array<vec3<f32>, 2>(vec3<f32>(0.0), vec3<f32>(0.0));
     }
-    return (dp0 * duv1.y - dp1 * duv0.y) / det;
+    return array<vec3<f32>, 2>((dp0 * duv1.y - dp1 * duv0.y) / det, (dp1 * duv0.x - dp0 * duv1.x) / det);
 }
 
-// A disk's dp/du at object coordinates `l` (disk.rs's `derivatives`): the
-// radial direction cos ex + sin ey, with the frame's axes ex, ey recovered
-// from the dual basis (dx, dy) that the record keeps (ex is orthogonal to
-// dy in the plane, with ex . dx = 1; ey likewise).
-fn disk_dpdu(dx: vec3<f32>, dy: vec3<f32>, l: vec2<f32>) -> vec3<f32> {
+// A disk's dp/du and dp/dv at object coordinates `l` (disk.rs's
+// `derivatives`): the radial direction cos ex + sin ey, and 2 pi r times
+// the tangential one, with the frame's axes ex, ey recovered from the dual
+// basis (dx, dy) that the record keeps (ex is orthogonal to dy in the
+// plane, with ex . dx = 1; ey likewise).
+fn disk_derivatives(dx: vec3<f32>, dy: vec3<f32>, l: vec2<f32>) -> array<vec3<f32>, 2> {
     let n = cross(dx, dy);
     let a = cross(dy, n);
     let b = cross(n, dx);
     let ex = a / dot(a, dx);
     let ey = b / dot(b, dy);
     let r = length(l);
+    var c = vec2<f32>(1.0, 0.0);
     if (r > 0.0) {
-        return (l.x / r) * ex + (l.y / r) * ey;
+        c = l / r;
     }
-    return ex;
+    return array<vec3<f32>, 2>(c.x * ex + c.y * ey, (2.0 * PI * r) * (c.x * ey - c.y * ex));
 }
 
 // A ray's origin off the surface at `p` on the side `d` leaves to.

@@ -133,7 +133,7 @@ fn li(camera: Ray) -> vec3<f32> {
         let frame = frame_from_normal_tangent(s.ns, s.dpdu);
         let wi_world = -ray.d;
         let wi = to_local(frame, wi_world);
-        set_tilt(wi);
+        set_tilt(wi, to_local(frame, s.dpdu), to_local(frame, s.dpdv), to_local(frame, s.ng));
 
         // Next-event estimation.
         let u_choice = next_1d();

@@ -8,6 +8,7 @@
 // checkerboard's filter is TEX_CHECKERBOARD and its texels its colours.
 
 const TEX_NEAREST: u32 = 0u;
+const TEX_BILINEAR: u32 = 1u;
 const TEX_CHECKERBOARD: u32 = 2u;
 const WRAP_REPEAT: u32 = 0u;
 const WRAP_MIRROR: u32 = 1u;
@@ -87,4 +88,40 @@ fn texture_lookup(record: u32, uv: vec2<f32>, swap: bool) -> vec3<f32> {
     let top = tex_texel(first, w, x0, y0) * (1.0 - tx) + tex_texel(first, w, x1, y0) * tx;
     let bottom = tex_texel(first, w, x0, y1) * (1.0 - tx) + tex_texel(first, w, x1, y1) * tx;
     return top * (1.0 - ty) + bottom * ty;
+}
+
+// The gradient of `texture_value_1` (a bitmap's luminance) with respect to
+// the hit's (u, v), as bitmap.rs's `eval_1_grad` (Mitsuba 3.9.1's): the
+// bilinear patch's slopes taken through `to_uv` and scaled by the
+// resolution; zero for nearest lookups and checkerboards.
+fn texture_gradient_1(record: u32, uv: vec2<f32>) -> vec2<f32> {
+    let h0 = shapes[record];
+    let h1 = shapes[record + 1u];
+    let h2 = shapes[record + 2u];
+    if (bitcast<u32>(h2.y) != TEX_BILINEAR) {
+        return vec2<f32>(0.0);
+    }
+    let st = vec2<f32>(h0.x * uv.x + h0.y * uv.y + h0.z, h1.x * uv.x + h1.y * uv.y + h1.z);
+    let first = bitcast<u32>(h0.w);
+    let w = i32(bitcast<u32>(h1.w));
+    let h = i32(bitcast<u32>(h2.x));
+    let wrap = bitcast<u32>(h2.z);
+    let px = tex_bounded(st.x * f32(w) - 0.5);
+    let py = tex_bounded(st.y * f32(h) - 0.5);
+    let fx = floor(px);
+    let fy = floor(py);
+    let x0 = tex_wrap(i32(fx), w, wrap);
+    let x1 = tex_wrap(i32(fx) + 1, w, wrap);
+    let y0 = tex_wrap(i32(fy), h, wrap);
+    let y1 = tex_wrap(i32(fy) + 1, h, wrap);
+    let tx = px - fx;
+    let ty = py - fy;
+    let lum = vec3<f32>(0.212671, 0.715160, 0.072169);
+    let f00 = dot(tex_texel(first, w, x0, y0), lum);
+    let f10 = dot(tex_texel(first, w, x1, y0), lum);
+    let f01 = dot(tex_texel(first, w, x0, y1), lum);
+    let f11 = dot(tex_texel(first, w, x1, y1), lum);
+    let dx = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
+    let dy = (1.0 - tx) * (f01 - f00) + tx * (f11 - f10);
+    return vec2<f32>((h0.x * dx + h1.x * dy) * f32(w), (h0.y * dx + h1.y * dy) * f32(h));
 }
