@@ -51,10 +51,20 @@ pub fn beckmann_visible_slopes(cos_theta_i: f32, u: Vec2) -> Vec2 {
     Vec2::new(erfinv(x) as f32, erfinv(2.0 * uy - 1.0) as f32)
 }
 
+/// The table of guesses, `ROWS` rows (sin(theta_i) from 0 to 1) of `COLS`
+/// entries (w = 1 - sqrt(1 - u) from 0 to 1), built on first use: what
+/// the GPU's copy of this routine (`bsdf.wgsl`) reads.
+pub fn guess_table() -> &'static [f32] {
+    TABLE.get_or_init(build_table)
+}
+
+/// The table's rows and columns.
+pub const GUESS_TABLE_SIZE: (usize, usize) = (ROWS, COLS);
+
 /// The table's bilinear guess of `(x + 1) / (max_x + 1)`.
 #[inline]
 fn guess(sin: f64, w: f64) -> f64 {
-    let table = TABLE.get_or_init(build_table);
+    let table = guess_table();
     let fr = sin * (ROWS - 1) as f64;
     let fc = w * (COLS - 1) as f64;
     let (i, j) = ((fr as usize).min(ROWS - 2), (fc as usize).min(COLS - 2));

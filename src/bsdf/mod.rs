@@ -3,7 +3,7 @@
 //! where light is gathered from the camera side (Nori's convention: `wi` is
 //! the direction the path arrived from, `wo` the sampled continuation).
 
-mod beckmann_slopes;
+pub mod beckmann_slopes;
 mod blend;
 mod bump_map;
 mod conductor;

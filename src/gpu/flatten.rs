@@ -197,6 +197,11 @@ pub struct Params {
     pub aperture_rotation: f32,
     /// Where the env map's density values start in `env_data`.
     pub off_density: u32,
+    /// Where Beckmann's visible-slope guesses start in `shapes`
+    /// (`bsdf/beckmann_slopes.rs`'s table, four to a word).
+    pub beckmann_table: u32,
+    /// To WGSL's size of the struct (a multiple of 16 bytes).
+    pub _pad: [u32; 3],
 }
 
 /// `Params::env_kind`.
@@ -222,7 +227,8 @@ pub struct GpuScene {
     pub normals: Vec<[f32; 4]>,
     /// `SHAPE_WORDS` per shape ([`material`] says what they hold), then
     /// the rough plastics' coating transmittance tables (16 words each)
-    /// and the textures' records ([`texture_record`]).
+    /// and the textures' records ([`texture_record`]), then Beckmann's
+    /// visible-slope guesses (`Params::beckmann_table`).
     pub shapes: Vec<[f32; 4]>,
     /// `LIGHT_WORDS` per light: (p0, centre, position or direction to the
     /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
@@ -883,6 +889,13 @@ impl GpuScene {
             return unsupported("a scene without shapes");
         }
         shapes.extend(tables);
+        // Beckmann's visible-slope guesses, for every scene (8 KiB).
+        let beckmann_table = shapes.len() as u32;
+        shapes.extend(
+            crate::bsdf::beckmann_slopes::guess_table()
+                .chunks(4)
+                .map(|c| [c[0], c[1], c[2], c[3]]),
+        );
 
         // The environment, and the delta lights' records (each with its
         // power, for the choice below).
@@ -1201,6 +1214,7 @@ impl GpuScene {
             orthographic: (cam.projection == Projection::Orthographic) as u32,
             aperture_blades,
             aperture_rotation,
+            beckmann_table,
             ..Params::zeroed()
         };
         if let Some(t) = &tables {
@@ -1594,6 +1608,20 @@ mod tests {
             )),
         });
         assert_refused(&scene, &job, "a normal or bump map inside another BSDF");
+    }
+
+    /// `Params` is as long as WGSL's struct (a multiple of 16 bytes), and
+    /// every scene carries Beckmann's table of visible-slope guesses.
+    #[test]
+    fn params_fill_the_uniform_and_point_at_beckmann_guesses() {
+        assert_eq!(std::mem::size_of::<Params>() % 16, 0);
+        let (scene, job) = load("tests/gpu/diffuse_box.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let table = crate::bsdf::beckmann_slopes::guess_table();
+        let start = flat.params.beckmann_table as usize;
+        let words = &flat.shapes[start..];
+        assert_eq!(words.len() * 4, table.len());
+        assert!(words.iter().flatten().zip(table).all(|(a, b)| a == b));
     }
 
     /// A bump map is a normal map's record with `TILT_BUMP` and its scale

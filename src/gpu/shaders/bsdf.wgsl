@@ -16,11 +16,9 @@
 // the index of a two-sided material's different back: its three words,
 // read instead of these when the hit is seen from behind.
 //
-// Rough lobes are isotropic. Their microfacet normals are drawn from the
-// visible normals for GGX (Heitz 2018) and from D(m) cos(theta_m) for
-// Beckmann (the CPU draws Beckmann's visible normals with a tabulated
-// inverse that the GPU does not port): a different density, the same
-// BSDF, so the same image in expectation.
+// Rough lobes draw their microfacet normals from the visible normals, as
+// the CPU does: GGX's by Heitz 2018, Beckmann's by the CPU's table of
+// guesses and one Halley step (in f32).
 
 const SHAPE_WORDS: u32 = 4u;
 
@@ -269,29 +267,119 @@ fn smith_g1(md: Microfacet, v: vec3<f32>, m: vec3<f32>) -> f32 {
     return (3.535 * a + 2.181 * a2) / (1.0 + 2.276 * a + 2.577 * a2);
 }
 
-// A microfacet normal: GGX's visible normals seen from `wi` (upper
-// hemisphere), Beckmann's D(m) cos(theta_m).
-fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
-    if (!md.ggx) {
-        var cos_phi = cos(2.0 * PI * u.y);
-        var sin_phi = sin(2.0 * PI * u.y);
-        var alpha2 = md.alpha_u * md.alpha_u;
-        if (md.alpha_u != md.alpha_v) {
-            // The azimuth of the anisotropic ellipse, quadrant by quadrant.
-            let tmp = (md.alpha_v / md.alpha_u) * tan(2.0 * PI * u.y);
-            cos_phi = 1.0 / sqrt(tmp * tmp + 1.0);
-            if (abs(u.y - 0.5) - 0.25 < 0.0) {
-                cos_phi = -cos_phi;
-            }
-            sin_phi = cos_phi * tmp;
-            let cu = cos_phi / md.alpha_u;
-            let sv = sin_phi / md.alpha_v;
-            alpha2 = 1.0 / (cu * cu + sv * sv);
-        }
-        let cos_t = 1.0 / sqrt(1.0 - alpha2 * log(1.0 - u.x));
-        let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-        return vec3<f32>(cos_phi * sin_t, sin_phi * sin_t, cos_t);
+// --- Beckmann's visible slopes (bsdf/beckmann_slopes.rs, in f32 as
+// Mitsuba's GPU variants sample them): the x slope inverts
+// F(x) = 1 + x + tan(theta_i) exp(-erfinv(x)^2) / sqrt(pi) in the erf
+// domain, from the CPU's table of guesses (`P.beckmann_table`) and one
+// Halley step; the y slope is Gaussian.
+
+const INV_SQRT_PI: f32 = 0.5641895835;
+const HALF_SQRT_PI: f32 = 0.8862269255;
+const BECKMANN_ROWS: u32 = 32u;
+const BECKMANN_COLS: u32 = 64u;
+
+// erf(x) and exp(-x^2) (Abramowitz and Stegun 7.1.26).
+fn erf_and_gauss(x: f32) -> vec2<f32> {
+    let gauss = exp(-x * x);
+    let t = 1.0 / (1.0 + 0.3275911 * abs(x));
+    let poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+    let y = 1.0 - poly * gauss;
+    return vec2<f32>(select(y, -y, x < 0.0), gauss);
+}
+
+// Giles' single-precision erfinv, the argument kept inside (-1, 1).
+fn erfinv(x_in: f32) -> f32 {
+    let x = clamp(x_in, -0.99999994, 0.99999994);
+    var w = -log((1.0 - x) * (1.0 + x));
+    var p: f32;
+    if (w < 5.0) {
+        w -= 2.5;
+        p = 2.81022636e-08;
+        p = 3.43273939e-07 + p * w;
+        p = -3.5233877e-06 + p * w;
+        p = -4.39150654e-06 + p * w;
+        p = 0.00021858087 + p * w;
+        p = -0.00125372503 + p * w;
+        p = -0.00417768164 + p * w;
+        p = 0.246640727 + p * w;
+        p = 1.50140941 + p * w;
+    } else {
+        w = sqrt(w) - 3.0;
+        p = -0.000200214257;
+        p = 0.000100950558 + p * w;
+        p = 0.00134934322 + p * w;
+        p = -0.00367342844 + p * w;
+        p = 0.00573950773 + p * w;
+        p = -0.0076224613 + p * w;
+        p = 0.00943887047 + p * w;
+        p = 1.00167406 + p * w;
+        p = 2.83297682 + p * w;
     }
+    return p * x;
+}
+
+fn beckmann_guess_entry(i: u32, j: u32) -> f32 {
+    let k = i * BECKMANN_COLS + j;
+    return shapes[P.beckmann_table + (k >> 2u)][k & 3u];
+}
+
+// The table's bilinear guess of (x + 1) / (max_x + 1).
+fn beckmann_guess(sin_i: f32, w: f32) -> f32 {
+    let fr = sin_i * f32(BECKMANN_ROWS - 1u);
+    let fc = w * f32(BECKMANN_COLS - 1u);
+    let i = min(u32(fr), BECKMANN_ROWS - 2u);
+    let j = min(u32(fc), BECKMANN_COLS - 2u);
+    let a = fr - f32(i);
+    let b = fc - f32(j);
+    let top = mix(beckmann_guess_entry(i, j), beckmann_guess_entry(i, j + 1u), b);
+    let bottom = mix(beckmann_guess_entry(i + 1u, j), beckmann_guess_entry(i + 1u, j + 1u), b);
+    return mix(top, bottom, a);
+}
+
+// Slopes of the visible normals of the alpha = 1 Beckmann distribution
+// seen from elevation `cos_theta_i` (azimuth 0).
+fn beckmann_visible_slopes(cos_theta_i: f32, u: vec2<f32>) -> vec2<f32> {
+    let cos_i = clamp(cos_theta_i, 1e-6, 1.0);
+    let sin_i = sqrt(max(1.0 - cos_i * cos_i, 0.0));
+    let tan_i = sin_i / cos_i;
+    // cot theta_i, kept finite (WGSL promises no infinities).
+    let eg = erf_and_gauss(cos_i / max(sin_i, 1e-7));
+    let max_x = eg.x;
+    let ux = clamp(u.x, 1e-6, 1.0 - 1e-6);
+    let uy = clamp(u.y, 1e-6, 1.0 - 1e-6);
+    let target_f = ux * (1.0 + max_x + INV_SQRT_PI * tan_i * eg.y);
+    let t = beckmann_guess(sin_i, 1.0 - sqrt(1.0 - ux));
+    var x = clamp(t * (1.0 + max_x) - 1.0, -1.0, max_x);
+    // One Halley step on F(x) - target.
+    let slope = erfinv(x);
+    let gauss = exp(-slope * slope);
+    let f = 1.0 + x + INV_SQRT_PI * tan_i * gauss - target_f;
+    let d1 = 1.0 - slope * tan_i;
+    let d2 = -tan_i * HALF_SQRT_PI / max(gauss, 1e-30);
+    let denominator = 2.0 * d1 * d1 - f * d2;
+    if (denominator > 0.0) {
+        x = clamp(x - 2.0 * f * d1 / denominator, -1.0, max_x);
+    }
+    return vec2<f32>(erfinv(x), erfinv(2.0 * uy - 1.0));
+}
+
+// GGX's visible slopes for alpha = 1 seen from elevation `cos_theta_i`
+// (azimuth 0; distribution.rs's `sample_visible_11`).
+fn ggx_visible_slopes(cos_theta_i: f32, u: vec2<f32>) -> vec2<f32> {
+    var p = square_to_uniform_disk(u);
+    let s = 0.5 * (1.0 + cos_theta_i);
+    let h = sqrt(max(1.0 - p.x * p.x, 0.0));
+    p.y = h * (1.0 - s) + p.y * s;
+    let z = sqrt(max(1.0 - dot(p, p), 0.0));
+    let sin_i = sqrt(max(1.0 - cos_theta_i * cos_theta_i, 0.0));
+    let norm = 1.0 / (sin_i * p.y + cos_theta_i * z);
+    return vec2<f32>((cos_theta_i * p.y - sin_i * z) * norm, p.x * norm);
+}
+
+// A visible microfacet normal seen from `wi` (upper hemisphere):
+// distribution.rs's `sample_visible_normal`, stretched to alpha = 1,
+// slopes drawn, rotated back and unstretched.
+fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let wi_p = normalize(vec3<f32>(md.alpha_u * wi.x, md.alpha_v * wi.y, wi.z));
     let r = sqrt(wi_p.x * wi_p.x + wi_p.y * wi_p.y);
     var sin_phi = 0.0;
@@ -300,14 +388,12 @@ fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
         sin_phi = clamp(wi_p.y / r, -1.0, 1.0);
         cos_phi = clamp(wi_p.x / r, -1.0, 1.0);
     }
-    var p = square_to_uniform_disk(u);
-    let s = 0.5 * (1.0 + wi_p.z);
-    let h = sqrt(max(1.0 - p.x * p.x, 0.0));
-    p.y = h * (1.0 - s) + p.y * s;
-    let z = sqrt(max(1.0 - dot(p, p), 0.0));
-    let sin_i = sqrt(max(1.0 - wi_p.z * wi_p.z, 0.0));
-    let norm = 1.0 / (sin_i * p.y + wi_p.z * z);
-    let s11 = vec2<f32>((wi_p.z * p.y - sin_i * z) * norm, p.x * norm);
+    var s11: vec2<f32>;
+    if (md.ggx) {
+        s11 = ggx_visible_slopes(wi_p.z, u);
+    } else {
+        s11 = beckmann_visible_slopes(wi_p.z, u);
+    }
     let sx = (cos_phi * s11.x - sin_phi * s11.y) * md.alpha_u;
     let sy = (sin_phi * s11.x + cos_phi * s11.y) * md.alpha_v;
     return normalize(vec3<f32>(-sx, -sy, 1.0));
@@ -316,10 +402,7 @@ fn sample_microfacet(md: Microfacet, wi: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
 // Solid-angle density over `m` of sample_microfacet seen from `wi` (upper
 // hemisphere).
 fn microfacet_normal_pdf(md: Microfacet, wi: vec3<f32>, m: vec3<f32>) -> f32 {
-    if (md.ggx) {
-        return microfacet_d(md, m) * smith_g1(md, wi, m) * abs(dot(wi, m)) / wi.z;
-    }
-    return microfacet_d(md, m) * m.z;
+    return microfacet_d(md, m) * smith_g1(md, wi, m) * abs(dot(wi, m)) / wi.z;
 }
 
 // Solid-angle density over `wo` of reflecting `wi` about a normal from
@@ -411,9 +494,9 @@ fn rough_dielectric_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
     }
     let up = select(-wi, wi, wi.z >= 0.0);
     let m = sample_microfacet(microfacet(), up, u);
-    // A normal facing away from wi (Beckmann's D cos sampling draws them)
-    // is not one the pdf counts: the direction it would give may also come
-    // from a facing normal, and counting it would add light.
+    // A normal facing away from wi (only rounding draws one) is not one
+    // the pdf counts: the direction it would give may also come from a
+    // facing normal, and counting it would add light.
     if (not_finite(m.x + m.y + m.z) || dot(up, m) <= 0.0) {
         return no_sample();
     }

@@ -40,6 +40,7 @@ struct Params {
     aperture_blades: u32,
     aperture_rotation: f32,
     off_density: u32,
+    beckmann_table: u32,
 }
 
 const ENV_NONE: u32 = 0u;
