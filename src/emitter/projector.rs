@@ -69,6 +69,21 @@ impl Projector {
         })
     }
 
+    /// The world-to-light linear map (the axis is the local +z).
+    pub fn to_local(&self) -> Mat3 {
+        self.to_local
+    }
+
+    /// tan(fov_x / 2): the image spans +-tan_half along local x at z = 1.
+    pub fn tan_half(&self) -> f32 {
+        self.tan_half
+    }
+
+    /// The image's width over its height.
+    pub fn aspect(&self) -> f32 {
+        self.aspect
+    }
+
     /// Cosine of the half-angle of the cone around the axis that holds
     /// the image (through its corners).
     pub fn cos_cone(&self) -> f32 {

@@ -14,7 +14,7 @@ use crate::color::Rgb;
 use crate::emitter::Emitter;
 use crate::geometry::{build_boxes, Geometry, SphereUv};
 use crate::integrator::{Integrator, Strategy};
-use crate::math::{Aabb, Transform, Vec2, Vec3};
+use crate::math::{Aabb, Transform, Vec2, Vec3, PI};
 use crate::render::RenderJob;
 use crate::sampling::Distribution1D;
 use crate::scene::Scene;
@@ -40,6 +40,7 @@ pub const LIGHT_POINT: u32 = 2;
 pub const LIGHT_SPOT: u32 = 3;
 pub const LIGHT_DIRECTIONAL: u32 = 4;
 pub const LIGHT_DISK: u32 = 5;
+pub const LIGHT_PROJECTOR: u32 = 6;
 
 /// Vec4 words per shape's material record in `shapes`.
 pub const SHAPE_WORDS: usize = 4;
@@ -250,7 +251,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, normal- and bump-mapped, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too), a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, normal- and bump-mapped, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -962,7 +963,33 @@ impl GpuScene {
                     ],
                     e.power(&ctx),
                 )),
-                Emitter::Projector(_) => return unsupported("projectors"),
+                Emitter::Projector(pj) => {
+                    // The shader takes the axis from the world-to-local
+                    // map's row 2: true unless the placement shears.
+                    let rows = pj.to_local().transpose();
+                    if rows.z_axis.normalize().dot(pj.axis) < 1.0 - 1e-5 {
+                        return unsupported("a projector placed by a shearing transform");
+                    }
+                    // A bitmap's record in word 3's last value, pi scale
+                    // as the intensity; a constant irradiance in it.
+                    let (colour, texture) = match pj.irradiance.constant() {
+                        Some(c) => (c * (PI * pj.scale), none),
+                        None => (
+                            Rgb::splat(PI * pj.scale),
+                            texture_record(&pj.irradiance, 0, &mut shapes)?,
+                        ),
+                    };
+                    delta_lights.push((
+                        [
+                            v4(pj.position, bits(LIGHT_PROJECTOR)),
+                            v4(rows.x_axis, pj.tan_half()),
+                            v4(rows.y_axis, 0.0),
+                            v4(colour, texture),
+                            v4(rows.z_axis, pj.aspect()),
+                        ],
+                        e.power(&ctx),
+                    ));
+                }
             }
         }
         let mut env_data: Vec<f32> = Vec::new();
@@ -1363,6 +1390,47 @@ mod tests {
         assert!(spots.contains(&NONE), "{spots:?}");
         let record = *spots.iter().find(|&&r| r != NONE).unwrap() as usize;
         assert_eq!(flat.shapes[record + 2][1].to_bits(), TEX_BILINEAR);
+    }
+
+    /// Projectors are delta lights with their frame, tan(fov / 2) and
+    /// aspect ratio: the bitmap one points at its record with pi scale as
+    /// its intensity, the constant one carries pi scale times its
+    /// irradiance. One placed by a shear is refused.
+    #[test]
+    fn projectors_are_delta_lights_with_their_image() {
+        let (mut scene, job) = load("tests/conformance/projector.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let records: Vec<_> = flat
+            .lights
+            .chunks(LIGHT_WORDS)
+            .filter(|rec| rec[0][3].to_bits() == LIGHT_PROJECTOR)
+            .collect();
+        assert_eq!(records.len(), 2);
+        let bitmap = records.iter().find(|r| r[3][3].to_bits() != NONE).unwrap();
+        let header = &flat.shapes[bitmap[3][3].to_bits() as usize..][..3];
+        assert_eq!(header[2][1].to_bits(), TEX_BILINEAR);
+        assert_eq!(bitmap[3][..3], [3.0 * PI; 3]);
+        assert_eq!(bitmap[1][3], 20f32.to_radians().tan());
+        assert_eq!(bitmap[4][3], 2.0, "tiles.png is twice as wide as high");
+        let constant = records.iter().find(|r| r[3][3].to_bits() == NONE).unwrap();
+        let expect = Rgb::new(0.8, 0.9, 0.5) * PI;
+        assert!((Vec3::from_slice(&constant[3][..3]) - expect).length() < 1e-5);
+
+        let k = scene
+            .emitters
+            .iter()
+            .position(|e| matches!(e, Emitter::Projector(_)))
+            .unwrap();
+        let Emitter::Projector(p) = &scene.emitters[k] else {
+            unreachable!()
+        };
+        let shear = Transform::new(glam::Mat4::from_cols_array(&[
+            1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.7, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ]))
+        .unwrap();
+        let sheared = crate::emitter::Projector::new(&shear, p.irradiance.clone(), 1.0, 40.0, 1.0);
+        scene.emitters[k] = Emitter::Projector(Box::new(sheared.unwrap()));
+        assert_refused(&scene, &job, "a projector placed by a shearing transform");
     }
 
     /// A mask is its nested BSDF's record with `MAT_MASK` and the opacity

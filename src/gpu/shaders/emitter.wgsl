@@ -7,7 +7,9 @@
 // the spot's world-to-local row 0; area or cos cutoff), [2] = (p2 or row
 // 1; CDF), [3] = (radiance, intensity or irradiance; shape), [4] = (row 2
 // or a disk's front normal; cos beam). A disk's p0, p1, p2 are its centre
-// and axes.
+// and axes. A projector's (emitter/projector.rs) is a spot's with
+// tan(fov_x / 2) in [1].w, pi scale (times a constant irradiance) in [3]
+// and the image's aspect ratio in [4].w.
 
 const LIGHT_WORDS: u32 = 5u;
 const LIGHT_SPHERE: u32 = 1u;
@@ -15,6 +17,7 @@ const LIGHT_POINT: u32 = 2u;
 const LIGHT_SPOT: u32 = 3u;
 const LIGHT_DIRECTIONAL: u32 = 4u;
 const LIGHT_DISK: u32 = 5u;
+const LIGHT_PROJECTOR: u32 = 6u;
 
 struct LightSample {
     wi: vec3<f32>,
@@ -314,10 +317,36 @@ fn spot_uv(i: u32, d: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(0.5 + local.x * k, 0.5 + local.y * k);
 }
 
-// Point, spot and directional light `i` seen from `p` (emitter/point.rs,
-// spot.rs, directional.rs): intensity / dist^2 or the irradiance, with the
-// probability of the choice as its pdf.
-fn sample_delta_light(i: u32, p: vec3<f32>) -> LightSample {
+// Where projector `i` sends the light that reaches `p` in its image, and
+// its factor there (projector.rs's `sample`: pi scale / (z^2 cos) of the
+// local offset `z` and the cosine to its axis, zero outside the image).
+fn projector_at(i: u32, p: vec3<f32>, wi: vec3<f32>, uv: ptr<function, vec2<f32>>) -> f32 {
+    let r0 = lights[LIGHT_WORDS * i];
+    let local = spot_local(i, p - r0.xyz);
+    let tan_half = lights[LIGHT_WORDS * i + 1u].w;
+    let aspect = lights[LIGHT_WORDS * i + 4u].w;
+    if (!(local.z > 0.0)) {
+        return 0.0;
+    }
+    let k = 0.5 / (local.z * tan_half);
+    *uv = vec2<f32>(0.5 - local.x * k, 0.5 - aspect * local.y * k);
+    if (any(*uv < vec2<f32>(0.0)) || any(*uv > vec2<f32>(1.0))) {
+        return 0.0;
+    }
+    // The axis: row 2 of the world-to-local map, normalised (flatten.rs
+    // takes only projectors whose row 2 lies along the axis).
+    let cos_t = dot(normalize(lights[LIGHT_WORDS * i + 4u].xyz), -wi);
+    if (!(cos_t > 0.0)) {
+        return 0.0;
+    }
+    return 1.0 / (local.z * local.z * cos_t);
+}
+
+// Point, spot, directional and projector light `i` seen from `p`
+// (emitter/point.rs, spot.rs, directional.rs, projector.rs): intensity /
+// dist^2, the irradiance or the projector's factor, with the probability
+// of the choice as its pdf; a projector's image position in `*uv`.
+fn sample_delta_light(i: u32, p: vec3<f32>, uv: ptr<function, vec2<f32>>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let power = lights[LIGHT_WORDS * i + 3u].xyz;
     let pdf = light_choice_pdf(i);
@@ -334,6 +363,8 @@ fn sample_delta_light(i: u32, p: vec3<f32>) -> LightSample {
     var le = power / d2;
     if (bitcast<u32>(r0.w) == LIGHT_SPOT) {
         le *= spot_falloff(i, -wi);
+    } else if (bitcast<u32>(r0.w) == LIGHT_PROJECTOR) {
+        le = power * projector_at(i, p, wi, uv);
     }
     return LightSample(wi, dist, le, pdf, true, max(le.x, max(le.y, le.z)) > 0.0);
 }
@@ -380,15 +411,18 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     let i = lo;
     let kind = bitcast<u32>(lights[LIGHT_WORDS * i].w);
     // One texture read for every kind (shaders inline each call): an area
-    // light's radiance (its record in word 4) or a spot's projected tint
-    // (word 3), at `uv`.
+    // light's radiance (its record in word 4) or a spot's or projector's
+    // projected tint (word 3), at `uv`.
     var uv = vec2<f32>(0.0);
     var record = NONE;
     var ls: LightSample;
-    if (kind >= LIGHT_POINT && kind <= LIGHT_DIRECTIONAL) {
-        ls = sample_delta_light(i, p);
-        if (kind == LIGHT_SPOT) {
+    let projects = kind == LIGHT_SPOT || kind == LIGHT_PROJECTOR;
+    if ((kind >= LIGHT_POINT && kind <= LIGHT_DIRECTIONAL) || kind == LIGHT_PROJECTOR) {
+        ls = sample_delta_light(i, p, &uv);
+        if (projects) {
             record = bitcast<u32>(lights[LIGHT_WORDS * i + 3u].w);
+        }
+        if (kind == LIGHT_SPOT) {
             uv = spot_uv(i, -ls.wi);
         }
     } else {
@@ -397,9 +431,9 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     }
     if (record != NONE && ls.ok) {
         let t = texture_lookup(record, uv, false);
-        // A spot's texture tints its intensity; an area light's is its
-        // radiance.
-        ls.le = select(t, ls.le * t, kind == LIGHT_SPOT);
+        // A spot's or projector's texture tints its intensity; an area
+        // light's is its radiance.
+        ls.le = select(t, ls.le * t, projects);
     }
     return ls;
 }
