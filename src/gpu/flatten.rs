@@ -70,8 +70,8 @@ pub const MAT_EMITS: u32 = 0x100;
 pub const MAT_TEXTURED: u32 = 0x200;
 
 /// Set when the colour of word B (a plastic's specular reflectance, a
-/// dielectric's specular transmittance) is a texture: B's first value is
-/// then its record index as bits.
+/// dielectric's specular transmittance, a conductor's eta) is a texture:
+/// B's first value is then its record index as bits.
 pub const MAT_TEXTURED_B: u32 = 0x400;
 
 /// Set when the roughness (word B's last value) is a texture, read as one
@@ -100,6 +100,10 @@ pub const MAT_BACK: u32 = 0x8000;
 /// second a bump map's scale.
 pub const MAT_NORMAL_MAP: u32 = 0x10000;
 
+/// Set in the kind word of conductors whose k (word C's colour) is a
+/// texture: C.x holds its record's index.
+pub const MAT_TEXTURED_C: u32 = 0x20000;
+
 /// A normal or bump map's flags (word D's fourth value, as bits): Mitsuba's
 /// `flip_invalid_normals` and `use_shadowing_function`, and a map inside
 /// a `twosided` material (tilted after the back's directions are
@@ -112,8 +116,12 @@ pub const TILT_INSIDE_TWO_SIDED: u32 = 4;
 pub const TILT_BUMP: u32 = 16;
 
 /// Every texture flag.
-pub const MAT_TEXTURED_ANY: u32 =
-    MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA | MAT_TEXTURED_MASK | MAT_NORMAL_MAP;
+pub const MAT_TEXTURED_ANY: u32 = MAT_TEXTURED
+    | MAT_TEXTURED_B
+    | MAT_TEXTURED_C
+    | MAT_TEXTURED_ALPHA
+    | MAT_TEXTURED_MASK
+    | MAT_NORMAL_MAP;
 
 /// Vec4 words per vertex-data slot in `normals`: a triangle's three vertex
 /// normals (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2,
@@ -251,7 +259,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, normal- and bump-mapped, anisotropic, textured reflectances, transmittances and roughness), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric BSDFs (two-sided too, masked, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k and roughness), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -558,6 +566,10 @@ fn material(
                         words[1][0] = record;
                         kind |= MAT_TEXTURED_B;
                     }
+                    TextureSlot::C => {
+                        words[2][0] = record;
+                        kind |= MAT_TEXTURED_C;
+                    }
                     TextureSlot::Alpha => {
                         words[1][3] = record;
                         // One texture for both alphas: isotropic, whatever
@@ -650,6 +662,8 @@ enum TextureSlot {
     A,
     /// Word B's colour (flag `MAT_TEXTURED_B`).
     B,
+    /// Word C's colour (flag `MAT_TEXTURED_C`).
+    C,
     /// Word B's alpha (flag `MAT_TEXTURED_ALPHA`).
     Alpha,
     /// The second roughness: only as the same texture as `Alpha`.
@@ -673,6 +687,8 @@ fn texture_slot(param: BsdfParam, base: &Bsdf) -> Option<TextureSlot> {
         (P::SpecularTransmittance, Bsdf::ThinDielectric(_) | Bsdf::RoughDielectric(_)) => {
             TextureSlot::B
         }
+        (P::Eta, Bsdf::Conductor(_) | Bsdf::RoughConductor(_)) => TextureSlot::B,
+        (P::K, Bsdf::Conductor(_) | Bsdf::RoughConductor(_)) => TextureSlot::C,
         (P::Alpha, Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_)) => TextureSlot::Alpha,
         (P::AlphaV, Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_)) => TextureSlot::AlphaV,
         _ => return None,
@@ -1392,6 +1408,38 @@ mod tests {
         assert_eq!(flat.shapes[record + 2][1].to_bits(), TEX_BILINEAR);
     }
 
+    /// A conductor's textured eta is word B's record, its k word C's:
+    /// the floor has both, the sphere eta, the cube k.
+    #[test]
+    fn conductor_eta_and_k_are_records() {
+        let (scene, job) = load("tests/gpu/conductor_textures.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let mut seen = Vec::new();
+        for k in 0..scene.bsdfs.len() {
+            let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+            let kind = words[0][3].to_bits();
+            let textured = kind & (MAT_TEXTURED_B | MAT_TEXTURED_C);
+            if textured == 0 {
+                continue;
+            }
+            for (flag, word) in [(MAT_TEXTURED_B, 1), (MAT_TEXTURED_C, 2)] {
+                if textured & flag != 0 {
+                    let record = words[word][0].to_bits() as usize;
+                    assert!(flat.shapes[record + 2][1].to_bits() <= TEX_CHECKERBOARD);
+                }
+            }
+            seen.push((kind & !MAT_TEXTURED_ANY, textured));
+        }
+        assert_eq!(
+            seen,
+            [
+                (MAT_ROUGH_CONDUCTOR, MAT_TEXTURED_B | MAT_TEXTURED_C),
+                (MAT_CONDUCTOR, MAT_TEXTURED_B),
+                (MAT_ROUGH_CONDUCTOR, MAT_TEXTURED_C),
+            ]
+        );
+    }
+
     /// Projectors are delta lights with their frame, tan(fov / 2) and
     /// aspect ratio: the bitmap one points at its record with pi scale as
     /// its intensity, the constant one carries pi scale times its
@@ -1605,14 +1653,6 @@ mod tests {
         };
         let texture = t.textures()[0].1.clone();
         let base = t.base().clone();
-        let eta = crate::bsdf::Textured::new(base.clone(), vec![(BsdfParam::Eta, texture.clone())]);
-        scene.bsdfs[k] = Bsdf::Textured(Box::new(eta.unwrap()));
-        assert_refused(
-            &scene,
-            &job,
-            "a textured Eta parameter of the RoughConductor BSDF",
-        );
-
         // A texture on alpha_u alone is anisotropic: named, not rendered
         // as if alpha_v followed it.
         let alpha_u = crate::bsdf::Textured::new(base, vec![(BsdfParam::Alpha, texture)]);

@@ -110,6 +110,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/normal_map.xml",
         "tests/gpu/bump_map.xml",
         "tests/conformance/projector.xml",
+        "tests/gpu/conductor_textures.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

@@ -63,6 +63,9 @@ const MAT_EMITS: u32 = 0x100u;
 const MAT_TEXTURED: u32 = 0x200u;
 // Word B's colour is a texture: B.x is its record's index.
 const MAT_TEXTURED_B: u32 = 0x400u;
+// Word C's colour (a conductor's k) is a texture: C.x is its record's
+// index.
+const MAT_TEXTURED_C: u32 = 0x20000u;
 // The roughness is a texture read as one value: B.w is its record's index.
 const MAT_TEXTURED_ALPHA: u32 = 0x800u;
 // A `mask` over the BSDF: D is its opacity, or its texture's record index
@@ -75,7 +78,7 @@ const MAT_BACK: u32 = 0x8000u;
 // texture's record, D.w the TILT_* flags (flatten.rs), D.y a bump map's
 // scale.
 const MAT_NORMAL_MAP: u32 = 0x10000u;
-const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_ALPHA
+const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_C | MAT_TEXTURED_ALPHA
     | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK | MAT_NORMAL_MAP;
 
 fn material_kind() -> u32 {
@@ -91,6 +94,8 @@ fn material_kind() -> u32 {
 // roughness; a mask's opacity (1 without a mask).
 var<private> mat_a: vec3<f32>;
 var<private> mat_b: vec3<f32>;
+// Word C's colour: a conductor's k.
+var<private> mat_c: vec3<f32>;
 var<private> mat_alpha: f32;
 var<private> mat_opacity: f32;
 // A normal map's texel as a normal (2c - 1), or a bump map's height
@@ -109,18 +114,20 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
     }
     let w0 = material_word(0u);
     let w1 = material_word(1u);
+    let w2 = material_word(2u);
     let flags = (bitcast<u32>(w0.w) & ~(MAT_MASK | MAT_TEXTURED_MASK))
         | (front_flags & (MAT_MASK | MAT_TEXTURED_MASK));
     mat_a = w0.xyz;
     mat_b = w1.xyz;
+    mat_c = w2.xyz;
     mat_alpha = w1.w;
     mat_opacity = w3.x;
     mat_tilt_flags = select(0u, bitcast<u32>(w3.w) | TILT_ON, (flags & MAT_NORMAL_MAP) != 0u);
-    let textured = array<u32, 5>(MAT_TEXTURED, MAT_TEXTURED_B, MAT_TEXTURED_ALPHA, MAT_TEXTURED_MASK, MAT_NORMAL_MAP);
-    let records = array<f32, 5>(w0.x, w1.x, w1.w, w3.x, w3.z);
+    let textured = array<u32, 6>(MAT_TEXTURED, MAT_TEXTURED_B, MAT_TEXTURED_ALPHA, MAT_TEXTURED_MASK, MAT_NORMAL_MAP, MAT_TEXTURED_C);
+    let records = array<f32, 6>(w0.x, w1.x, w1.w, w3.x, w3.z, w2.x);
     // One loop, so the texture lookup is inlined once: A, B, alpha,
-    // opacity, normal.
-    for (var k = 0u; k < 5u; k++) {
+    // opacity, normal, C.
+    for (var k = 0u; k < 6u; k++) {
         if ((flags & textured[k]) == 0u) {
             continue;
         }
@@ -147,8 +154,10 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
             mat_alpha = max(texture_value_1(record, c), 1e-4);
         } else if (k == 3u) {
             mat_opacity = clamp(texture_value_1(record, c), 0.0, 1.0);
-        } else {
+        } else if (k == 4u) {
             mat_tilt_n = c * 2.0 - vec3<f32>(1.0);
+        } else {
+            mat_c = c;
         }
     }
 }
@@ -585,7 +594,7 @@ fn front_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let h = normalize(wi + wo);
     let dg = microfacet_d(md, h) * smith_g1(md, wi, h) * smith_g1(md, wo, h) / (4.0 * wi.z * wo.z);
     if (kind == MAT_ROUGH_CONDUCTOR) {
-        return a * fresnel_conductor(dot(wi, h), b, c.xyz) * dg;
+        return a * fresnel_conductor(dot(wi, h), b, mat_c) * dg;
     }
     // Rough plastic.
     let eta = c.x;
@@ -686,7 +695,7 @@ fn front_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let b = mat_b;
     let c = material_word(2u);
     if (kind == MAT_CONDUCTOR) {
-        return BsdfSample(mirror, a * fresnel_conductor(wi.z, b, c.xyz), 1.0, true, 1.0, true);
+        return BsdfSample(mirror, a * fresnel_conductor(wi.z, b, mat_c), 1.0, true, 1.0, true);
     }
     if (kind == MAT_PLASTIC) {
         let eta = c.x;
