@@ -226,8 +226,10 @@ pub struct GpuScene {
     pub nodes: Vec<[f32; 4]>,
     /// Three per primitive in leaf order. Triangle: (v0, shape), (v1,
     /// normal slot or NONE), (v2, light or NONE). Sphere: (centre, shape),
-    /// (radius, uv-frame slot or NONE, 0, SPHERE), (0, 0, 0, light or
-    /// NONE). Disk: (centre,
+    /// (radius, uv-frame slot or NONE, placement slot or NONE, SPHERE),
+    /// (0, 0, 0, light or NONE); a placement slot (an unevenly scaled
+    /// instance's) holds the world-to-group rows, and centre, radius and
+    /// frame are the group's. Disk: (centre,
     /// shape), (dual basis dx, DISK or DISK_FLIPPED), (dy, light or NONE).
     pub prims: Vec<[f32; 4]>,
     /// `SLOT_WORDS` per vertex-data slot: a triangle's vertex normals and
@@ -293,9 +295,13 @@ enum Prim {
         center: Vec3,
         radius: f32,
         /// The (u, v) frame, for spheres whose material is textured:
-        /// object x, y and z (the polar axis) in world space, and the
-        /// convention.
+        /// object x, y and z (the polar axis) in world space (in the
+        /// group's space under a `placement`), and the convention.
         uv_frame: Option<([Vec3; 3], SphereUv)>,
+        /// An instance's group-to-world transform that scales the sphere
+        /// unevenly (an ellipsoid: centre, radius and frame stay in the
+        /// group's space); `None` where they are in world space.
+        placement: Option<Transform>,
     },
     Disk {
         shape: u32,
@@ -307,7 +313,8 @@ impl Prim {
     /// This primitive (of a shape group) where an instance's `t` places it:
     /// triangles rewound where `t` mirrors, so that their front stays
     /// where the CPU's normals (transformed as normals) put it; spheres
-    /// only under similarities (else they are ellipsoids).
+    /// moved to the world under similarities, and kept in the group's
+    /// space with the transform otherwise (ellipsoids).
     fn placed(&self, t: &Transform) -> Result<Prim, Unsupported> {
         Ok(match *self {
             Prim::Triangle {
@@ -333,9 +340,16 @@ impl Prim {
                 center,
                 radius,
                 uv_frame,
+                placement: _,
             } => {
                 if !t.is_similarity() {
-                    return unsupported("a sphere placed by an instance that scales it unevenly");
+                    return Ok(Prim::Sphere {
+                        shape,
+                        center,
+                        radius,
+                        uv_frame,
+                        placement: Some(*t),
+                    });
                 }
                 Prim::Sphere {
                     shape,
@@ -343,6 +357,7 @@ impl Prim {
                     radius: radius * t.vector(Vec3::X).length(),
                     uv_frame: uv_frame
                         .map(|(axes, uv)| (axes.map(|a| t.vector(a).normalize_or_zero()), uv)),
+                    placement: None,
                 }
             }
             Prim::Disk { shape, disk } => Prim::Disk {
@@ -360,10 +375,33 @@ impl Prim {
                 min: v[0].min(v[1]).min(v[2]),
                 max: v[0].max(v[1]).max(v[2]),
             },
-            Prim::Sphere { center, radius, .. } => Aabb {
-                min: center - radius,
-                max: center + radius,
-            },
+            Prim::Sphere {
+                center,
+                radius,
+                placement,
+                ..
+            } => {
+                let local = Aabb {
+                    min: center - radius,
+                    max: center + radius,
+                };
+                match placement {
+                    None => local,
+                    // The group-space box's corners placed: a box around
+                    // the ellipsoid.
+                    Some(t) => (0..8).fold(Aabb::EMPTY, |b, k| {
+                        let pick =
+                            |bit: usize, lo: f32, hi: f32| if k >> bit & 1 == 0 { lo } else { hi };
+                        let corner = Vec3::new(
+                            pick(0, local.min.x, local.max.x),
+                            pick(1, local.min.y, local.max.y),
+                            pick(2, local.min.z, local.max.z),
+                        );
+                        let p = t.point(corner);
+                        b.union(Aabb { min: p, max: p })
+                    }),
+                }
+            }
             Prim::Disk { disk, .. } => disk.bounds(),
         }
     }
@@ -869,6 +907,7 @@ impl GpuScene {
                     center: sp.center,
                     radius: sp.radius,
                     uv_frame: textured.then_some(([sp.x_axis, sp.y_axis, sp.axis], sp.uv)),
+                    placement: None,
                 }),
                 Geometry::Disk(d) => prims.push(Prim::Disk { shape, disk: *d }),
                 Geometry::Curve(_) => return unsupported("curves"),
@@ -1083,6 +1122,12 @@ impl GpuScene {
             let (radiance, texture) = emissions[shape as usize];
             let power = area * luminance(radiance);
             if power > 0.0 && power.is_finite() {
+                if let Prim::Sphere {
+                    placement: Some(_), ..
+                } = p
+                {
+                    return unsupported("an emitting sphere that an instance scales unevenly");
+                }
                 prim_light[pi] = weights.len() as u32;
                 lights.extend(rec);
                 lights.push(v4(radiance, bits(shape)));
@@ -1175,7 +1220,20 @@ impl GpuScene {
                     center,
                     radius,
                     uv_frame,
+                    placement,
                 } => {
+                    // An ellipsoid's world-to-group map takes a slot: its
+                    // three rows, the translation in w.
+                    let placed = match placement {
+                        Some(t) => {
+                            let slot = (normals.len() / SLOT_WORDS) as u32;
+                            let m = t.inverse().m.transpose();
+                            normals.extend([m.x_axis, m.y_axis, m.z_axis].map(|r| r.to_array()));
+                            normals.extend([[0.0; 4]; SLOT_WORDS - 3]);
+                            slot
+                        }
+                        None => NONE,
+                    };
                     // A textured sphere's (u, v) frame takes a vertex-data
                     // slot: object x (with the convention), y and z.
                     let slot = match uv_frame {
@@ -1194,7 +1252,7 @@ impl GpuScene {
                         None => NONE,
                     };
                     flat.push(v4(center, bits(shape)));
-                    flat.push([radius, bits(slot), 0.0, bits(SPHERE)]);
+                    flat.push([radius, bits(slot), bits(placed), bits(SPHERE)]);
                     flat.push([0.0, 0.0, 0.0, light]);
                     Some(slot)
                 }
@@ -1605,8 +1663,22 @@ mod tests {
         // The group: an icosphere of 80 triangles, a sphere, a rectangle
         // (two triangles); the floor and the light are two triangles each.
         let group = 80 + 1 + 2;
-        assert_eq!(scene.bvh.instance_count(), 3);
-        assert_eq!(flat.prims.len() / 3, 4 + 3 * group);
+        assert_eq!(scene.bvh.instance_count(), 4);
+        assert_eq!(flat.prims.len() / 3, 4 + 4 * group);
+        // The unevenly scaled instance's sphere keeps the group's centre
+        // and radius and points at its world-to-group rows; the others are
+        // in world space.
+        let placements: Vec<u32> = (flat.prims.chunks(3))
+            .filter(|p| p[1][3].to_bits() == SPHERE)
+            .map(|p| p[1][2].to_bits())
+            .collect();
+        assert_eq!(placements.len(), 4);
+        let placed: Vec<_> = placements.iter().filter(|&&k| k != NONE).collect();
+        assert_eq!(placed.len(), 1, "{placements:?}");
+        let k = *placed[0] as usize * SLOT_WORDS;
+        let inst = scene.bvh.instance(3).to_world.inverse().m.transpose();
+        assert_eq!(flat.normals[k], inst.x_axis.to_array());
+        assert_eq!(flat.normals[k + 2], inst.z_axis.to_array());
 
         // Placed on a grid.
         let one = desc.instances[0];
@@ -1626,8 +1698,8 @@ mod tests {
     }
 
     /// A rough conductor with a textured roughness and specular
-    /// reflectance points at both records; a textured index of refraction
-    /// is named as unsupported.
+    /// reflectance points at both records; a texture on alpha_u alone is
+    /// named as unsupported.
     #[test]
     fn textured_roughness_and_specular_colours_are_records() {
         let (mut scene, job) = load("tests/conformance/textures.xml");

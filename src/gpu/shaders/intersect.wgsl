@@ -26,6 +26,22 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     return select(1.0 / d, select(vec3<f32>(1e30), vec3<f32>(-1e30), d < vec3<f32>(0.0)), tiny);
 }
 
+// The ray (origin, direction) in the space of an unevenly scaled
+// instance's group, by the world-to-group rows at vertex-data slot
+// `placement` (flatten.rs), or as it is for NONE.
+fn placed_ray(placement: u32, o: vec3<f32>, d: vec3<f32>) -> array<vec3<f32>, 2> {
+    if (placement == NONE) {
+        return array<vec3<f32>, 2>(o, d);
+    }
+    let k = SLOT_WORDS * placement;
+    let m0 = normals[k];
+    let m1 = normals[k + 1u];
+    let m2 = normals[k + 2u];
+    let lo = vec3<f32>(dot(m0.xyz, o) + m0.w, dot(m1.xyz, o) + m1.w, dot(m2.xyz, o) + m2.w);
+    let ld = vec3<f32>(dot(m0.xyz, d), dot(m1.xyz, d), dot(m2.xyz, d));
+    return array<vec3<f32>, 2>(lo, ld);
+}
+
 // Whether a primitive's second word marks a disk.
 fn is_disk(marker: u32) -> bool {
     return marker == DISK || marker == DISK_FLIPPED;
@@ -37,18 +53,21 @@ fn intersect_prim(i: u32, o: vec3<f32>, d: vec3<f32>, tmin: f32, tmax: f32, hit:
     let r0 = prims[3u * i];
     let r1 = prims[3u * i + 1u];
     if (bitcast<u32>(r1.w) == SPHERE) {
-        let oc = o - r0.xyz;
+        // An ellipsoid's ray in the group's space: the same t.
+        let ray = placed_ray(bitcast<u32>(r1.z), o, d);
+        let oc = ray[0] - r0.xyz;
         let r = r1.x;
-        let b = dot(oc, d);
+        let a = dot(ray[1], ray[1]);
+        let b = dot(oc, ray[1]);
         let c = dot(oc, oc) - r * r;
-        let disc = b * b - c;
+        let disc = b * b - a * c;
         if (disc < 0.0) {
             return false;
         }
         let q = sqrt(disc);
-        var t = -b - q;
+        var t = (-b - q) / a;
         if (t <= tmin) {
-            t = -b + q;
+            t = (-b + q) / a;
         }
         if (t <= tmin || t >= tmax) {
             return false;
@@ -238,7 +257,9 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     let slot = bitcast<u32>(r1.w);
     let light = bitcast<u32>(r2.w);
     if (slot == SPHERE) {
-        let n = normalize(o + h.t * d - r0.xyz);
+        let placement = bitcast<u32>(r1.z);
+        let ray = placed_ray(placement, o, d);
+        let n = normalize(ray[0] + h.t * ray[1] - r0.xyz);
         let frame = bitcast<u32>(r1.y);
         var uv = vec2<f32>(0.0);
         // geometry/sphere.rs's `dpdu_dpdv`: dp/du = 2 pi r ((object x cross
@@ -261,6 +282,23 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             dpdv = (horizontal * (cos_theta / sin_theta) - axis * sin_theta) * (PI * r);
         }
         let dpdu = cross(up, n) * (2.0 * PI * r);
+        if (placement != NONE) {
+            // Back to the world (instance.rs): normals by the inverse
+            // transpose (the world-to-group rows transposed), dp/du and
+            // dp/dv by the group-to-world map (those rows inverted).
+            let k = SLOT_WORDS * placement;
+            let m0 = normals[k].xyz;
+            let m1 = normals[k + 1u].xyz;
+            let m2 = normals[k + 2u].xyz;
+            let nw = normalize(m0 * n.x + m1 * n.y + m2 * n.z);
+            let c0 = cross(m1, m2);
+            let c1 = cross(m2, m0);
+            let c2 = cross(m0, m1);
+            let inv_det = 1.0 / dot(m0, c0);
+            let du = (c0 * dpdu.x + c1 * dpdu.y + c2 * dpdu.z) * inv_det;
+            let dv = (c0 * dpdv.x + c1 * dpdv.y + c2 * dpdv.z) * inv_det;
+            return Surface(o + h.t * d, nw, nw, shape, light, uv, du, dv);
+        }
         return Surface(r0.xyz + r * n, n, n, shape, light, uv, dpdu, dpdv);
     }
     if (is_disk(slot)) {
