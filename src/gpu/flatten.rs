@@ -1412,6 +1412,32 @@ mod tests {
         assert!(err.to_string().contains(what), "{err}");
     }
 
+    /// The material words of the shapes whose kind word has `flag`, in
+    /// shape order, each with its kind less the texture flags.
+    fn records_with(flat: &GpuScene, shapes: usize, flag: u32) -> Vec<(u32, &[[f32; 4]])> {
+        (0..shapes)
+            .map(|k| &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS])
+            .filter(|words| words[0][3].to_bits() & flag != 0)
+            .map(|words| (words[0][3].to_bits() & !MAT_TEXTURED_ANY, words))
+            .collect()
+    }
+
+    /// Asserts that every triangle and sphere of the shapes `needs`
+    /// picks has a vertex-data slot (disks need none); returns how many.
+    fn count_slotted(flat: &GpuScene, needs: impl Fn(usize) -> bool) -> usize {
+        let mut with_slot = 0;
+        for r in flat.prims.chunks(3) {
+            let (shape, marker) = (r[0][3].to_bits() as usize, r[1][3].to_bits());
+            if marker == DISK || marker == DISK_FLIPPED || !needs(shape) {
+                continue;
+            }
+            let slot = if marker == SPHERE { r[1][1] } else { r[1][3] };
+            assert_ne!(slot.to_bits(), NONE, "shape {shape}");
+            with_slot += 1;
+        }
+        with_slot
+    }
+
     fn load(file: &str) -> (Scene, RenderJob) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let (desc, _) = crate::load::load_scene_with(&path, &[]).unwrap();
@@ -1473,20 +1499,16 @@ mod tests {
         let (scene, job) = load("tests/gpu/conductor_textures.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         let mut seen = Vec::new();
-        for k in 0..scene.bsdfs.len() {
-            let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
-            let kind = words[0][3].to_bits();
-            let textured = kind & (MAT_TEXTURED_B | MAT_TEXTURED_C);
-            if textured == 0 {
-                continue;
-            }
+        let flags = MAT_TEXTURED_B | MAT_TEXTURED_C;
+        for (kind, words) in records_with(&flat, scene.bsdfs.len(), flags) {
+            let textured = words[0][3].to_bits() & flags;
             for (flag, word) in [(MAT_TEXTURED_B, 1), (MAT_TEXTURED_C, 2)] {
                 if textured & flag != 0 {
                     let record = words[word][0].to_bits() as usize;
                     assert!(flat.shapes[record + 2][1].to_bits() <= TEX_CHECKERBOARD);
                 }
             }
-            seen.push((kind & !MAT_TEXTURED_ANY, textured));
+            seen.push((kind, textured));
         }
         assert_eq!(
             seen,
@@ -1741,15 +1763,10 @@ mod tests {
         let (mut scene, job) = load("tests/gpu/normal_map.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         let mut tilts = Vec::new();
-        for k in 0..scene.bsdfs.len() {
-            let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
-            let kind = words[0][3].to_bits();
-            if kind & MAT_NORMAL_MAP == 0 {
-                continue;
-            }
+        for (kind, words) in records_with(&flat, scene.bsdfs.len(), MAT_NORMAL_MAP) {
             let header = &flat.shapes[words[3][2].to_bits() as usize..][..3];
             assert!(header[2][1].to_bits() <= TEX_BILINEAR, "a bitmap");
-            tilts.push((kind & !MAT_TEXTURED_ANY, words[3][3].to_bits()));
+            tilts.push((kind, words[3][3].to_bits()));
         }
         assert_eq!(
             tilts,
@@ -1812,20 +1829,10 @@ mod tests {
         let (scene, job) = load("tests/gpu/bump_map.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         let mut bumps = Vec::new();
-        for k in 0..scene.bsdfs.len() {
-            let words = &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
-            let kind = words[0][3].to_bits();
-            if kind & MAT_NORMAL_MAP == 0 {
-                continue;
-            }
+        for (kind, words) in records_with(&flat, scene.bsdfs.len(), MAT_NORMAL_MAP) {
             let header = &flat.shapes[words[3][2].to_bits() as usize..][..3];
             assert_eq!(header[2][1].to_bits(), TEX_BILINEAR, "a bilinear bitmap");
-            bumps.push((
-                kind & !MAT_TEXTURED_ANY,
-                words[3][0],
-                words[3][1],
-                words[3][3].to_bits(),
-            ));
+            bumps.push((kind, words[3][0], words[3][1], words[3][3].to_bits()));
         }
         let on = TILT_BUMP | TILT_FLIP | TILT_SHADOW;
         assert_eq!(
@@ -1842,21 +1849,10 @@ mod tests {
                 (MAT_PLASTIC, 1.0, 0.5, on),
             ]
         );
-        // Every triangle and sphere of a bumped shape has a slot (disks
-        // need none): the floor's 2 triangles, the icosphere's 80, the
-        // sphere.
-        let mut with_slot = 0;
-        for r in flat.prims.chunks(3) {
-            let (shape, marker) = (r[0][3].to_bits() as usize, r[1][3].to_bits());
-            let kind = flat.shapes[shape * SHAPE_WORDS][3].to_bits();
-            if marker == DISK || marker == DISK_FLIPPED || kind & MAT_NORMAL_MAP == 0 {
-                continue;
-            }
-            let slot = if marker == SPHERE { r[1][1] } else { r[1][3] };
-            assert_ne!(slot.to_bits(), NONE, "shape {shape}");
-            with_slot += 1;
-        }
-        assert_eq!(with_slot, 83);
+        // Every triangle and sphere of a bumped shape has a slot: the
+        // floor's 2 triangles, the icosphere's 80, the sphere.
+        let bumped = |s: usize| flat.shapes[s * SHAPE_WORDS][3].to_bits() & MAT_NORMAL_MAP != 0;
+        assert_eq!(count_slotted(&flat, bumped), 83);
     }
 
     /// Anisotropic materials carry alpha_u and the ratio alpha_v / alpha_u
@@ -1886,19 +1882,8 @@ mod tests {
             seen.push(distr.kind);
         }
         assert_eq!(seen.len(), 5, "{seen:?}");
-        // Every triangle and sphere of an anisotropic shape has a slot
-        // (disks need none): the floor's 2 triangles, the cube's 12, the
-        // spheres.
-        let mut with_slot = 0;
-        for r in flat.prims.chunks(3) {
-            let (shape, marker) = (r[0][3].to_bits() as usize, r[1][3].to_bits());
-            if marker == DISK || marker == DISK_FLIPPED || !anisotropic(&scene.bsdfs[shape]) {
-                continue;
-            }
-            let slot = if marker == SPHERE { r[1][1] } else { r[1][3] };
-            assert_ne!(slot.to_bits(), NONE, "shape {shape}");
-            with_slot += 1;
-        }
-        assert_eq!(with_slot, 16);
+        // Every triangle and sphere of an anisotropic shape has a slot:
+        // the floor's 2 triangles, the cube's 12, the spheres.
+        assert_eq!(count_slotted(&flat, |s| anisotropic(&scene.bsdfs[s])), 16);
     }
 }
