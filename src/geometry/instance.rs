@@ -25,17 +25,7 @@ impl Instance {
 
     /// The world bounds of a group's local bounds under this placement.
     pub fn world_bounds(&self, local: Aabb) -> Aabb {
-        if local.is_empty() {
-            return local;
-        }
-        (0..8).fold(Aabb::EMPTY, |b, i| {
-            let corner = Vec3::new(
-                if i & 1 == 0 { local.min.x } else { local.max.x },
-                if i & 2 == 0 { local.min.y } else { local.max.y },
-                if i & 4 == 0 { local.min.z } else { local.max.z },
-            );
-            b.extend(self.to_world.point(corner))
-        })
+        self.to_world.bounds(local)
     }
 
     /// A hit found in the group's space, in the world: the point with an

@@ -389,17 +389,7 @@ impl Prim {
                     None => local,
                     // The group-space box's corners placed: a box around
                     // the ellipsoid.
-                    Some(t) => (0..8).fold(Aabb::EMPTY, |b, k| {
-                        let pick =
-                            |bit: usize, lo: f32, hi: f32| if k >> bit & 1 == 0 { lo } else { hi };
-                        let corner = Vec3::new(
-                            pick(0, local.min.x, local.max.x),
-                            pick(1, local.min.y, local.max.y),
-                            pick(2, local.min.z, local.max.z),
-                        );
-                        let p = t.point(corner);
-                        b.union(Aabb { min: p, max: p })
-                    }),
+                    Some(t) => t.bounds(local),
                 }
             }
             Prim::Disk { disk, .. } => disk.bounds(),

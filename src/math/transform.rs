@@ -1,6 +1,6 @@
 //! Affine transforms carried with their inverse.
 
-use super::{Mat3, Mat4, Vec3, Vec4};
+use super::{Aabb, Mat3, Mat4, Vec3, Vec4};
 
 /// A 4x4 transform and its inverse, so normals and inverse mappings are cheap.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,6 +55,22 @@ impl Transform {
 
     pub fn vector(&self, v: Vec3) -> Vec3 {
         self.m.transform_vector3(v)
+    }
+
+    /// A box around the image of `local`: its eight corners transformed
+    /// (an empty box stays empty).
+    pub fn bounds(&self, local: Aabb) -> Aabb {
+        if local.is_empty() {
+            return local;
+        }
+        (0..8).fold(Aabb::EMPTY, |b, i| {
+            let corner = Vec3::new(
+                if i & 1 == 0 { local.min.x } else { local.max.x },
+                if i & 2 == 0 { local.min.y } else { local.max.y },
+                if i & 4 == 0 { local.min.z } else { local.max.z },
+            );
+            b.extend(self.point(corner))
+        })
     }
 
     /// Transforms a normal by the inverse transpose (not normalised).
