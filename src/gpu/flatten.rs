@@ -1798,7 +1798,8 @@ mod tests {
     }
 
     /// `Params` is as long as WGSL's struct (a multiple of 16 bytes), and
-    /// every scene carries Beckmann's table of visible-slope guesses.
+    /// every scene carries Beckmann's table of visible-slope guesses, in
+    /// the shape the shader reads.
     #[test]
     fn params_fill_the_uniform_and_point_at_beckmann_guesses() {
         assert_eq!(std::mem::size_of::<Params>() % 16, 0);
@@ -1809,6 +1810,12 @@ mod tests {
         let words = &flat.shapes[start..];
         assert_eq!(words.len() * 4, table.len());
         assert!(words.iter().flatten().zip(table).all(|(a, b)| a == b));
+        // The shader indexes it with the table's own shape.
+        let (rows, cols) = crate::bsdf::beckmann_slopes::GUESS_TABLE_SIZE;
+        assert_eq!(rows * cols, table.len());
+        let shader = include_str!("shaders/bsdf.wgsl");
+        assert!(shader.contains(&format!("const BECKMANN_ROWS: u32 = {rows}u;")));
+        assert!(shader.contains(&format!("const BECKMANN_COLS: u32 = {cols}u;")));
     }
 
     /// A bump map is a normal map's record with `TILT_BUMP` and its scale

@@ -12,6 +12,8 @@ const TEX_BILINEAR: u32 = 1u;
 const TEX_CHECKERBOARD: u32 = 2u;
 const WRAP_REPEAT: u32 = 0u;
 const WRAP_MIRROR: u32 = 1u;
+// color/mod.rs's luminance weights: a bitmap's `eval_1`.
+const LUMINANCE: vec3<f32> = vec3<f32>(0.212671, 0.715160, 0.072169);
 
 // texture/mod.rs's `bounded`: finite values clamped to +-2^30, others 0.
 fn tex_bounded(x: f32) -> f32 {
@@ -45,49 +47,78 @@ fn texture_value_1(record: u32, c: vec3<f32>) -> f32 {
     if (bitcast<u32>(shapes[record + 2u].y) == TEX_CHECKERBOARD) {
         return (c.x + c.y + c.z) / 3.0;
     }
-    return dot(c, vec3<f32>(0.212671, 0.715160, 0.072169));
+    return dot(c, LUMINANCE);
+}
+
+// A record's header (texture_record): where `uv` falls in texel units
+// (`to_uv` applied), the first texel, the size, the filter and the wrap,
+// and `to_uv`'s linear part (rows 0 and 1: u and v coefficients).
+struct TexHeader {
+    st: vec2<f32>,
+    first: u32,
+    w: i32,
+    h: i32,
+    filter_type: u32,
+    wrap: u32,
+    to_uv: vec4<f32>,
+}
+
+fn tex_header(record: u32, uv: vec2<f32>) -> TexHeader {
+    let h0 = shapes[record];
+    let h1 = shapes[record + 1u];
+    let h2 = shapes[record + 2u];
+    let st = vec2<f32>(h0.x * uv.x + h0.y * uv.y + h0.z, h1.x * uv.x + h1.y * uv.y + h1.z);
+    return TexHeader(st, bitcast<u32>(h0.w), i32(bitcast<u32>(h1.w)), i32(bitcast<u32>(h2.x)),
+        bitcast<u32>(h2.y), bitcast<u32>(h2.z), vec4<f32>(h0.xy, h1.xy));
+}
+
+// The four texels a bilinear lookup blends (bitmap.rs's `bilinear_cell`):
+// columns x0, x1 and rows y0, y1, wrapped, and the weights of x1 and y1.
+struct TexCell {
+    x0: i32,
+    x1: i32,
+    y0: i32,
+    y1: i32,
+    t: vec2<f32>,
+}
+
+fn tex_bilinear_cell(a: TexHeader) -> TexCell {
+    let px = tex_bounded(a.st.x * f32(a.w) - 0.5);
+    let py = tex_bounded(a.st.y * f32(a.h) - 0.5);
+    let fx = floor(px);
+    let fy = floor(py);
+    let ix = i32(fx);
+    let iy = i32(fy);
+    return TexCell(
+        tex_wrap(ix, a.w, a.wrap),
+        tex_wrap(ix + 1, a.w, a.wrap),
+        tex_wrap(iy, a.h, a.wrap),
+        tex_wrap(iy + 1, a.h, a.wrap),
+        vec2<f32>(px - fx, py - fy),
+    );
 }
 
 // The texture's value at `uv`, for the record at `record`; a
 // checkerboard's squares swapped if `swap` (checkerboard.rs's `eval_1`
 // swaps them, as Mitsuba 3.9's does).
 fn texture_lookup(record: u32, uv: vec2<f32>, swap: bool) -> vec3<f32> {
-    let h0 = shapes[record];
-    let h1 = shapes[record + 1u];
-    let h2 = shapes[record + 2u];
-    let st = vec2<f32>(h0.x * uv.x + h0.y * uv.y + h0.z, h1.x * uv.x + h1.y * uv.y + h1.z);
-    let first = bitcast<u32>(h0.w);
-    let w = i32(bitcast<u32>(h1.w));
-    let h = i32(bitcast<u32>(h2.x));
-    let filter_type = bitcast<u32>(h2.y);
-    let wrap = bitcast<u32>(h2.z);
-    if (filter_type == TEX_CHECKERBOARD) {
+    let a = tex_header(record, uv);
+    if (a.filter_type == TEX_CHECKERBOARD) {
         // Checkerboard::eval: color0 where both fractions are above a
         // half or neither is.
-        let mx = st.x - floor(st.x) > 0.5;
-        let my = st.y - floor(st.y) > 0.5;
-        return shapes[first + select(1u, 0u, (mx == my) != swap)].xyz;
+        let mx = a.st.x - floor(a.st.x) > 0.5;
+        let my = a.st.y - floor(a.st.y) > 0.5;
+        return shapes[a.first + select(1u, 0u, (mx == my) != swap)].xyz;
     }
-    if (filter_type == TEX_NEAREST) {
-        let x = tex_wrap(i32(floor(tex_bounded(st.x * f32(w)))), w, wrap);
-        let y = tex_wrap(i32(floor(tex_bounded(st.y * f32(h)))), h, wrap);
-        return tex_texel(first, w, x, y);
+    if (a.filter_type == TEX_NEAREST) {
+        let x = tex_wrap(i32(floor(tex_bounded(a.st.x * f32(a.w)))), a.w, a.wrap);
+        let y = tex_wrap(i32(floor(tex_bounded(a.st.y * f32(a.h)))), a.h, a.wrap);
+        return tex_texel(a.first, a.w, x, y);
     }
-    let px = tex_bounded(st.x * f32(w) - 0.5);
-    let py = tex_bounded(st.y * f32(h) - 0.5);
-    let fx = floor(px);
-    let fy = floor(py);
-    let ix = i32(fx);
-    let iy = i32(fy);
-    let x0 = tex_wrap(ix, w, wrap);
-    let x1 = tex_wrap(ix + 1, w, wrap);
-    let y0 = tex_wrap(iy, h, wrap);
-    let y1 = tex_wrap(iy + 1, h, wrap);
-    let tx = px - fx;
-    let ty = py - fy;
-    let top = tex_texel(first, w, x0, y0) * (1.0 - tx) + tex_texel(first, w, x1, y0) * tx;
-    let bottom = tex_texel(first, w, x0, y1) * (1.0 - tx) + tex_texel(first, w, x1, y1) * tx;
-    return top * (1.0 - ty) + bottom * ty;
+    let c = tex_bilinear_cell(a);
+    let top = tex_texel(a.first, a.w, c.x0, c.y0) * (1.0 - c.t.x) + tex_texel(a.first, a.w, c.x1, c.y0) * c.t.x;
+    let bottom = tex_texel(a.first, a.w, c.x0, c.y1) * (1.0 - c.t.x) + tex_texel(a.first, a.w, c.x1, c.y1) * c.t.x;
+    return top * (1.0 - c.t.y) + bottom * c.t.y;
 }
 
 // The gradient of `texture_value_1` (a bitmap's luminance) with respect to
@@ -95,33 +126,17 @@ fn texture_lookup(record: u32, uv: vec2<f32>, swap: bool) -> vec3<f32> {
 // bilinear patch's slopes taken through `to_uv` and scaled by the
 // resolution; zero for nearest lookups and checkerboards.
 fn texture_gradient_1(record: u32, uv: vec2<f32>) -> vec2<f32> {
-    let h0 = shapes[record];
-    let h1 = shapes[record + 1u];
-    let h2 = shapes[record + 2u];
-    if (bitcast<u32>(h2.y) != TEX_BILINEAR) {
+    let a = tex_header(record, uv);
+    if (a.filter_type != TEX_BILINEAR) {
         return vec2<f32>(0.0);
     }
-    let st = vec2<f32>(h0.x * uv.x + h0.y * uv.y + h0.z, h1.x * uv.x + h1.y * uv.y + h1.z);
-    let first = bitcast<u32>(h0.w);
-    let w = i32(bitcast<u32>(h1.w));
-    let h = i32(bitcast<u32>(h2.x));
-    let wrap = bitcast<u32>(h2.z);
-    let px = tex_bounded(st.x * f32(w) - 0.5);
-    let py = tex_bounded(st.y * f32(h) - 0.5);
-    let fx = floor(px);
-    let fy = floor(py);
-    let x0 = tex_wrap(i32(fx), w, wrap);
-    let x1 = tex_wrap(i32(fx) + 1, w, wrap);
-    let y0 = tex_wrap(i32(fy), h, wrap);
-    let y1 = tex_wrap(i32(fy) + 1, h, wrap);
-    let tx = px - fx;
-    let ty = py - fy;
-    let lum = vec3<f32>(0.212671, 0.715160, 0.072169);
-    let f00 = dot(tex_texel(first, w, x0, y0), lum);
-    let f10 = dot(tex_texel(first, w, x1, y0), lum);
-    let f01 = dot(tex_texel(first, w, x0, y1), lum);
-    let f11 = dot(tex_texel(first, w, x1, y1), lum);
-    let dx = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
-    let dy = (1.0 - tx) * (f01 - f00) + tx * (f11 - f10);
-    return vec2<f32>((h0.x * dx + h1.x * dy) * f32(w), (h0.y * dx + h1.y * dy) * f32(h));
+    let c = tex_bilinear_cell(a);
+    let f00 = dot(tex_texel(a.first, a.w, c.x0, c.y0), LUMINANCE);
+    let f10 = dot(tex_texel(a.first, a.w, c.x1, c.y0), LUMINANCE);
+    let f01 = dot(tex_texel(a.first, a.w, c.x0, c.y1), LUMINANCE);
+    let f11 = dot(tex_texel(a.first, a.w, c.x1, c.y1), LUMINANCE);
+    let dx = (1.0 - c.t.y) * (f10 - f00) + c.t.y * (f11 - f01);
+    let dy = (1.0 - c.t.x) * (f01 - f00) + c.t.x * (f11 - f10);
+    let m = a.to_uv;
+    return vec2<f32>((m.x * dx + m.z * dy) * f32(a.w), (m.y * dx + m.w * dy) * f32(a.h));
 }
