@@ -203,6 +203,11 @@ impl BitmapTexture {
     /// with respect to the hit's (u, v), as Mitsuba 3.9.1's bitmap
     /// `eval_1_grad`: the bilinear patch's slopes, taken through `to_uv`
     /// and scaled by the resolution; zero for nearest-neighbour lookups.
+    /// Where `to_uv` mixes u and v on a non-square image this is not the
+    /// true gradient (the cross terms are scaled by the other side), and
+    /// Mitsuba's is not either: checked against its `eval_1_grad` and
+    /// finite differences of its `eval_1` (an 8 x 3 image turned 30
+    /// degrees), the two agree to 5 digits.
     pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
         if self.filter == FilterType::Nearest {
             return Vec2::ZERO;
