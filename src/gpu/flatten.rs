@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, BvhBuildParams};
 
 use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
-use crate::bsdf::{Bsdf, BsdfParam, Tilt, Tilted};
+use crate::bsdf::{Blend, Bsdf, BsdfParam, Tilt, Tilted};
 use crate::camera::{Aperture, Projection};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
@@ -52,6 +52,10 @@ pub const MAT_ROUGH_CONDUCTOR: u32 = 2;
 pub const MAT_PLASTIC: u32 = 3;
 pub const MAT_ROUGH_PLASTIC: u32 = 4;
 pub const MAT_ROUGH_DIELECTRIC: u32 = 5;
+/// Mitsuba's `blendbsdf`: word A is (the weight, or its texture's record
+/// with `MAT_TEXTURED`; the first and the second BSDF's three words, as
+/// indices in the shapes buffer). Neither is a blend.
+pub const MAT_BLEND: u32 = 7;
 pub const MAT_MIRROR: u32 = 8;
 pub const MAT_DIELECTRIC: u32 = 9;
 pub const MAT_CONDUCTOR: u32 = 10;
@@ -114,6 +118,9 @@ pub const TILT_INSIDE_TWO_SIDED: u32 = 4;
 /// A bump map: the fourth word's texture is a height field (its slopes
 /// tilt the normal), its second number the map's scale.
 pub const TILT_BUMP: u32 = 16;
+
+/// Every flag of a kind word (the rest is the kind).
+pub const MAT_FLAGS: u32 = MAT_EMITS | MAT_TWO_SIDED | MAT_MASK | MAT_BACK | MAT_TEXTURED_ANY;
 
 /// Every texture flag.
 pub const MAT_TEXTURED_ANY: u32 = MAT_TEXTURED
@@ -428,6 +435,7 @@ fn anisotropic(bsdf: &Bsdf) -> bool {
         Bsdf::Textured(t) => anisotropic(t.base()),
         Bsdf::Mask(m) => anisotropic(&m.nested),
         Bsdf::TwoSided(t) => anisotropic(&t.front) || anisotropic(&t.back),
+        Bsdf::Blend(b) => anisotropic(&b.first) || anisotropic(&b.second),
         _ => false,
     }
 }
@@ -623,6 +631,7 @@ fn material(
             return unsupported("a two-sided BSDF with a different back inside another BSDF")
         }
         Bsdf::Tilted(_) => return unsupported("a normal or bump map inside another BSDF"),
+        Bsdf::Blend(b) => blend(b, table_base, tables)?,
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
@@ -682,6 +691,46 @@ fn material(
         }
         other => return unsupported(format!("the {} BSDF", variant_name(other))),
     })
+}
+
+/// A `blendbsdf`'s three words (`MAT_BLEND`): its two BSDFs' words go to
+/// `tables`. A `twosided` pair mirrors the blend as a whole; one two-sided
+/// BSDF beside a one-sided one, or a blend inside a blend, is named
+/// unsupported.
+fn blend(
+    b: &Blend,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<[[f32; 4]; 3], Unsupported> {
+    let mut layers = [[[0.0; 4]; 3]; 2];
+    for (words, bsdf) in layers.iter_mut().zip([&b.first, &b.second]) {
+        if matches!(bsdf, Bsdf::Blend(_)) {
+            return unsupported("a blendbsdf inside a blendbsdf");
+        }
+        *words = material(bsdf, table_base, tables)?;
+    }
+    let two_sided = layers.map(|w| w[0][3].to_bits() & MAT_TWO_SIDED != 0);
+    if two_sided[0] != two_sided[1] {
+        return unsupported("a blendbsdf of a two-sided and a one-sided BSDF");
+    }
+    let mut kind = MAT_BLEND;
+    if two_sided[0] {
+        kind |= MAT_TWO_SIDED;
+    }
+    let weight = match b.weight.constant() {
+        Some(_) => b.weight.eval_1(Vec2::ZERO).clamp(0.0, 1.0),
+        None => {
+            kind |= MAT_TEXTURED;
+            texture_record(&b.weight, table_base, tables)?
+        }
+    };
+    let mut index = [0.0; 2];
+    for (i, mut words) in layers.into_iter().enumerate() {
+        words[0][3] = bits(words[0][3].to_bits() & !MAT_TWO_SIDED);
+        index[i] = bits((table_base + tables.len()) as u32);
+        tables.extend(words);
+    }
+    Ok([[weight, index[0], index[1], bits(kind)], [0.0; 4], [0.0; 4]])
 }
 
 /// Where a textured parameter goes in a material record (`material`).
@@ -841,13 +890,24 @@ impl GpuScene {
                 None => (Rgb::ZERO, bits(NONE)),
             };
             emissions.push((emission, texture));
-            // Either side's textures and the emitter's need the hit's uv.
+            // Either side's textures (and their blends' layers') and the
+            // emitter's need the hit's uv.
             let kind = words[0][3].to_bits();
-            let back_kind = (kind & MAT_BACK != 0)
-                .then(|| tables[words[3][1].to_bits() as usize - table_base][3].to_bits());
+            let word = |index: f32| tables[index.to_bits() as usize - table_base];
+            let with_layers = |w: [f32; 4]| {
+                let kind = w[3].to_bits();
+                if kind & !MAT_FLAGS != MAT_BLEND {
+                    return kind;
+                }
+                kind | word(w[1])[3].to_bits() | word(w[2])[3].to_bits()
+            };
+            let mut kinds = with_layers(words[0]);
+            if kind & MAT_BACK != 0 {
+                kinds |= with_layers(word(words[3][1]));
+            }
             // An anisotropic material needs the CPU's dp/du, which the
             // vertex uvs and a sphere's axes give.
-            let textured = (kind | back_kind.unwrap_or(0)) & MAT_TEXTURED_ANY != 0
+            let textured = kinds & MAT_TEXTURED_ANY != 0
                 || texture.to_bits() != NONE
                 || anisotropic(&scene.bsdfs[s]);
             match geometry {
@@ -1590,6 +1650,165 @@ mod tests {
         let back = w[3][1].to_bits() as usize;
         let back_kind = kind(&flat.shapes[back..]);
         assert_eq!(back_kind, MAT_DIFFUSE | MAT_TWO_SIDED | MAT_TEXTURED);
+    }
+
+    /// Every code the shaders share with this file has the same value on
+    /// both sides (WGSL cannot import Rust's constants).
+    #[test]
+    fn shader_constants_are_the_flattened_ones() {
+        let shaders = [
+            include_str!("shaders/params.wgsl"),
+            include_str!("shaders/intersect.wgsl"),
+            include_str!("shaders/texture.wgsl"),
+            include_str!("shaders/bsdf.wgsl"),
+            include_str!("shaders/emitter.wgsl"),
+        ]
+        .concat();
+        let ours: &[(&str, u32)] = &[
+            ("NONE", NONE),
+            ("SPHERE", SPHERE),
+            ("DISK", DISK),
+            ("DISK_FLIPPED", DISK_FLIPPED),
+            ("LIGHT_WORDS", LIGHT_WORDS as u32),
+            ("LIGHT_SPHERE", LIGHT_SPHERE),
+            ("LIGHT_POINT", LIGHT_POINT),
+            ("LIGHT_SPOT", LIGHT_SPOT),
+            ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+            ("LIGHT_DISK", LIGHT_DISK),
+            ("LIGHT_PROJECTOR", LIGHT_PROJECTOR),
+            ("SHAPE_WORDS", SHAPE_WORDS as u32),
+            ("MAT_DIFFUSE", MAT_DIFFUSE),
+            ("MAT_ROUGH_CONDUCTOR", MAT_ROUGH_CONDUCTOR),
+            ("MAT_PLASTIC", MAT_PLASTIC),
+            ("MAT_ROUGH_PLASTIC", MAT_ROUGH_PLASTIC),
+            ("MAT_ROUGH_DIELECTRIC", MAT_ROUGH_DIELECTRIC),
+            ("MAT_BLEND", MAT_BLEND),
+            ("MAT_MIRROR", MAT_MIRROR),
+            ("MAT_DIELECTRIC", MAT_DIELECTRIC),
+            ("MAT_CONDUCTOR", MAT_CONDUCTOR),
+            ("MAT_THIN_DIELECTRIC", MAT_THIN_DIELECTRIC),
+            ("MAT_EMITS", MAT_EMITS),
+            ("MAT_TEXTURED", MAT_TEXTURED),
+            ("MAT_TEXTURED_B", MAT_TEXTURED_B),
+            ("MAT_TEXTURED_C", MAT_TEXTURED_C),
+            ("MAT_TEXTURED_ALPHA", MAT_TEXTURED_ALPHA),
+            ("MAT_TWO_SIDED", MAT_TWO_SIDED),
+            ("MAT_MASK", MAT_MASK),
+            ("MAT_TEXTURED_MASK", MAT_TEXTURED_MASK),
+            ("MAT_BACK", MAT_BACK),
+            ("MAT_NORMAL_MAP", MAT_NORMAL_MAP),
+            ("TILT_FLIP", TILT_FLIP),
+            ("TILT_SHADOW", TILT_SHADOW),
+            ("TILT_INSIDE_TWO_SIDED", TILT_INSIDE_TWO_SIDED),
+            ("TILT_BUMP", TILT_BUMP),
+            ("SLOT_WORDS", SLOT_WORDS as u32),
+            ("TEX_NEAREST", TEX_NEAREST),
+            ("TEX_BILINEAR", TEX_BILINEAR),
+            ("TEX_CHECKERBOARD", TEX_CHECKERBOARD),
+            ("WRAP_REPEAT", WRAP_REPEAT),
+            ("WRAP_MIRROR", WRAP_MIRROR),
+            ("ENV_NONE", ENV_NONE),
+            ("ENV_CONSTANT", ENV_CONSTANT),
+            ("ENV_MAP", ENV_MAP),
+        ];
+        for &(name, value) in ours {
+            let decl = format!("const {name}: u32 = ");
+            let at = shaders
+                .find(&decl)
+                .unwrap_or_else(|| panic!("no {name} in the shaders"));
+            let literal = shaders[at + decl.len()..].split('u').next().unwrap();
+            let theirs = match literal.strip_prefix("0x") {
+                Some(hex) => u32::from_str_radix(hex, 16),
+                None => literal.parse(),
+            };
+            assert_eq!(theirs, Ok(value), "{name}");
+        }
+        // The shader's flag set is ours (it names each flag).
+        let flags = shaders.split("const MAT_FLAGS: u32 = ").nth(1).unwrap();
+        let flags = flags.split(';').next().unwrap();
+        let named: u32 = flags
+            .split('|')
+            .map(|f| ours.iter().find(|(n, _)| *n == f.trim()).unwrap().1)
+            .fold(0, |a, b| a | b);
+        assert_eq!(named, MAT_FLAGS);
+    }
+
+    /// A blend's record holds its weight (or the weight texture's record)
+    /// and points at its two BSDFs' words, wherever it stands: at the top,
+    /// under `twosided` (the flag moves to the blend), a mask, a normal
+    /// map, or as a different back. Its layers' textures give the shape
+    /// uvs. A blend inside a blend, and a two-sided BSDF blended with a
+    /// one-sided one, are named unsupported.
+    #[test]
+    fn blends_point_at_their_two_layers() {
+        let (scene, job) = load("tests/gpu/blends.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let word = |i: f32| flat.shapes[i.to_bits() as usize];
+        let kind = |w: [f32; 4]| w[3].to_bits();
+        let layers = |w: [f32; 4]| [kind(word(w[1])), kind(word(w[2]))];
+        let top = |s: usize| flat.shapes[s * SHAPE_WORDS];
+        // The floor: a bitmap weight; a checkerboard diffuse and a rough
+        // plastic.
+        assert_eq!(kind(top(0)), MAT_BLEND | MAT_TEXTURED);
+        let weight = word(top(0)[0]);
+        assert_eq!(
+            weight[3].to_bits() as usize,
+            top(0)[0].to_bits() as usize + 3
+        );
+        assert_eq!(
+            layers(top(0)),
+            [MAT_DIFFUSE | MAT_TEXTURED, MAT_ROUGH_PLASTIC]
+        );
+        // Glass and rough gold at 0.3.
+        assert_eq!(kind(top(1)), MAT_BLEND);
+        assert_eq!(top(1)[0], 0.3);
+        assert_eq!(layers(top(1)), [MAT_DIELECTRIC, MAT_ROUGH_CONDUCTOR]);
+        // twosided(blend): the blend is two-sided, its layers are not.
+        assert_eq!(kind(top(2)), MAT_BLEND | MAT_TWO_SIDED);
+        assert_eq!(layers(top(2)), [MAT_DIFFUSE, MAT_ROUGH_CONDUCTOR]);
+        // mask(blend) with a textured roughness in its first layer.
+        assert_eq!(kind(top(3)), MAT_BLEND | MAT_MASK);
+        assert_eq!(flat.shapes[3 * SHAPE_WORDS + 3][0], 0.7);
+        assert_eq!(
+            layers(top(3)),
+            [MAT_ROUGH_CONDUCTOR | MAT_TEXTURED_ALPHA, MAT_PLASTIC]
+        );
+        // A blend behind a diffuse front.
+        assert_eq!(kind(top(4)), MAT_DIFFUSE | MAT_TWO_SIDED | MAT_BACK);
+        let back = word(flat.shapes[4 * SHAPE_WORDS + 3][1]);
+        assert_eq!(kind(back), MAT_BLEND | MAT_TWO_SIDED);
+        assert_eq!(layers(back), [MAT_DIFFUSE, MAT_CONDUCTOR]);
+        // normalmap(blend).
+        assert_eq!(kind(top(5)), MAT_BLEND | MAT_NORMAL_MAP);
+        assert_eq!(layers(top(5)), [MAT_ROUGH_CONDUCTOR; 2]);
+        // The layers' textures alone give the masked sphere its frame.
+        assert_eq!(count_slotted(&flat, |s| s == 3), 1);
+
+        let refuse = |edit: &dyn Fn(&Blend) -> Blend, what: &str| {
+            let (mut scene, job) = load("tests/gpu/blends.xml");
+            let Bsdf::Blend(b) = &scene.bsdfs[1] else {
+                unreachable!()
+            };
+            scene.bsdfs[1] = Bsdf::Blend(Box::new(edit(b)));
+            assert_refused(&scene, &job, what);
+        };
+        refuse(
+            &|b| Blend {
+                second: Bsdf::Blend(Box::new(b.clone())),
+                ..b.clone()
+            },
+            "a blendbsdf inside a blendbsdf",
+        );
+        refuse(
+            &|b| Blend {
+                first: Bsdf::TwoSided(crate::bsdf::TwoSided {
+                    front: Box::new(b.second.clone()),
+                    back: Box::new(b.second.clone()),
+                }),
+                ..b.clone()
+            },
+            "a blendbsdf of a two-sided and a one-sided BSDF",
+        );
     }
 
     /// A textured diffuse shape points at its texture's record, whose

@@ -4,7 +4,8 @@
 //! threshold at 1% for all blocks together). The scenes cover what the GPU
 //! renders: rectangles, disks, spheres, cubes and OBJ meshes; diffuse,
 //! two-sided diffuse, mirror, smooth and rough dielectric, conductor,
-//! rough conductor (GGX and Beckmann), plastic and rough plastic, masks;
+//! rough conductor (GGX and Beckmann), plastic and rough plastic, masks,
+//! blends;
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
 //! checkerboard radiance), point, spot (plain and projecting a bitmap) and
 //! directional lights, a constant sky and
@@ -111,6 +112,8 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/bump_map.xml",
         "tests/conformance/projector.xml",
         "tests/gpu/conductor_textures.xml",
+        "tests/gpu/blends.xml",
+        "tests/conformance/blend_normalmap.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

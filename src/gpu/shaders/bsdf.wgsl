@@ -1,6 +1,7 @@
-// The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, mirror.rs,
-// dielectric.rs, thin_dielectric.rs, conductor.rs, rough_conductor.rs,
-// plastic.rs, rough_plastic.rs, rough_dielectric.rs; their reflectances,
+// The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, blend.rs,
+// mirror.rs, dielectric.rs, thin_dielectric.rs, conductor.rs,
+// rough_conductor.rs, plastic.rs, rough_plastic.rs, rough_dielectric.rs;
+// their reflectances,
 // transmittances and isotropic roughness textured as textured.rs reads
 // them, texture.wgsl), in the shading frame (z along the shading normal).
 // A shape's record (flatten.rs's `material`, SHAPE_WORDS vec4s):
@@ -14,7 +15,10 @@
 // [3] = (D, back, 0, 0): a `mask`'s opacity (1 otherwise; mask.rs), the
 // other words its nested BSDF's; where the kind has MAT_BACK, `back` is
 // the index of a two-sided material's different back: its three words,
-// read instead of these when the hit is seen from behind.
+// read instead of these when the hit is seen from behind. A blend's
+// (MAT_BLEND, blend.rs) A is (its weight or the weight's texture record,
+// the index of its first BSDF's three words, of its second's): layers
+// that `use_layer` makes current in turn.
 //
 // Rough lobes draw their microfacet normals from the visible normals, as
 // the CPU does: GGX's by Heitz 2018, Beckmann's by the CPU's table of
@@ -27,6 +31,7 @@ const MAT_ROUGH_CONDUCTOR: u32 = 2u;
 const MAT_PLASTIC: u32 = 3u;
 const MAT_ROUGH_PLASTIC: u32 = 4u;
 const MAT_ROUGH_DIELECTRIC: u32 = 5u;
+const MAT_BLEND: u32 = 7u;
 const MAT_MIRROR: u32 = 8u;
 const MAT_DIELECTRIC: u32 = 9u;
 const MAT_CONDUCTOR: u32 = 10u;
@@ -45,8 +50,17 @@ fn no_sample() -> BsdfSample {
     return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false, 1.0, false);
 }
 
-// Word k of the record `load_material` chose: the shape's, or the back's
-// of a two-sided material with a different back seen from behind.
+// A non-delta sample's direction (and relative IOR), to be weighed by
+// `front_sample` with the whole material's value and density: one place
+// that evaluates them, however many lobes and layers there are.
+fn direction_only(wo: vec3<f32>, eta: f32) -> BsdfSample {
+    return BsdfSample(wo, vec3<f32>(0.0), 0.0, false, eta, true);
+}
+
+// The layer whose words `material_word` reads and whose values `mat_a`
+// and the rest hold (`use_layer`): the record `load_material` chose (the
+// shape's, or the back's of a two-sided material with a different back
+// seen from behind), or one of its blend's two BSDFs.
 var<private> mat_base: u32;
 
 fn material_word(k: u32) -> vec4<f32> {
@@ -59,7 +73,7 @@ const MAT_EMITS: u32 = 0x100u;
 // Set in the kind word of materials whose word A colour (a diffuse or
 // specular reflectance) is a texture (texture.wgsl); word A then holds
 // (its record's index, the plastics' internal reflectance, 1 if
-// nonlinear) (flatten.rs).
+// nonlinear) (flatten.rs). A blend's weight is then its texture's.
 const MAT_TEXTURED: u32 = 0x200u;
 // Word B's colour is a texture: B.x is its record's index.
 const MAT_TEXTURED_B: u32 = 0x400u;
@@ -81,6 +95,7 @@ const MAT_NORMAL_MAP: u32 = 0x10000u;
 const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_C | MAT_TEXTURED_ALPHA
     | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK | MAT_NORMAL_MAP;
 
+// The current layer's kind.
 fn material_kind() -> u32 {
     return bitcast<u32>(material_word(0u).w) & ~MAT_FLAGS;
 }
@@ -88,15 +103,35 @@ fn material_kind() -> u32 {
 // The shaded point's material values, its textures read once per hit
 // (path.wgsl calls `load_material` after each hit; shaders inline every
 // call, so one texture read here instead of one per use keeps the kernel
-// small): A, the diffuse reflectance, the specular reflectance or the
-// plastics' diffuse term (the reflectance over what the coating reflects
-// back inside: flatten.rs's `plastic_diffuse`); B, word B's colour; the
-// roughness; a mask's opacity (1 without a mask).
+// small), per layer: where its words start; A, the diffuse reflectance,
+// the specular reflectance or the plastics' diffuse term (the reflectance
+// over what the coating reflects back inside: flatten.rs's
+// `plastic_diffuse`); B, word B's colour; C, word C's colour (a
+// conductor's k); the roughness. The current layer's are in mat_base,
+// mat_a, mat_b, mat_c and mat_alpha. (Two structs rather than an array:
+// an array indexed per lane is slower on lavapipe.)
+struct Layer {
+    base: u32,
+    a: vec3<f32>,
+    b: vec3<f32>,
+    c: vec3<f32>,
+    alpha: f32,
+}
+
+var<private> first_layer: Layer;
+var<private> second_layer: Layer;
 var<private> mat_a: vec3<f32>;
 var<private> mat_b: vec3<f32>;
-// Word C's colour: a conductor's k.
 var<private> mat_c: vec3<f32>;
 var<private> mat_alpha: f32;
+// The chosen record's kind word (the layers' flags are their own), the
+// number of layers (2 for a blend), the blend's weight (its second
+// layer's share), whether every layer is purely specular, and a mask's
+// opacity (1 without a mask).
+var<private> mat_flags: u32;
+var<private> mat_layers: u32;
+var<private> mat_blend_w: f32;
+var<private> mat_specular: bool;
 var<private> mat_opacity: f32;
 // A normal map's texel as a normal (2c - 1), or a bump map's height
 // slopes along u and v (times its scale) in x and y; the TILT_* flags
@@ -104,62 +139,131 @@ var<private> mat_opacity: f32;
 var<private> mat_tilt_n: vec3<f32>;
 var<private> mat_tilt_flags: u32;
 
-fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
-    mat_base = SHAPE_WORDS * shape;
-    // The mask's words stay the front record's.
-    let w3 = material_word(3u);
-    let front_flags = bitcast<u32>(material_word(0u).w);
-    if (from_behind && (front_flags & MAT_BACK) != 0u) {
-        mat_base = bitcast<u32>(w3.y);
+// Makes layer `l` the one the BSDF functions below read.
+fn use_layer(l: u32) {
+    var layer = first_layer;
+    if (l == 1u) {
+        layer = second_layer;
     }
-    let w0 = material_word(0u);
-    let w1 = material_word(1u);
-    let w2 = material_word(2u);
-    let flags = (bitcast<u32>(w0.w) & ~(MAT_MASK | MAT_TEXTURED_MASK))
+    mat_base = layer.base;
+    mat_a = layer.a;
+    mat_b = layer.b;
+    mat_c = layer.c;
+    mat_alpha = layer.alpha;
+}
+
+// Layer `l`'s share of the material: 1 - w and w for a blend's first and
+// second BSDF (bsdf/blend.rs), 1 for a single one.
+fn layer_share(l: u32) -> f32 {
+    if (mat_layers == 1u) {
+        return 1.0;
+    }
+    return select(1.0 - mat_blend_w, mat_blend_w, l == 1u);
+}
+
+// The layer whose three words start at `base`, its textures not read.
+fn layer_at(base: u32) -> Layer {
+    let b = shapes[base + 1u];
+    return Layer(base, shapes[base].xyz, b.xyz, shapes[base + 2u].xyz, b.w);
+}
+
+// `layer` with the texel `t` of its texture `slot` (0: A, 1: B, 2: the
+// roughness, 3: C) read in.
+fn with_texel(layer_in: Layer, slot: u32, t: vec3<f32>, record: u32) -> Layer {
+    var layer = layer_in;
+    if (slot == 0u) {
+        let w0 = shapes[layer.base];
+        let kind = bitcast<u32>(w0.w) & ~MAT_FLAGS;
+        if (kind != MAT_PLASTIC && kind != MAT_ROUGH_PLASTIC) {
+            layer.a = t;
+        } else if (w0.z != 0.0) {
+            layer.a = t / (vec3<f32>(1.0) - t * w0.y);
+        } else {
+            layer.a = t / (1.0 - w0.y);
+        }
+    } else if (slot == 1u) {
+        layer.b = t;
+    } else if (slot == 2u) {
+        // textured.rs: at least distribution.rs's MIN_ALPHA.
+        layer.alpha = max(texture_value_1(record, t), 1e-4);
+    } else {
+        layer.c = t;
+    }
+    return layer;
+}
+
+fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
+    let top = SHAPE_WORDS * shape;
+    // The mask's and the map's words stay the front record's.
+    let w3 = shapes[top + 3u];
+    let front_flags = bitcast<u32>(shapes[top].w);
+    var base = top;
+    if (from_behind && (front_flags & MAT_BACK) != 0u) {
+        base = bitcast<u32>(w3.y);
+    }
+    let w0 = shapes[base];
+    mat_flags = (bitcast<u32>(w0.w) & ~(MAT_MASK | MAT_TEXTURED_MASK))
         | (front_flags & (MAT_MASK | MAT_TEXTURED_MASK));
-    mat_a = w0.xyz;
-    mat_b = w1.xyz;
-    mat_c = w2.xyz;
-    mat_alpha = w1.w;
+    let blend = (mat_flags & ~MAT_FLAGS) == MAT_BLEND;
+    mat_layers = select(1u, 2u, blend);
+    mat_blend_w = w0.x;
     mat_opacity = w3.x;
-    mat_tilt_flags = select(0u, bitcast<u32>(w3.w) | TILT_ON, (flags & MAT_NORMAL_MAP) != 0u);
-    let textured = array<u32, 6>(MAT_TEXTURED, MAT_TEXTURED_B, MAT_TEXTURED_ALPHA, MAT_TEXTURED_MASK, MAT_NORMAL_MAP, MAT_TEXTURED_C);
-    let records = array<f32, 6>(w0.x, w1.x, w1.w, w3.x, w3.z, w2.x);
-    // One loop, so the texture lookup is inlined once: A, B, alpha,
-    // opacity, normal, C.
-    for (var k = 0u; k < 6u; k++) {
-        if ((flags & textured[k]) == 0u) {
+    mat_tilt_flags = select(0u, bitcast<u32>(w3.w) | TILT_ON, (mat_flags & MAT_NORMAL_MAP) != 0u);
+    first_layer = layer_at(select(base, bitcast<u32>(w0.y), blend));
+    var kinds = vec2<u32>(bitcast<u32>(shapes[first_layer.base].w), 0u);
+    if (blend) {
+        second_layer = layer_at(bitcast<u32>(w0.z));
+        kinds.y = bitcast<u32>(shapes[second_layer.base].w);
+    }
+    mat_specular = (kinds.x & ~MAT_FLAGS) >= MAT_MIRROR
+        && (!blend || (kinds.y & ~MAT_FLAGS) >= MAT_MIRROR);
+    // One loop, so the texture lookup is inlined once: the mask's opacity,
+    // the normal or height map, the blend's weight, then each layer's A,
+    // B, alpha and C (their records where the values would be).
+    let textured = array<bool, 11>(
+        (mat_flags & MAT_TEXTURED_MASK) != 0u,
+        (mat_flags & MAT_NORMAL_MAP) != 0u,
+        blend && (mat_flags & MAT_TEXTURED) != 0u,
+        (kinds.x & MAT_TEXTURED) != 0u,
+        (kinds.x & MAT_TEXTURED_B) != 0u,
+        (kinds.x & MAT_TEXTURED_ALPHA) != 0u,
+        (kinds.x & MAT_TEXTURED_C) != 0u,
+        (kinds.y & MAT_TEXTURED) != 0u,
+        (kinds.y & MAT_TEXTURED_B) != 0u,
+        (kinds.y & MAT_TEXTURED_ALPHA) != 0u,
+        (kinds.y & MAT_TEXTURED_C) != 0u,
+    );
+    let l0 = first_layer;
+    let l1 = second_layer;
+    let records = array<f32, 11>(w3.x, w3.z, w0.x, l0.a.x, l0.b.x, l0.alpha, l0.c.x, l1.a.x, l1.b.x, l1.alpha, l1.c.x);
+    // (A single BSDF's loop stops before the second layer's.)
+    let slots = select(7u, 11u, blend);
+    for (var k = 0u; k < slots; k++) {
+        if (!textured[k]) {
             continue;
         }
         let record = bitcast<u32>(records[k]);
-        if (k == 4u && (mat_tilt_flags & TILT_BUMP) != 0u) {
+        if (k == 1u && (mat_tilt_flags & TILT_BUMP) != 0u) {
             mat_tilt_n = vec3<f32>(texture_gradient_1(record, uv) * w3.y, 0.0);
             continue;
         }
-        // Roughness and opacity are read as one value (`eval_1`).
-        let c = texture_lookup(record, uv, k == 2u || k == 3u);
+        // Opacity, weight and roughness are read as one value (`eval_1`).
+        let slot = (k + 1u) % 4u;
+        let one = k == 0u || k == 2u || (k >= 3u && slot == 2u);
+        let t = texture_lookup(record, uv, one);
         if (k == 0u) {
-            let base = flags & ~MAT_FLAGS;
-            if (base != MAT_PLASTIC && base != MAT_ROUGH_PLASTIC) {
-                mat_a = c;
-            } else if (w0.z != 0.0) {
-                mat_a = c / (vec3<f32>(1.0) - c * w0.y);
-            } else {
-                mat_a = c / (1.0 - w0.y);
-            }
+            mat_opacity = clamp(texture_value_1(record, t), 0.0, 1.0);
         } else if (k == 1u) {
-            mat_b = c;
+            mat_tilt_n = t * 2.0 - vec3<f32>(1.0);
         } else if (k == 2u) {
-            // textured.rs: at least distribution.rs's MIN_ALPHA.
-            mat_alpha = max(texture_value_1(record, c), 1e-4);
-        } else if (k == 3u) {
-            mat_opacity = clamp(texture_value_1(record, c), 0.0, 1.0);
-        } else if (k == 4u) {
-            mat_tilt_n = c * 2.0 - vec3<f32>(1.0);
+            mat_blend_w = clamp(texture_value_1(record, t), 0.0, 1.0);
+        } else if (k < 7u) {
+            first_layer = with_texel(first_layer, slot, t, record);
         } else {
-            mat_c = c;
+            second_layer = with_texel(second_layer, slot, t, record);
         }
     }
+    use_layer(0u);
 }
 
 // Read before `load_material`: the shape's own record.
@@ -169,7 +273,7 @@ fn shape_emits(shape: u32) -> bool {
 
 // Purely specular materials: no light sampling at their surfaces.
 fn is_specular() -> bool {
-    return material_kind() >= MAT_MIRROR;
+    return mat_specular;
 }
 
 fn reflect_about(wi: vec3<f32>, m: vec3<f32>) -> vec3<f32> {
@@ -525,12 +629,7 @@ fn rough_dielectric_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
     if ((wo.z * wi.z > 0.0) != reflection || wo.z == 0.0 || not_finite(wo.x + wo.y + wo.z)) {
         return no_sample();
     }
-    let pdf = rough_dielectric_pdf(wi, wo);
-    if (pdf <= 0.0) {
-        return no_sample();
-    }
-    let weight = rough_dielectric_eval(wi, wo) * (abs(wo.z) / pdf);
-    return BsdfSample(wo, weight, pdf, false, eta, true);
+    return direction_only(wo, eta);
 }
 
 // --- Plastics.
@@ -566,8 +665,8 @@ fn both_in_front(wi: vec3<f32>, wo: vec3<f32>) -> bool {
     return wi.z > 0.0 && wo.z > 0.0;
 }
 
-// f(wi, wo) of the non-specular part, of the front of a two-sided one.
-fn front_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+// The current layer's f(wi, wo), of its non-specular part.
+fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let kind = material_kind();
     if (kind >= MAT_MIRROR) {
         return vec3<f32>(0.0);
@@ -603,8 +702,8 @@ fn front_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     return b * (dg * f) + a * (INV_PI / (eta * eta) * t);
 }
 
-// Solid-angle density of front_sample's non-specular part.
-fn front_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+// Solid-angle density of layer_sample's non-specular part.
+fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let kind = material_kind();
     if (kind >= MAT_MIRROR) {
         return 0.0;
@@ -631,8 +730,8 @@ fn front_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     return p * glossy + (1.0 - p) * wo.z * INV_PI;
 }
 
-// A rough lobe's sample: reflected about a microfacet normal if `glossy`,
-// else cosine-distributed, weighted by f cos / pdf of the whole BSDF.
+// A rough lobe's direction: reflected about a microfacet normal if
+// `glossy`, else cosine-distributed.
 fn sample_rough(wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
     var wo: vec3<f32>;
     if (glossy) {
@@ -643,14 +742,12 @@ fn sample_rough(wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
     if (wo.z <= 0.0 || not_finite(wo.x + wo.y + wo.z)) {
         return no_sample();
     }
-    let pdf = front_pdf(wi, wo);
-    if (pdf <= 0.0) {
-        return no_sample();
-    }
-    return BsdfSample(wo, front_eval(wi, wo) * (wo.z / pdf), pdf, false, 1.0, true);
+    return direction_only(wo, 1.0);
 }
 
-fn front_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+// A sample of the current layer: delta lobes weighed, other lobes'
+// directions only (`direction_only`).
+fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let kind = material_kind();
     let a = mat_a;
     if (kind == MAT_DIFFUSE) {
@@ -658,7 +755,7 @@ fn front_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
         if (wi.z <= 0.0 || wo.z <= 0.0) {
             return no_sample();
         }
-        return BsdfSample(wo, a, wo.z * INV_PI, false, 1.0, true);
+        return direction_only(wo, 1.0);
     }
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_sample(wi, u, u_lobe);
@@ -708,16 +805,64 @@ fn front_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
         if (wo.z <= 0.0) {
             return no_sample();
         }
-        let p_diff = 1.0 - p_spec;
-        let f_o = fresnel_dielectric(wo.z, eta).x;
-        let weight = a * ((1.0 - f_i) * (1.0 - f_o) / (eta * eta * p_diff));
-        return BsdfSample(wo, weight, p_diff * wo.z * INV_PI, false, 1.0, true);
+        return direction_only(wo, 1.0);
     }
     if (kind == MAT_ROUGH_CONDUCTOR) {
         return sample_rough(wi, u, true);
     }
     // Rough plastic.
     return sample_rough(wi, u, u_lobe < rough_plastic_glossy_prob(wi));
+}
+
+// --- The material as the front sees it: one BSDF, or a blend of two
+// (bsdf/blend.rs): values and densities mixed by the weight; a sample
+// from one BSDF, chosen by `u_lobe`, with the mixture's value and density
+// unless it is a delta (which keeps its own weight, its density scaled by
+// the choice).
+
+// f(wi, wo) of the non-specular part (of the front of a two-sided
+// material), and its solid-angle density under front_sample.
+fn front_eval_pdf(wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
+    var fp = vec4<f32>(0.0);
+    for (var l = 0u; l < mat_layers; l++) {
+        if (mat_layers == 2u) {
+            use_layer(l);
+        }
+        fp += vec4<f32>(layer_eval(wi, wo), layer_pdf(wi, wo)) * layer_share(l);
+    }
+    return fp;
+}
+
+fn front_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+    // A blend's first BSDF where u_lobe >= w, else its second, u_lobe
+    // rescaled (and kept below 1, as blend.rs does).
+    var l = 0u;
+    var u_layer = u_lobe;
+    if (mat_layers == 2u) {
+        let w = mat_blend_w;
+        u_layer = (u_lobe - w) / (1.0 - w);
+        if (u_lobe < w) {
+            l = 1u;
+            u_layer = u_lobe / w;
+        }
+        u_layer = min(u_layer, 0.99999988);
+        use_layer(l);
+    }
+    var s = layer_sample(wi, u, u_layer);
+    if (!s.ok) {
+        return s;
+    }
+    if (s.specular) {
+        s.pdf *= layer_share(l);
+        return s;
+    }
+    let fp = front_eval_pdf(wi, s.wo);
+    if (!(fp.w > 0.0)) {
+        return no_sample();
+    }
+    s.weight = fp.xyz * (abs(s.wo.z) / fp.w);
+    s.pdf = fp.w;
+    return s;
 }
 
 // --- Two-sided materials (two_sided.rs): the front seen from either side,
@@ -730,7 +875,7 @@ const MAT_TWO_SIDED: u32 = 0x1000u;
 // (1, 1, -1) where the point is seen from the back of a two-sided
 // material, else (1, 1, 1).
 fn side_flip(wi: vec3<f32>) -> vec3<f32> {
-    let two_sided = (bitcast<u32>(material_word(0u).w) & MAT_TWO_SIDED) != 0u;
+    let two_sided = (mat_flags & MAT_TWO_SIDED) != 0u;
     return vec3<f32>(1.0, 1.0, select(1.0, -1.0, two_sided && wi.z < 0.0));
 }
 
@@ -883,20 +1028,14 @@ fn front_dirs(wi: vec3<f32>, wo: vec3<f32>) -> FrontDirs {
     return d;
 }
 
-fn bsdf_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+// f(wi, wo) and its density under bsdf_sample's non-delta lobes.
+fn bsdf_eval_pdf(wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     let d = front_dirs(wi, wo);
     if (!d.kept) {
-        return vec3<f32>(0.0);
+        return vec4<f32>(0.0);
     }
-    return front_eval(d.wi, d.wo) * (d.scale * mat_opacity);
-}
-
-fn bsdf_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let d = front_dirs(wi, wo);
-    if (!d.kept) {
-        return 0.0;
-    }
-    return front_pdf(d.wi, d.wo) * mat_opacity;
+    let fp = front_eval_pdf(d.wi, d.wo);
+    return vec4<f32>(fp.xyz * d.scale, fp.w) * mat_opacity;
 }
 
 fn bsdf_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {

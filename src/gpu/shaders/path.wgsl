@@ -142,7 +142,8 @@ fn li(camera: Ray) -> vec3<f32> {
             let ls = sample_light(s.p, u_choice, u_light);
             if (ls.ok) {
                 let wo = to_local(frame, ls.wi);
-                let f = bsdf_eval(wi, wo);
+                let fp = bsdf_eval_pdf(wi, wo);
+                let f = fp.xyz;
                 if (max3(f) > 0.0 && max3(ls.le) > 0.0) {
                     let o = spawn_origin(s.p, s.ng, ls.wi);
                     // Towards the sampled point itself from the offset
@@ -160,7 +161,7 @@ fn li(camera: Ray) -> vec3<f32> {
                     if (!occluded(o, d, tmax)) {
                         var w = 1.0;
                         if (!ls.delta) {
-                            w = power_heuristic(ls.pdf, bsdf_pdf(wi, wo));
+                            w = power_heuristic(ls.pdf, fp.w);
                         }
                         l += beta * f * abs(wo.z) * ls.le * (w / ls.pdf);
                     }
