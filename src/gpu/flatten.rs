@@ -471,13 +471,10 @@ fn shape_record(
             // A normal map's words (D's last two) stay under the mask.
             let [mut a, b, c, [_, back, z, w]] = shape_record(&mask.nested, table_base, tables)?;
             flag(&mut a, MAT_MASK);
-            let d = match mask.opacity.constant() {
-                Some(_) => mask.opacity.eval_1(Vec2::ZERO).clamp(0.0, 1.0),
-                None => {
-                    flag(&mut a, MAT_TEXTURED_MASK);
-                    texture_record(&mask.opacity, table_base, tables)?
-                }
-            };
+            let (d, textured) = fraction_word(&mask.opacity, table_base, tables)?;
+            if textured {
+                flag(&mut a, MAT_TEXTURED_MASK);
+            }
             Ok([a, b, c, [d, back, z, w]])
         }
         Bsdf::Tilted(t) => tilted(t, 0, table_base, tables),
@@ -693,6 +690,20 @@ fn material(
     })
 }
 
+/// A fraction read as one value (a mask's opacity, a blend's weight): the
+/// constant clipped to [0, 1], or its texture's record (appended to
+/// `tables`) and true; the shader clips what it reads.
+fn fraction_word(
+    texture: &Texture,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<(f32, bool), Unsupported> {
+    Ok(match texture.constant() {
+        Some(_) => (texture.eval_1(Vec2::ZERO).clamp(0.0, 1.0), false),
+        None => (texture_record(texture, table_base, tables)?, true),
+    })
+}
+
 /// A `blendbsdf`'s three words (`MAT_BLEND`): its two BSDFs' words go to
 /// `tables`. A `twosided` pair mirrors the blend as a whole; one two-sided
 /// BSDF beside a one-sided one, or a blend inside a blend, is named
@@ -717,13 +728,10 @@ fn blend(
     if two_sided[0] {
         kind |= MAT_TWO_SIDED;
     }
-    let weight = match b.weight.constant() {
-        Some(_) => b.weight.eval_1(Vec2::ZERO).clamp(0.0, 1.0),
-        None => {
-            kind |= MAT_TEXTURED;
-            texture_record(&b.weight, table_base, tables)?
-        }
-    };
+    let (weight, textured) = fraction_word(&b.weight, table_base, tables)?;
+    if textured {
+        kind |= MAT_TEXTURED;
+    }
     let mut index = [0.0; 2];
     for (i, mut words) in layers.into_iter().enumerate() {
         words[0][3] = bits(words[0][3].to_bits() & !MAT_TWO_SIDED);

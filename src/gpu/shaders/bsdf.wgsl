@@ -1,9 +1,9 @@
 // The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, blend.rs,
 // mirror.rs, dielectric.rs, thin_dielectric.rs, conductor.rs,
 // rough_conductor.rs, plastic.rs, rough_plastic.rs, rough_dielectric.rs;
-// their reflectances,
-// transmittances and isotropic roughness textured as textured.rs reads
-// them, texture.wgsl), in the shading frame (z along the shading normal).
+// their reflectances, transmittances and isotropic roughness textured as
+// textured.rs reads them, texture.wgsl), in the shading frame (z along
+// the shading normal).
 // A shape's record (flatten.rs's `material`, SHAPE_WORDS vec4s):
 // [0] = (A, kind), [1] = (B, alpha), [2] = (C, distribution), with A the
 // diffuse reflectance, the specular reflectance (conductors) or the
@@ -730,9 +730,10 @@ fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     return p * glossy + (1.0 - p) * wo.z * INV_PI;
 }
 
-// A rough lobe's direction: reflected about a microfacet normal if
-// `glossy`, else cosine-distributed.
-fn sample_rough(wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
+// A non-delta lobe's direction seen from `wi` (upper hemisphere):
+// reflected about a microfacet normal if `glossy`, else
+// cosine-distributed (diffuse lobes).
+fn lobe_direction(wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
     var wo: vec3<f32>;
     if (glossy) {
         wo = reflect_about(wi, sample_microfacet(microfacet(), wi, u));
@@ -750,13 +751,6 @@ fn sample_rough(wi: vec3<f32>, u: vec2<f32>, glossy: bool) -> BsdfSample {
 fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let kind = material_kind();
     let a = mat_a;
-    if (kind == MAT_DIFFUSE) {
-        let wo = square_to_cosine_hemisphere(u);
-        if (wi.z <= 0.0 || wo.z <= 0.0) {
-            return no_sample();
-        }
-        return direction_only(wo, 1.0);
-    }
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_sample(wi, u, u_lobe);
     }
@@ -785,6 +779,9 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     if (wi.z <= 0.0) {
         return no_sample();
     }
+    if (kind == MAT_DIFFUSE) {
+        return lobe_direction(wi, u, false);
+    }
     let mirror = vec3<f32>(-wi.x, -wi.y, wi.z);
     if (kind == MAT_MIRROR) {
         return BsdfSample(mirror, vec3<f32>(1.0), 1.0, true, 1.0, true);
@@ -801,17 +798,13 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
         if (u_lobe < p_spec) {
             return BsdfSample(mirror, b * (f_i / p_spec), p_spec, true, 1.0, true);
         }
-        let wo = square_to_cosine_hemisphere(u);
-        if (wo.z <= 0.0) {
-            return no_sample();
-        }
-        return direction_only(wo, 1.0);
+        return lobe_direction(wi, u, false);
     }
     if (kind == MAT_ROUGH_CONDUCTOR) {
-        return sample_rough(wi, u, true);
+        return lobe_direction(wi, u, true);
     }
     // Rough plastic.
-    return sample_rough(wi, u, u_lobe < rough_plastic_glossy_prob(wi));
+    return lobe_direction(wi, u, u_lobe < rough_plastic_glossy_prob(wi));
 }
 
 // --- The material as the front sees it: one BSDF, or a blend of two
