@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, BvhBuildParams};
 
 use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
-use crate::bsdf::{Blend, Bsdf, BsdfParam, Tilt, Tilted};
+use crate::bsdf::{Blend, Bsdf, BsdfParam, Principled, Tilt, Tilted};
 use crate::camera::{Aperture, Projection};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
@@ -52,6 +52,14 @@ pub const MAT_ROUGH_CONDUCTOR: u32 = 2;
 pub const MAT_PLASTIC: u32 = 3;
 pub const MAT_ROUGH_PLASTIC: u32 = 4;
 pub const MAT_ROUGH_DIELECTRIC: u32 = 5;
+/// Mitsuba's `principled` (`principled`): A its base colour, B (metallic,
+/// anisotropic, clearcoat, roughness), C (spec_trans, eta,
+/// clearcoat_gloss, index of two more words: (sheen, sheen_tint,
+/// flatness, spec_tint), (diffuse, clearcoat, specular sampling rates,
+/// 0)). Textured base colour, metallic (B.x), spec_trans (C.x) and
+/// roughness (B.w) put their records there with `MAT_TEXTURED`, `_B`, `_C`
+/// and `_ALPHA`.
+pub const MAT_PRINCIPLED: u32 = 6;
 /// Mitsuba's `blendbsdf`: word A is (the weight, or its texture's record
 /// with `MAT_TEXTURED`; the first and the second BSDF's three words, as
 /// indices in the shapes buffer). Neither is a blend.
@@ -436,6 +444,7 @@ fn anisotropic(bsdf: &Bsdf) -> bool {
         Bsdf::Mask(m) => anisotropic(&m.nested),
         Bsdf::TwoSided(t) => anisotropic(&t.front) || anisotropic(&t.back),
         Bsdf::Blend(b) => anisotropic(&b.first) || anisotropic(&b.second),
+        Bsdf::Principled(p) => p.anisotropic.is_some(),
         _ => false,
     }
 }
@@ -629,6 +638,7 @@ fn material(
         }
         Bsdf::Tilted(_) => return unsupported("a normal or bump map inside another BSDF"),
         Bsdf::Blend(b) => blend(b, table_base, tables)?,
+        Bsdf::Principled(p) => principled(p, table_base, tables)?,
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
@@ -702,6 +712,65 @@ fn fraction_word(
         Some(_) => (texture.eval_1(Vec2::ZERO).clamp(0.0, 1.0), false),
         None => (texture_record(texture, table_base, tables)?, true),
     })
+}
+
+/// A `principled` BSDF's three words (`MAT_PRINCIPLED`) and its two more
+/// in `tables`. Parameters that are absent are zero, which turns off the
+/// same terms (principled.rs). The base colour, metallic, spec_trans and
+/// roughness may be textures; another textured parameter is named
+/// unsupported.
+fn principled(
+    p: &Principled,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<[[f32; 4]; 3], Unsupported> {
+    let mut kind = MAT_PRINCIPLED;
+    // A parameter's word: its constant, or its record with `flag` set.
+    let mut value = |name: &str, texture: Option<&Texture>, flag: Option<u32>| {
+        let Some(texture) = texture else {
+            return Ok(0.0);
+        };
+        match (texture.constant(), flag) {
+            (Some(_), _) => Ok(texture.eval_1(Vec2::ZERO)),
+            (None, Some(flag)) => {
+                kind |= flag;
+                texture_record(texture, table_base, tables)
+            }
+            (None, None) => unsupported(format!(
+                "a textured {name} parameter of the principled BSDF"
+            )),
+        }
+    };
+    let metallic = value("metallic", p.metallic.as_ref(), Some(MAT_TEXTURED_B))?;
+    let roughness = value("roughness", Some(&p.roughness), Some(MAT_TEXTURED_ALPHA))?;
+    let spec_trans = value("spec_trans", p.spec_trans.as_ref(), Some(MAT_TEXTURED_C))?;
+    let anisotropic = value("anisotropic", p.anisotropic.as_ref(), None)?;
+    let clearcoat = value("clearcoat", p.clearcoat.as_ref(), None)?;
+    let gloss = value("clearcoat_gloss", Some(&p.clearcoat_gloss), None)?;
+    let sheen = value("sheen", p.sheen.as_ref(), None)?;
+    let sheen_tint = value("sheen_tint", p.sheen_tint.as_ref(), None)?;
+    let flatness = value("flatness", p.flatness.as_ref(), None)?;
+    let spec_tint = value("spec_tint", p.spec_tint.as_ref(), None)?;
+    let a = match p.base_color.constant() {
+        Some(c) => v4(c, 0.0),
+        None => {
+            kind |= MAT_TEXTURED;
+            [
+                texture_record(&p.base_color, table_base, tables)?,
+                0.0,
+                0.0,
+                0.0,
+            ]
+        }
+    };
+    let more = bits((table_base + tables.len()) as u32);
+    tables.push([sheen, sheen_tint, flatness, spec_tint]);
+    tables.push([p.diffuse_rate, p.clearcoat_rate, p.spec_rate, 0.0]);
+    Ok([
+        [a[0], a[1], a[2], bits(kind)],
+        [metallic, anisotropic, clearcoat, roughness],
+        [spec_trans, p.eta, gloss, more],
+    ])
 }
 
 /// A `blendbsdf`'s three words (`MAT_BLEND`): its two BSDFs' words go to
@@ -1412,6 +1481,7 @@ impl GpuScene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::specular_to_eta;
     use crate::integrator::PathParams;
 
     fn veach() -> (Scene, RenderJob) {
@@ -1660,6 +1730,67 @@ mod tests {
         assert_eq!(back_kind, MAT_DIFFUSE | MAT_TWO_SIDED | MAT_TEXTURED);
     }
 
+    /// A principled BSDF is three words and two more in the tables, its
+    /// absent parameters zero; a textured base colour, metallic, spec_trans
+    /// and roughness are records flagged as `bsdf.wgsl` reads them; any
+    /// other textured parameter is named.
+    #[test]
+    fn principled_parameters_are_words_or_records() {
+        let (mut scene, job) = load("tests/conformance/principled.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let principled: Vec<usize> = (scene.bsdfs.iter().enumerate())
+            .filter(|(_, b)| matches!(b, Bsdf::Principled(_)))
+            .map(|(k, _)| k)
+            .collect();
+        assert_eq!(principled.len(), 5);
+        let words = |k: usize| &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+        let more = |k: usize| {
+            let i = words(k)[2][3].to_bits() as usize;
+            [flat.shapes[i], flat.shapes[i + 1]]
+        };
+        let kind = |k: usize| words(k)[0][3].to_bits();
+        let [checker, sheen, coat, aniso, glass] = principled[..] else {
+            unreachable!()
+        };
+        // Constants are their channel means: equal within rounding.
+        let near = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-6);
+        // A checkerboard base colour; metallic 0.6, spec_tint 0.5.
+        assert_eq!(kind(checker), MAT_PRINCIPLED | MAT_TEXTURED);
+        assert!(near(&words(checker)[1], &[0.6, 0.0, 0.0, 0.4]));
+        assert!(near(&more(checker)[0], &[0.0, 0.0, 0.0, 0.5]));
+        // Sheen 0.9, its tint 0.6, flatness 0.7.
+        assert_eq!(kind(sheen), MAT_PRINCIPLED);
+        assert!(near(&words(sheen)[0][..3], &[0.3, 0.6, 0.2]));
+        assert!(near(&more(sheen)[0], &[0.9, 0.6, 0.7, 0.0]));
+        // Clearcoat 0.9 of gloss 0.5; eta from specular 0.3.
+        assert!(near(&[words(coat)[1][2]], &[0.9]));
+        assert!(near(&words(coat)[2][1..3], &[specular_to_eta(0.3), 0.5]));
+        let Bsdf::Principled(p) = &scene.bsdfs[coat] else {
+            unreachable!()
+        };
+        assert_eq!(
+            more(coat)[1],
+            [p.diffuse_rate, p.clearcoat_rate, p.spec_rate, 0.0]
+        );
+        // Anisotropic 0.8 with a checkerboard metallic: a record in B.x.
+        assert_eq!(kind(aniso), MAT_PRINCIPLED | MAT_TEXTURED_B);
+        assert!(near(&[words(aniso)[1][1]], &[0.8]));
+        let header = |w: f32| flat.shapes[w.to_bits() as usize + 2];
+        assert_eq!(header(words(aniso)[1][0])[1].to_bits(), TEX_CHECKERBOARD);
+        // spec_trans 0.8, eta 1.4.
+        assert!(near(&words(glass)[2][..2], &[0.8, 1.4]));
+
+        let Bsdf::Principled(p) = &mut scene.bsdfs[checker] else {
+            unreachable!()
+        };
+        p.sheen = Some(p.base_color.clone());
+        assert_refused(
+            &scene,
+            &job,
+            "a textured sheen parameter of the principled BSDF",
+        );
+    }
+
     /// Every code the shaders share with this file has the same value on
     /// both sides (WGSL cannot import Rust's constants).
     #[test]
@@ -1669,6 +1800,7 @@ mod tests {
             include_str!("shaders/intersect.wgsl"),
             include_str!("shaders/texture.wgsl"),
             include_str!("shaders/bsdf.wgsl"),
+            include_str!("shaders/principled.wgsl"),
             include_str!("shaders/emitter.wgsl"),
         ]
         .concat();
@@ -1690,6 +1822,7 @@ mod tests {
             ("MAT_PLASTIC", MAT_PLASTIC),
             ("MAT_ROUGH_PLASTIC", MAT_ROUGH_PLASTIC),
             ("MAT_ROUGH_DIELECTRIC", MAT_ROUGH_DIELECTRIC),
+            ("MAT_PRINCIPLED", MAT_PRINCIPLED),
             ("MAT_BLEND", MAT_BLEND),
             ("MAT_MIRROR", MAT_MIRROR),
             ("MAT_DIELECTRIC", MAT_DIELECTRIC),

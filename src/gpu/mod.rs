@@ -34,6 +34,7 @@ const PATH_SHADER: &str = concat!(
     include_str!("shaders/intersect.wgsl"),
     include_str!("shaders/texture.wgsl"),
     include_str!("shaders/bsdf.wgsl"),
+    include_str!("shaders/principled.wgsl"),
     include_str!("shaders/emitter.wgsl"),
     include_str!("shaders/path.wgsl"),
 );

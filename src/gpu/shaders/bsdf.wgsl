@@ -1,6 +1,7 @@
 // The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, blend.rs,
 // mirror.rs, dielectric.rs, thin_dielectric.rs, conductor.rs,
-// rough_conductor.rs, plastic.rs, rough_plastic.rs, rough_dielectric.rs;
+// rough_conductor.rs, plastic.rs, rough_plastic.rs, rough_dielectric.rs,
+// principled.rs (principled.wgsl);
 // their reflectances, transmittances and isotropic roughness textured as
 // textured.rs reads them, texture.wgsl), in the shading frame (z along
 // the shading normal).
@@ -18,7 +19,8 @@
 // read instead of these when the hit is seen from behind. A blend's
 // (MAT_BLEND, blend.rs) A is (its weight or the weight's texture record,
 // the index of its first BSDF's three words, of its second's): layers
-// that `use_layer` makes current in turn.
+// that `use_layer` makes current in turn. The principled BSDF's words are
+// principled.wgsl's.
 //
 // Rough lobes draw their microfacet normals from the visible normals, as
 // the CPU does: GGX's by Heitz 2018, Beckmann's by the CPU's table of
@@ -31,6 +33,7 @@ const MAT_ROUGH_CONDUCTOR: u32 = 2u;
 const MAT_PLASTIC: u32 = 3u;
 const MAT_ROUGH_PLASTIC: u32 = 4u;
 const MAT_ROUGH_DIELECTRIC: u32 = 5u;
+const MAT_PRINCIPLED: u32 = 6u;
 const MAT_BLEND: u32 = 7u;
 const MAT_MIRROR: u32 = 8u;
 const MAT_DIELECTRIC: u32 = 9u;
@@ -167,13 +170,26 @@ fn layer_at(base: u32) -> Layer {
     return Layer(base, shapes[base].xyz, b.xyz, shapes[base + 2u].xyz, b.w);
 }
 
-// `layer` with the texel `t` of its texture `slot` (0: A, 1: B, 2: the
-// roughness, 3: C) read in.
+// Whether the texture in `slot` (0: A, 1: B, 2: the roughness, 3: C) of
+// a material of kind `kind` is read as one value (`eval_1`): roughness,
+// and the principled BSDF's metallic (B.x) and spec_trans (C.x).
+fn slot_is_one_value(kind: u32, slot: u32) -> bool {
+    return slot == 2u || (slot != 0u && kind == MAT_PRINCIPLED);
+}
+
+// `layer` with the texel `t` of its texture `slot` read in.
 fn with_texel(layer_in: Layer, slot: u32, t: vec3<f32>, record: u32) -> Layer {
     var layer = layer_in;
-    if (slot == 0u) {
-        let w0 = shapes[layer.base];
-        let kind = bitcast<u32>(w0.w) & ~MAT_FLAGS;
+    let w0 = shapes[layer.base];
+    let kind = bitcast<u32>(w0.w) & ~MAT_FLAGS;
+    if (slot_is_one_value(kind, slot) && slot != 2u) {
+        let v = texture_value_1(record, t);
+        if (slot == 1u) {
+            layer.b.x = v;
+        } else {
+            layer.c.x = v;
+        }
+    } else if (slot == 0u) {
         if (kind != MAT_PLASTIC && kind != MAT_ROUGH_PLASTIC) {
             layer.a = t;
         } else if (w0.z != 0.0) {
@@ -249,7 +265,8 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
         }
         // Opacity, weight and roughness are read as one value (`eval_1`).
         let slot = (k + 1u) % 4u;
-        let one = k == 0u || k == 2u || (k >= 3u && slot == 2u);
+        let kind = select(kinds.x, kinds.y, k >= 7u) & ~MAT_FLAGS;
+        let one = k == 0u || k == 2u || (k >= 3u && slot_is_one_value(kind, slot));
         let t = texture_lookup(record, uv, one);
         if (k == 0u) {
             mat_opacity = clamp(texture_value_1(record, t), 0.0, 1.0);
@@ -554,6 +571,15 @@ fn half_vector(wi: vec3<f32>, wo: vec3<f32>, eta_in: f32) -> HalfVector {
     return HalfVector(select(-m, m, m.z >= 0.0), reflect, eta);
 }
 
+// wi refracted through the microfacet `m` (dim = wi . m, fr what
+// fresnel_dielectric(dim, eta) returned): rough_dielectric.rs's
+// `refract_about`.
+fn refract_about(wi: vec3<f32>, m: vec3<f32>, dim: f32, fr: vec3<f32>) -> vec3<f32> {
+    let inv = 1.0 / fr.z;
+    let ct = select(fr.y, -fr.y, dim >= 0.0);
+    return normalize(m * (dim * inv + ct) - wi * inv);
+}
+
 fn rough_dielectric_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let eta_ext = material_word(2u).x;
     let h = half_vector(wi, wo, eta_ext);
@@ -621,9 +647,7 @@ fn rough_dielectric_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSamp
     if (reflection) {
         wo = reflect_about(wi, m);
     } else {
-        let inv = 1.0 / fr.z;
-        let ct = select(fr.y, -fr.y, dim >= 0.0);
-        wo = normalize(m * (dim * inv + ct) - wi * inv);
+        wo = refract_about(wi, m, dim, fr);
         eta = fr.z;
     }
     if ((wo.z * wi.z > 0.0) != reflection || wo.z == 0.0 || not_finite(wo.x + wo.y + wo.z)) {
@@ -674,6 +698,9 @@ fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_eval(wi, wo);
     }
+    if (kind == MAT_PRINCIPLED) {
+        return principled_eval(wi, wo);
+    }
     if (!both_in_front(wi, wo)) {
         return vec3<f32>(0.0);
     }
@@ -710,6 +737,9 @@ fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     }
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_pdf(wi, wo);
+    }
+    if (kind == MAT_PRINCIPLED) {
+        return principled_pdf(wi, wo);
     }
     if (!both_in_front(wi, wo)) {
         return 0.0;
@@ -753,6 +783,9 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let a = mat_a;
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_sample(wi, u, u_lobe);
+    }
+    if (kind == MAT_PRINCIPLED) {
+        return principled_sample(wi, u, u_lobe);
     }
     if (kind == MAT_DIELECTRIC) {
         let eta = material_word(1u).x;
