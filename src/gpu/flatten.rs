@@ -8,7 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use obvhs::{aabb::Aabb as OAabb, bvh2::builder::build_bvh2, BvhBuildParams};
 
 use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
-use crate::bsdf::{Blend, Bsdf, BsdfParam, Principled, Tilt, Tilted};
+use crate::bsdf::{Blend, Bsdf, BsdfParam, Principled, PrincipledThin, Tilt, Tilted};
 use crate::camera::{Aperture, Projection};
 use crate::color::Rgb;
 use crate::emitter::Emitter;
@@ -52,7 +52,14 @@ pub const MAT_ROUGH_CONDUCTOR: u32 = 2;
 pub const MAT_PLASTIC: u32 = 3;
 pub const MAT_ROUGH_PLASTIC: u32 = 4;
 pub const MAT_ROUGH_DIELECTRIC: u32 = 5;
-/// Mitsuba's `principled` (`principled`): A its base colour, B (metallic,
+/// Mitsuba's `principledthin`: A its base colour, B (spec_trans,
+/// anisotropic, diff_trans (0 to 2), roughness), C (eta, 0, 0, index of
+/// two more words: (sheen, sheen_tint, flatness, spec_tint), the
+/// specular reflection, specular transmission, diffuse reflection and
+/// diffuse transmission sampling rates). Textured base colour, spec_trans
+/// (B.x), eta (C.x) and roughness as `MAT_PRINCIPLED`'s.
+pub const MAT_PRINCIPLED_THIN: u32 = 1;
+/// Mitsuba's `principled`: A its base colour, B (metallic,
 /// anisotropic, clearcoat, roughness), C (spec_trans, eta,
 /// clearcoat_gloss, index of two more words: (sheen, sheen_tint,
 /// flatness, spec_tint), (diffuse, clearcoat, specular sampling rates,
@@ -445,6 +452,7 @@ fn anisotropic(bsdf: &Bsdf) -> bool {
         Bsdf::TwoSided(t) => anisotropic(&t.front) || anisotropic(&t.back),
         Bsdf::Blend(b) => anisotropic(&b.first) || anisotropic(&b.second),
         Bsdf::Principled(p) => p.anisotropic.is_some(),
+        Bsdf::PrincipledThin(p) => p.anisotropic.is_some(),
         _ => false,
     }
 }
@@ -639,6 +647,7 @@ fn material(
         Bsdf::Tilted(_) => return unsupported("a normal or bump map inside another BSDF"),
         Bsdf::Blend(b) => blend(b, table_base, tables)?,
         Bsdf::Principled(p) => principled(p, table_base, tables)?,
+        Bsdf::PrincipledThin(p) => principled_thin(p, table_base, tables)?,
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
@@ -714,62 +723,134 @@ fn fraction_word(
     })
 }
 
-/// A `principled` BSDF's three words (`MAT_PRINCIPLED`) and its two more
-/// in `tables`. Parameters that are absent are zero, which turns off the
-/// same terms (principled.rs). The base colour, metallic, spec_trans and
-/// roughness may be textures; another textured parameter is named
-/// unsupported.
-fn principled(
-    p: &Principled,
+/// Reads a Disney BSDF's parameters into material words: constants as
+/// values (absent ones zero, which turns off the same terms as the CPU's
+/// `None`), the textures the shader reads as records with their flag set
+/// in `kind`; another textured parameter is named unsupported.
+struct DisneyWords<'a> {
+    bsdf: &'static str,
+    kind: u32,
     table_base: usize,
-    tables: &mut Vec<[f32; 4]>,
-) -> Result<[[f32; 4]; 3], Unsupported> {
-    let mut kind = MAT_PRINCIPLED;
-    // A parameter's word: its constant, or its record with `flag` set.
-    let mut value = |name: &str, texture: Option<&Texture>, flag: Option<u32>| {
+    tables: &'a mut Vec<[f32; 4]>,
+}
+
+impl DisneyWords<'_> {
+    /// A one-value parameter: its constant, or (with `flag`) its record.
+    fn value(
+        &mut self,
+        name: &str,
+        texture: Option<&Texture>,
+        flag: Option<u32>,
+    ) -> Result<f32, Unsupported> {
         let Some(texture) = texture else {
             return Ok(0.0);
         };
         match (texture.constant(), flag) {
             (Some(_), _) => Ok(texture.eval_1(Vec2::ZERO)),
             (None, Some(flag)) => {
-                kind |= flag;
-                texture_record(texture, table_base, tables)
+                self.kind |= flag;
+                texture_record(texture, self.table_base, self.tables)
             }
             (None, None) => unsupported(format!(
-                "a textured {name} parameter of the principled BSDF"
+                "a textured {name} parameter of the {} BSDF",
+                self.bsdf
             )),
         }
+    }
+
+    /// Word A: the base colour, or its record (`MAT_TEXTURED`).
+    fn base_color(&mut self, texture: &Texture) -> Result<[f32; 3], Unsupported> {
+        Ok(match texture.constant() {
+            Some(c) => c.to_array(),
+            None => {
+                self.kind |= MAT_TEXTURED;
+                let record = texture_record(texture, self.table_base, self.tables)?;
+                [record, 0.0, 0.0]
+            }
+        })
+    }
+
+    /// Appends `words` to the tables; their index as bits.
+    fn more(&mut self, words: [[f32; 4]; 2]) -> f32 {
+        let index = bits((self.table_base + self.tables.len()) as u32);
+        self.tables.extend(words);
+        index
+    }
+}
+
+/// A `principled` BSDF's three words (`MAT_PRINCIPLED`) and its two more
+/// in `tables`; its base colour, metallic, spec_trans and roughness may be
+/// textures.
+fn principled(
+    p: &Principled,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<[[f32; 4]; 3], Unsupported> {
+    let mut w = DisneyWords {
+        bsdf: "principled",
+        kind: MAT_PRINCIPLED,
+        table_base,
+        tables,
     };
-    let metallic = value("metallic", p.metallic.as_ref(), Some(MAT_TEXTURED_B))?;
-    let roughness = value("roughness", Some(&p.roughness), Some(MAT_TEXTURED_ALPHA))?;
-    let spec_trans = value("spec_trans", p.spec_trans.as_ref(), Some(MAT_TEXTURED_C))?;
-    let anisotropic = value("anisotropic", p.anisotropic.as_ref(), None)?;
-    let clearcoat = value("clearcoat", p.clearcoat.as_ref(), None)?;
-    let gloss = value("clearcoat_gloss", Some(&p.clearcoat_gloss), None)?;
-    let sheen = value("sheen", p.sheen.as_ref(), None)?;
-    let sheen_tint = value("sheen_tint", p.sheen_tint.as_ref(), None)?;
-    let flatness = value("flatness", p.flatness.as_ref(), None)?;
-    let spec_tint = value("spec_tint", p.spec_tint.as_ref(), None)?;
-    let a = match p.base_color.constant() {
-        Some(c) => v4(c, 0.0),
-        None => {
-            kind |= MAT_TEXTURED;
-            [
-                texture_record(&p.base_color, table_base, tables)?,
-                0.0,
-                0.0,
-                0.0,
-            ]
-        }
-    };
-    let more = bits((table_base + tables.len()) as u32);
-    tables.push([sheen, sheen_tint, flatness, spec_tint]);
-    tables.push([p.diffuse_rate, p.clearcoat_rate, p.spec_rate, 0.0]);
+    let metallic = w.value("metallic", p.metallic.as_ref(), Some(MAT_TEXTURED_B))?;
+    let roughness = w.value("roughness", Some(&p.roughness), Some(MAT_TEXTURED_ALPHA))?;
+    let spec_trans = w.value("spec_trans", p.spec_trans.as_ref(), Some(MAT_TEXTURED_C))?;
+    let anisotropic = w.value("anisotropic", p.anisotropic.as_ref(), None)?;
+    let clearcoat = w.value("clearcoat", p.clearcoat.as_ref(), None)?;
+    let gloss = w.value("clearcoat_gloss", Some(&p.clearcoat_gloss), None)?;
+    let sheen = w.value("sheen", p.sheen.as_ref(), None)?;
+    let sheen_tint = w.value("sheen_tint", p.sheen_tint.as_ref(), None)?;
+    let flatness = w.value("flatness", p.flatness.as_ref(), None)?;
+    let spec_tint = w.value("spec_tint", p.spec_tint.as_ref(), None)?;
+    let [r, g, b] = w.base_color(&p.base_color)?;
+    let more = w.more([
+        [sheen, sheen_tint, flatness, spec_tint],
+        [p.diffuse_rate, p.clearcoat_rate, p.spec_rate, 0.0],
+    ]);
     Ok([
-        [a[0], a[1], a[2], bits(kind)],
+        [r, g, b, bits(w.kind)],
         [metallic, anisotropic, clearcoat, roughness],
         [spec_trans, p.eta, gloss, more],
+    ])
+}
+
+/// A `principledthin` BSDF's three words (`MAT_PRINCIPLED_THIN`) and its
+/// two more in `tables`; its base colour, spec_trans, eta and roughness
+/// may be textures.
+fn principled_thin(
+    p: &PrincipledThin,
+    table_base: usize,
+    tables: &mut Vec<[f32; 4]>,
+) -> Result<[[f32; 4]; 3], Unsupported> {
+    let mut w = DisneyWords {
+        bsdf: "principledthin",
+        kind: MAT_PRINCIPLED_THIN,
+        table_base,
+        tables,
+    };
+    let spec_trans = w.value("spec_trans", p.spec_trans.as_ref(), Some(MAT_TEXTURED_B))?;
+    let roughness = w.value("roughness", Some(&p.roughness), Some(MAT_TEXTURED_ALPHA))?;
+    let eta = w.value("eta", Some(&p.eta), Some(MAT_TEXTURED_C))?;
+    let anisotropic = w.value("anisotropic", p.anisotropic.as_ref(), None)?;
+    let diff_trans = w.value("diff_trans", p.diff_trans.as_ref(), None)?;
+    let sheen = w.value("sheen", p.sheen.as_ref(), None)?;
+    let sheen_tint = w.value("sheen_tint", p.sheen_tint.as_ref(), None)?;
+    let flatness = w.value("flatness", p.flatness.as_ref(), None)?;
+    let spec_tint = w.value("spec_tint", p.spec_tint.as_ref(), None)?;
+    let [r, g, b] = w.base_color(&p.base_color)?;
+    let more = w.more([
+        [sheen, sheen_tint, flatness, spec_tint],
+        [
+            p.spec_refl_rate,
+            p.spec_trans_rate,
+            p.diff_refl_rate,
+            p.diff_trans_rate,
+        ],
+    ]);
+    Ok([
+        [r, g, b, bits(w.kind)],
+        [spec_trans, anisotropic, diff_trans, roughness],
+        [eta, 0.0, 0.0, more],
     ])
 }
 
@@ -1791,6 +1872,46 @@ mod tests {
         );
     }
 
+    /// A principledthin BSDF is three words and two more: a textured base
+    /// colour, spec_trans, eta and roughness are records in their slots;
+    /// diff_trans is kept as given (0 to 2); another textured parameter
+    /// is named.
+    #[test]
+    fn principled_thin_parameters_are_words_or_records() {
+        let (mut scene, job) = load("tests/gpu/principled_thin.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let thin: Vec<usize> = (scene.bsdfs.iter().enumerate())
+            .filter(|(_, b)| matches!(b, Bsdf::PrincipledThin(_)))
+            .map(|(k, _)| k)
+            .collect();
+        let [textured, back] = thin[..] else {
+            panic!("{thin:?}")
+        };
+        let words = |k: usize| &flat.shapes[k * SHAPE_WORDS..(k + 1) * SHAPE_WORDS];
+        let kind = |k: usize| words(k)[0][3].to_bits();
+        let flags = MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_C;
+        assert_eq!(kind(textured), MAT_PRINCIPLED_THIN | flags);
+        let header = |w: f32| flat.shapes[w.to_bits() as usize + 2];
+        assert_eq!(header(words(textured)[1][0])[1].to_bits(), TEX_CHECKERBOARD);
+        assert_eq!(header(words(textured)[2][0])[1].to_bits(), TEX_CHECKERBOARD);
+        assert_eq!(header(words(textured)[0][0])[1].to_bits(), TEX_BILINEAR);
+        assert_eq!(kind(back), MAT_PRINCIPLED_THIN | MAT_TEXTURED_ALPHA);
+        let near = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-6);
+        assert!(near(&words(back)[1][..3], &[0.4, 0.4, 1.2]));
+        let i = words(back)[2][3].to_bits() as usize;
+        assert!(near(&flat.shapes[i], &[0.7, 0.0, 0.0, 0.0]));
+
+        let Bsdf::PrincipledThin(p) = &mut scene.bsdfs[back] else {
+            unreachable!()
+        };
+        p.diff_trans = Some(p.roughness.clone());
+        assert_refused(
+            &scene,
+            &job,
+            "a textured diff_trans parameter of the principledthin BSDF",
+        );
+    }
+
     /// Every code the shaders share with this file has the same value on
     /// both sides (WGSL cannot import Rust's constants).
     #[test]
@@ -1823,6 +1944,7 @@ mod tests {
             ("MAT_ROUGH_PLASTIC", MAT_ROUGH_PLASTIC),
             ("MAT_ROUGH_DIELECTRIC", MAT_ROUGH_DIELECTRIC),
             ("MAT_PRINCIPLED", MAT_PRINCIPLED),
+            ("MAT_PRINCIPLED_THIN", MAT_PRINCIPLED_THIN),
             ("MAT_BLEND", MAT_BLEND),
             ("MAT_MIRROR", MAT_MIRROR),
             ("MAT_DIELECTRIC", MAT_DIELECTRIC),

@@ -116,6 +116,8 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/conformance/blend_normalmap.xml",
         "tests/conformance/principled.xml",
         "tests/gpu/principled.xml",
+        "tests/conformance/principled_thin.xml",
+        "tests/gpu/principled_thin.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

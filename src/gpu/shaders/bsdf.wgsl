@@ -1,7 +1,7 @@
 // The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, blend.rs,
 // mirror.rs, dielectric.rs, thin_dielectric.rs, conductor.rs,
 // rough_conductor.rs, plastic.rs, rough_plastic.rs, rough_dielectric.rs,
-// principled.rs (principled.wgsl);
+// principled.rs, principled_thin.rs (principled.wgsl);
 // their reflectances, transmittances and isotropic roughness textured as
 // textured.rs reads them, texture.wgsl), in the shading frame (z along
 // the shading normal).
@@ -34,6 +34,7 @@ const MAT_PLASTIC: u32 = 3u;
 const MAT_ROUGH_PLASTIC: u32 = 4u;
 const MAT_ROUGH_DIELECTRIC: u32 = 5u;
 const MAT_PRINCIPLED: u32 = 6u;
+const MAT_PRINCIPLED_THIN: u32 = 1u;
 const MAT_BLEND: u32 = 7u;
 const MAT_MIRROR: u32 = 8u;
 const MAT_DIELECTRIC: u32 = 9u;
@@ -172,9 +173,9 @@ fn layer_at(base: u32) -> Layer {
 
 // Whether the texture in `slot` (0: A, 1: B, 2: the roughness, 3: C) of
 // a material of kind `kind` is read as one value (`eval_1`): roughness,
-// and the principled BSDF's metallic (B.x) and spec_trans (C.x).
+// and the principled BSDFs' B.x and C.x (principled.wgsl).
 fn slot_is_one_value(kind: u32, slot: u32) -> bool {
-    return slot == 2u || (slot != 0u && kind == MAT_PRINCIPLED);
+    return slot == 2u || (slot != 0u && (kind == MAT_PRINCIPLED || kind == MAT_PRINCIPLED_THIN));
 }
 
 // `layer` with the texel `t` of its texture `slot` read in.
@@ -701,6 +702,9 @@ fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (kind == MAT_PRINCIPLED) {
         return principled_eval(wi, wo);
     }
+    if (kind == MAT_PRINCIPLED_THIN) {
+        return principled_thin_eval(wi, wo);
+    }
     if (!both_in_front(wi, wo)) {
         return vec3<f32>(0.0);
     }
@@ -740,6 +744,9 @@ fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     }
     if (kind == MAT_PRINCIPLED) {
         return principled_pdf(wi, wo);
+    }
+    if (kind == MAT_PRINCIPLED_THIN) {
+        return principled_thin_pdf(wi, wo);
     }
     if (!both_in_front(wi, wo)) {
         return 0.0;
@@ -786,6 +793,9 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     }
     if (kind == MAT_PRINCIPLED) {
         return principled_sample(wi, u, u_lobe);
+    }
+    if (kind == MAT_PRINCIPLED_THIN) {
+        return principled_thin_sample(wi, u, u_lobe);
     }
     if (kind == MAT_DIELECTRIC) {
         let eta = material_word(1u).x;

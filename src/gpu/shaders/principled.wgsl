@@ -1,5 +1,5 @@
-// Mitsuba's `principled` (bsdf/principled.rs, as Mitsuba 3.9.1 evaluates
-// it): Burley's diffuse with retro-reflection and the fake subsurface
+// Mitsuba's `principled` and `principledthin` (bsdf/principled.rs and
+// principled_thin.rs, as Mitsuba 3.9.1 evaluates them). `principled`: Burley's diffuse with retro-reflection and the fake subsurface
 // (`flatness`), sheen, a GGX interface whose reflection blends the
 // dielectric Fresnel term with Schlick's metallic and tinted ones, GGX
 // transmission (`spec_trans`) and a GTR1 clearcoat. Sampling picks the
@@ -44,9 +44,9 @@ fn disney_brdf_bsdf(d: Disney) -> vec2<f32> {
 
 // principled.rs's `disney_ggx`: roughness squared, stretched by
 // `anisotropic`, at least 0.001.
-fn disney_ggx(d: Disney) -> Microfacet {
-    let r2 = d.roughness * d.roughness;
-    let aspect = sqrt(1.0 - 0.9 * d.anisotropic);
+fn disney_ggx(roughness: f32, anisotropic: f32) -> Microfacet {
+    let r2 = roughness * roughness;
+    let aspect = sqrt(1.0 - 0.9 * anisotropic);
     return Microfacet(max(r2 / aspect, 0.001), max(r2 * aspect, 0.001), true);
 }
 
@@ -154,7 +154,7 @@ fn principled_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let cos_o = abs(wo.z);
     let front = cos_i > 0.0;
     let w = disney_brdf_bsdf(d);
-    let md = disney_ggx(d);
+    let md = disney_ggx(d.roughness, d.anisotropic);
     let dih = dot(wi, h.m);
     let f_dielectric = fresnel_dielectric(dih, d.eta).x;
     let reflect_ok = h.reflect && mac_mic_compatible(h.m, wi, wo, cos_i, true);
@@ -241,14 +241,14 @@ fn principled_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     var pdf = 0.0;
     if (h.reflect) {
         if (mac_mic_compatible(h.m, wi, wo, cos_i, true)) {
-            pdf += p_spec * p_reflect * microfacet_normal_pdf(disney_ggx(d), up, h.m) * dwh_dwo;
+            pdf += p_spec * p_reflect * microfacet_normal_pdf(disney_ggx(d.roughness, d.anisotropic), up, h.m) * dwh_dwo;
             if (choice.y > 0.0) {
                 pdf += choice.y * gtr1_pdf(gtr1_alpha(d.gloss), h.m) * dwh_dwo;
             }
         }
         pdf += choice.x * max(wo.z, 0.0) * INV_PI;
     } else if (p_trans > 0.0 && mac_mic_compatible(h.m, wi, wo, cos_i, false)) {
-        pdf += p_spec * p_trans * microfacet_normal_pdf(disney_ggx(d), up, h.m) * dwh_dwo;
+        pdf += p_spec * p_trans * microfacet_normal_pdf(disney_ggx(d.roughness, d.anisotropic), up, h.m) * dwh_dwo;
     }
     return pdf;
 }
@@ -283,7 +283,7 @@ fn principled_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
             let p_spec = 1.0 - choice.x - choice.y;
             let u_interface = min((u_lobe - choice.x - choice.y) / p_spec, 0.99999988);
             let up = select(-wi, wi, cos_i >= 0.0);
-            let md = disney_ggx(d);
+            let md = disney_ggx(d.roughness, d.anisotropic);
             m = sample_microfacet(md, up, u);
             if (not_finite(m.x + m.y + m.z) || !(microfacet_normal_pdf(md, up, m) > 0.0)) {
                 return no_sample();
@@ -308,4 +308,185 @@ fn principled_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
         return no_sample();
     }
     return direction_only(wo, eta);
+}
+
+// --- `principledthin` (bsdf/principled_thin.rs): a sheet with no inside,
+// the same from both sides (directions mirrored to the front). Diffuse
+// with retro-reflection, fake subsurface and sheen; Lambertian diffuse
+// transmission (`diff_trans`, 0 to 2); with `spec_trans`, GGX reflection
+// (the dielectric Fresnel of eta, tinted by `spec_tint`) and GGX
+// transmission straight through (a reflection mirrored to the back, its
+// roughness scaled by 0.65 eta - 0.35). Words: A the base colour; B
+// (spec_trans, anisotropic, diff_trans) in mat_b and the roughness in
+// mat_alpha; C (eta, 0, 0) in mat_c, C.w the index of (sheen,
+// sheen_tint, flatness, spec_tint) and the (specular reflection,
+// specular transmission, diffuse reflection, diffuse transmission)
+// sampling rates.
+
+struct Sheet {
+    base: vec3<f32>,
+    roughness: f32,
+    spec_trans: f32,
+    anisotropic: f32,
+    // diff_trans / 2, in [0, 1].
+    diff_trans: f32,
+    eta: f32,
+    // (sheen, sheen_tint, flatness, spec_tint)
+    extra: vec4<f32>,
+    rates: vec4<f32>,
+}
+
+fn thin_sheet() -> Sheet {
+    let more = bitcast<u32>(material_word(2u).w);
+    return Sheet(
+        mat_a, mat_alpha, mat_b.x, mat_b.y, 0.5 * mat_b.z, mat_c.x,
+        shapes[more], shapes[more + 1u],
+    );
+}
+
+// The transmission lobe's distribution (Burley 2015, figure 15).
+fn thin_trans_ggx(t: Sheet) -> Microfacet {
+    return disney_ggx((0.65 * t.eta - 0.35) * t.roughness, t.anisotropic);
+}
+
+// Probabilities of specular reflection, specular transmission, diffuse
+// reflection and diffuse transmission; zero where they do not add up.
+fn thin_choice(t: Sheet) -> vec4<f32> {
+    let c = vec4<f32>(
+        0.5 * t.spec_trans,
+        0.5 * t.spec_trans,
+        (1.0 - t.spec_trans) * (1.0 - t.diff_trans),
+        (1.0 - t.spec_trans) * t.diff_trans,
+    ) * t.rates;
+    let total = c.x + c.y + c.z + c.w;
+    if (!(total > 0.0) || not_finite(total)) {
+        return vec4<f32>(0.0);
+    }
+    return c / total;
+}
+
+// The microfacet a thin reflection or transmission turned on: wi's and
+// wo's mirrored to the front.
+fn thin_half(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    return normalize(wi + vec3<f32>(wo.x, wo.y, abs(wo.z)));
+}
+
+// f(wi, wo), no cosine.
+fn principled_thin_eval(wi_in: vec3<f32>, wo_in: vec3<f32>) -> vec3<f32> {
+    if (wi_in.z == 0.0 || wo_in.z == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let t = thin_sheet();
+    let side = select(-1.0, 1.0, wi_in.z >= 0.0);
+    let wi = wi_in * side;
+    let wo = wo_in * side;
+    let reflect = wo.z > 0.0;
+    let wh = thin_half(wi, wo);
+    var value = vec3<f32>(0.0); // f |cos_o|, as Mitsuba's eval returns it
+
+    if (t.spec_trans > 0.0) {
+        let dih = dot(wi, wh);
+        let f = fresnel_dielectric(dih, t.eta).x;
+        if (reflect && mac_mic_compatible(wh, wi, wo, wi.z, true)) {
+            let md = disney_ggx(t.roughness, t.anisotropic);
+            let spec_tint = t.extra.w;
+            let r = (t.eta - 1.0) / (t.eta + 1.0);
+            let r0 = disney_tint(t.base) * (r * r);
+            let fresnel = vec3<f32>(f * (1.0 - spec_tint)) + schlick_across(r0, dih, t.eta) * spec_tint;
+            let dg = microfacet_d(md, wh) * smith_g1(md, wi, wh) * smith_g1(md, wo, wh);
+            value += fresnel * (t.spec_trans * dg / (4.0 * wi.z));
+        }
+        if (!reflect && mac_mic_compatible(wh, wi, wo, wi.z, false)) {
+            let md = thin_trans_ggx(t);
+            let dg = microfacet_d(md, wh) * smith_g1(md, wi, wh) * smith_g1(md, wo, wh);
+            value += t.base * (t.spec_trans * (1.0 - f) * dg / (4.0 * wi.z));
+        }
+    }
+
+    if (reflect && t.spec_trans < 1.0 && t.diff_trans < 1.0) {
+        let cos_d = dot(wh, wo);
+        let shape = disney_diffuse_shape(t.roughness, wi.z, wo.z, cos_d, t.extra.z);
+        let weight = (1.0 - t.spec_trans) * (1.0 - t.diff_trans);
+        value += t.base * (weight * wo.z * INV_PI * shape);
+        let sheen = t.extra.x;
+        if (sheen > 0.0) {
+            let colour = vec3<f32>(1.0) + (disney_tint(t.base) - vec3<f32>(1.0)) * t.extra.y;
+            value += colour * (sheen * weight * schlick_weight(abs(cos_d)) * wo.z);
+        }
+    }
+
+    if (!reflect && t.spec_trans < 1.0 && t.diff_trans > 0.0) {
+        value += t.base * ((1.0 - t.spec_trans) * t.diff_trans * INV_PI * abs(wo.z));
+    }
+    return value / abs(wo.z);
+}
+
+// Solid-angle density of principled_thin_sample.
+fn principled_thin_pdf(wi_in: vec3<f32>, wo_in: vec3<f32>) -> f32 {
+    if (wi_in.z == 0.0 || wo_in.z == 0.0) {
+        return 0.0;
+    }
+    let t = thin_sheet();
+    let c = thin_choice(t);
+    let side = select(-1.0, 1.0, wi_in.z >= 0.0);
+    let wi = wi_in * side;
+    let wo = wo_in * side;
+    let reflect = wo.z > 0.0;
+    let wh = thin_half(wi, wo);
+    let dwh_dwo = abs(1.0 / (4.0 * dot(vec3<f32>(wo.x, wo.y, abs(wo.z)), wh)));
+    var pdf = 0.0;
+    if (reflect) {
+        if (c.x > 0.0 && mac_mic_compatible(wh, wi, wo, wi.z, true)) {
+            let md = disney_ggx(t.roughness, t.anisotropic);
+            pdf += c.x * microfacet_normal_pdf(md, wi, wh) * dwh_dwo;
+        }
+        pdf += c.z * wo.z * INV_PI;
+    } else {
+        if (c.y > 0.0 && mac_mic_compatible(wh, wi, wo, wi.z, false)) {
+            pdf += c.y * microfacet_normal_pdf(thin_trans_ggx(t), wi, wh) * dwh_dwo;
+        }
+        pdf += c.w * -wo.z * INV_PI;
+    }
+    return pdf;
+}
+
+// A direction from one lobe (`direction_only`), chosen by thin_choice.
+fn principled_thin_sample(wi_in: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
+    if (wi_in.z == 0.0) {
+        return no_sample();
+    }
+    let t = thin_sheet();
+    let c = thin_choice(t);
+    if (c.x + c.y + c.z + c.w == 0.0) {
+        return no_sample();
+    }
+    let side = select(-1.0, 1.0, wi_in.z >= 0.0);
+    let wi = wi_in * side;
+    var wo: vec3<f32>;
+    if (u_lobe < c.x + c.y) {
+        let reflection = u_lobe < c.x;
+        var md = thin_trans_ggx(t);
+        if (reflection) {
+            md = disney_ggx(t.roughness, t.anisotropic);
+        }
+        let m = sample_microfacet(md, wi, u);
+        wo = reflect_about(wi, m);
+        if (!reflection) {
+            wo.z = -wo.z;
+        }
+        if ((wo.z > 0.0) != reflection || !mac_mic_compatible(m, wi, wo, wi.z, reflection)) {
+            return no_sample();
+        }
+    } else if (u_lobe < c.x + c.y + c.z) {
+        wo = square_to_cosine_hemisphere(u);
+    } else if (c.w > 0.0) {
+        wo = -square_to_cosine_hemisphere(u);
+    } else {
+        return no_sample();
+    }
+    wo *= side;
+    if (not_finite(wo.x + wo.y + wo.z) || wo.z == 0.0) {
+        return no_sample();
+    }
+    return direction_only(wo, 1.0);
 }
