@@ -279,6 +279,9 @@ pub struct GpuScene {
     /// texels (RGB), band edges, inverse band heights, texel rows (as
     /// bits), band CDF, column CDFs.
     pub env_data: Vec<f32>,
+    /// Bit `1 << kind` for every material kind some record or blend layer
+    /// has: the shader is specialised to them ([`GpuScene::shader_constants`]).
+    pub material_kinds: u32,
 }
 
 /// Something in the scene the GPU backend cannot render yet.
@@ -1025,6 +1028,7 @@ impl GpuScene {
         // Per shape: its emitter's radiance (a texture's mean, which weighs
         // the light's choice) and the texture's record as bits, or NONE.
         let mut emissions = Vec::with_capacity(scene.geometry.len());
+        let mut material_kinds = 0u32;
         // The primitives of every shape in shape order, each in its own
         // space (a group's shapes in the group's); shape `s`'s begin at
         // `first_prim[s]`.
@@ -1062,6 +1066,20 @@ impl GpuScene {
             let mut kinds = with_layers(words[0]);
             if kind & MAT_BACK != 0 {
                 kinds |= with_layers(word(words[3][1]));
+            }
+            // Every kind the record, its back and their layers have.
+            let mut mark = |w: [f32; 4]| {
+                let kind = w[3].to_bits() & !MAT_FLAGS;
+                material_kinds |= 1 << kind;
+                if kind == MAT_BLEND {
+                    for layer in [w[1], w[2]] {
+                        material_kinds |= 1 << (word(layer)[3].to_bits() & !MAT_FLAGS);
+                    }
+                }
+            };
+            mark(words[0]);
+            if kind & MAT_BACK != 0 {
+                mark(word(words[3][1]));
             }
             // An anisotropic material needs the CPU's dp/du, which the
             // vertex uvs and a sphere's axes give.
@@ -1555,7 +1573,21 @@ impl GpuScene {
             lights,
             filter_table,
             env_data,
+            material_kinds,
         })
+    }
+
+    /// The path kernel's pipeline-overridable constants: which optional
+    /// material code it keeps (`bsdf.wgsl`'s `BLENDS` and `DISNEY`), so
+    /// that scenes without blends or Disney BSDFs run a smaller kernel
+    /// (code the compiler drops, not a different image).
+    pub fn shader_constants(&self) -> [(&'static str, f64); 2] {
+        let has = |kinds: &[u32]| kinds.iter().any(|k| self.material_kinds & (1 << k) != 0);
+        let flag = |on: bool| if on { 1.0 } else { 0.0 };
+        [
+            ("BLENDS", flag(has(&[MAT_BLEND]))),
+            ("DISNEY", flag(has(&[MAT_PRINCIPLED, MAT_PRINCIPLED_THIN]))),
+        ]
     }
 }
 
@@ -1833,6 +1865,7 @@ mod tests {
         let [checker, sheen, coat, aniso, glass] = principled[..] else {
             unreachable!()
         };
+        assert_eq!(flat.shader_constants(), [("BLENDS", 0.0), ("DISNEY", 1.0)]);
         // Constants are their channel means: equal within rounding.
         let near = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-6);
         // A checkerboard base colour; metallic 0.6, spec_tint 0.5.
@@ -2006,6 +2039,7 @@ mod tests {
     fn blends_point_at_their_two_layers() {
         let (scene, job) = load("tests/gpu/blends.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        assert_eq!(flat.shader_constants(), [("BLENDS", 1.0), ("DISNEY", 0.0)]);
         let word = |i: f32| flat.shapes[i.to_bits() as usize];
         let kind = |w: [f32; 4]| w[3].to_bits();
         let layers = |w: [f32; 4]| [kind(word(w[1])), kind(word(w[2]))];

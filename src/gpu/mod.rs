@@ -175,7 +175,8 @@ pub fn render_with_passes(
         mapped_at_creation: false,
     });
 
-    let pipeline = |source: &str, entry: &str| {
+    let constants = flat.shader_constants();
+    let pipeline = |source: &str, entry: &str, constants: &[(&str, f64)]| {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(entry),
             source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -185,12 +186,15 @@ pub fn render_with_passes(
             layout: None,
             module: &module,
             entry_point: Some(entry),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
             cache: None,
         })
     };
-    let trace = pipeline(PATH_SHADER, "trace_samples");
-    let gather = pipeline(FILM_SHADER, "gather");
+    let trace = pipeline(PATH_SHADER, "trace_samples", &constants);
+    let gather = pipeline(FILM_SHADER, "gather", &[]);
     let bind = |p: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]| {
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()

@@ -35,6 +35,12 @@ const MAT_ROUGH_PLASTIC: u32 = 4u;
 const MAT_ROUGH_DIELECTRIC: u32 = 5u;
 const MAT_PRINCIPLED: u32 = 6u;
 const MAT_PRINCIPLED_THIN: u32 = 1u;
+
+// Whether the scene has blends and Disney BSDFs (principled.wgsl): set
+// per scene at pipeline creation (flatten.rs's `shader_constants`), so the
+// compiler drops their code from kernels that never run it.
+override BLENDS: bool = true;
+override DISNEY: bool = true;
 const MAT_BLEND: u32 = 7u;
 const MAT_MIRROR: u32 = 8u;
 const MAT_DIELECTRIC: u32 = 9u;
@@ -221,7 +227,7 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
     let w0 = shapes[base];
     mat_flags = (bitcast<u32>(w0.w) & ~(MAT_MASK | MAT_TEXTURED_MASK))
         | (front_flags & (MAT_MASK | MAT_TEXTURED_MASK));
-    let blend = (mat_flags & ~MAT_FLAGS) == MAT_BLEND;
+    let blend = BLENDS && (mat_flags & ~MAT_FLAGS) == MAT_BLEND;
     mat_layers = select(1u, 2u, blend);
     mat_blend_w = w0.x;
     mat_opacity = w3.x;
@@ -699,11 +705,13 @@ fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_eval(wi, wo);
     }
-    if (kind == MAT_PRINCIPLED) {
-        return principled_eval(wi, wo);
-    }
-    if (kind == MAT_PRINCIPLED_THIN) {
-        return principled_thin_eval(wi, wo);
+    if (DISNEY) {
+        if (kind == MAT_PRINCIPLED) {
+            return principled_eval(wi, wo);
+        }
+        if (kind == MAT_PRINCIPLED_THIN) {
+            return principled_thin_eval(wi, wo);
+        }
     }
     if (!both_in_front(wi, wo)) {
         return vec3<f32>(0.0);
@@ -742,11 +750,13 @@ fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_pdf(wi, wo);
     }
-    if (kind == MAT_PRINCIPLED) {
-        return principled_pdf(wi, wo);
-    }
-    if (kind == MAT_PRINCIPLED_THIN) {
-        return principled_thin_pdf(wi, wo);
+    if (DISNEY) {
+        if (kind == MAT_PRINCIPLED) {
+            return principled_pdf(wi, wo);
+        }
+        if (kind == MAT_PRINCIPLED_THIN) {
+            return principled_thin_pdf(wi, wo);
+        }
     }
     if (!both_in_front(wi, wo)) {
         return 0.0;
@@ -791,11 +801,13 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     if (kind == MAT_ROUGH_DIELECTRIC) {
         return rough_dielectric_sample(wi, u, u_lobe);
     }
-    if (kind == MAT_PRINCIPLED) {
-        return principled_sample(wi, u, u_lobe);
-    }
-    if (kind == MAT_PRINCIPLED_THIN) {
-        return principled_thin_sample(wi, u, u_lobe);
+    if (DISNEY) {
+        if (kind == MAT_PRINCIPLED) {
+            return principled_sample(wi, u, u_lobe);
+        }
+        if (kind == MAT_PRINCIPLED_THIN) {
+            return principled_thin_sample(wi, u, u_lobe);
+        }
     }
     if (kind == MAT_DIELECTRIC) {
         let eta = material_word(1u).x;
@@ -859,6 +871,9 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
 // f(wi, wo) of the non-specular part (of the front of a two-sided
 // material), and its solid-angle density under front_sample.
 fn front_eval_pdf(wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
+    if (!BLENDS) {
+        return vec4<f32>(layer_eval(wi, wo), layer_pdf(wi, wo));
+    }
     var fp = vec4<f32>(0.0);
     for (var l = 0u; l < mat_layers; l++) {
         if (mat_layers == 2u) {
@@ -874,7 +889,7 @@ fn front_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     // rescaled (and kept below 1, as blend.rs does).
     var l = 0u;
     var u_layer = u_lobe;
-    if (mat_layers == 2u) {
+    if (BLENDS && mat_layers == 2u) {
         let w = mat_blend_w;
         u_layer = (u_lobe - w) / (1.0 - w);
         if (u_lobe < w) {
