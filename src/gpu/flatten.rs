@@ -773,6 +773,23 @@ impl DisneyWords<'_> {
         })
     }
 
+    /// The word both Disney BSDFs share: (sheen, sheen_tint, flatness,
+    /// spec_tint), constants only.
+    fn sheen_word(
+        &mut self,
+        sheen: Option<&Texture>,
+        sheen_tint: Option<&Texture>,
+        flatness: Option<&Texture>,
+        spec_tint: Option<&Texture>,
+    ) -> Result<[f32; 4], Unsupported> {
+        Ok([
+            self.value("sheen", sheen, None)?,
+            self.value("sheen_tint", sheen_tint, None)?,
+            self.value("flatness", flatness, None)?,
+            self.value("spec_tint", spec_tint, None)?,
+        ])
+    }
+
     /// Appends `words` to the tables; their index as bits.
     fn more(&mut self, words: [[f32; 4]; 2]) -> f32 {
         let index = bits((self.table_base + self.tables.len()) as u32);
@@ -801,15 +818,14 @@ fn principled(
     let anisotropic = w.value("anisotropic", p.anisotropic.as_ref(), None)?;
     let clearcoat = w.value("clearcoat", p.clearcoat.as_ref(), None)?;
     let gloss = w.value("clearcoat_gloss", Some(&p.clearcoat_gloss), None)?;
-    let sheen = w.value("sheen", p.sheen.as_ref(), None)?;
-    let sheen_tint = w.value("sheen_tint", p.sheen_tint.as_ref(), None)?;
-    let flatness = w.value("flatness", p.flatness.as_ref(), None)?;
-    let spec_tint = w.value("spec_tint", p.spec_tint.as_ref(), None)?;
+    let sheen = w.sheen_word(
+        p.sheen.as_ref(),
+        p.sheen_tint.as_ref(),
+        p.flatness.as_ref(),
+        p.spec_tint.as_ref(),
+    )?;
     let [r, g, b] = w.base_color(&p.base_color)?;
-    let more = w.more([
-        [sheen, sheen_tint, flatness, spec_tint],
-        [p.diffuse_rate, p.clearcoat_rate, p.spec_rate, 0.0],
-    ]);
+    let more = w.more([sheen, [p.diffuse_rate, p.clearcoat_rate, p.spec_rate, 0.0]]);
     Ok([
         [r, g, b, bits(w.kind)],
         [metallic, anisotropic, clearcoat, roughness],
@@ -836,13 +852,15 @@ fn principled_thin(
     let eta = w.value("eta", Some(&p.eta), Some(MAT_TEXTURED_C))?;
     let anisotropic = w.value("anisotropic", p.anisotropic.as_ref(), None)?;
     let diff_trans = w.value("diff_trans", p.diff_trans.as_ref(), None)?;
-    let sheen = w.value("sheen", p.sheen.as_ref(), None)?;
-    let sheen_tint = w.value("sheen_tint", p.sheen_tint.as_ref(), None)?;
-    let flatness = w.value("flatness", p.flatness.as_ref(), None)?;
-    let spec_tint = w.value("spec_tint", p.spec_tint.as_ref(), None)?;
+    let sheen = w.sheen_word(
+        p.sheen.as_ref(),
+        p.sheen_tint.as_ref(),
+        p.flatness.as_ref(),
+        p.spec_tint.as_ref(),
+    )?;
     let [r, g, b] = w.base_color(&p.base_color)?;
     let more = w.more([
-        [sheen, sheen_tint, flatness, spec_tint],
+        sheen,
         [
             p.spec_refl_rate,
             p.spec_trans_rate,
