@@ -1074,30 +1074,21 @@ impl GpuScene {
             // emitter's need the hit's uv.
             let kind = words[0][3].to_bits();
             let word = |index: f32| tables[index.to_bits() as usize - table_base];
+            // The kind words of the record, its back and their blends'
+            // layers: their flags decide the uv, their kinds specialise the
+            // shader.
             let with_layers = |w: [f32; 4]| {
                 let kind = w[3].to_bits();
                 if kind & !MAT_FLAGS != MAT_BLEND {
-                    return kind;
+                    return [kind; 3];
                 }
-                kind | word(w[1])[3].to_bits() | word(w[2])[3].to_bits()
+                [kind, word(w[1])[3].to_bits(), word(w[2])[3].to_bits()]
             };
-            let mut kinds = with_layers(words[0]);
-            if kind & MAT_BACK != 0 {
-                kinds |= with_layers(word(words[3][1]));
-            }
-            // Every kind the record, its back and their layers have.
-            let mut mark = |w: [f32; 4]| {
-                let kind = w[3].to_bits() & !MAT_FLAGS;
-                material_kinds |= 1 << kind;
-                if kind == MAT_BLEND {
-                    for layer in [w[1], w[2]] {
-                        material_kinds |= 1 << (word(layer)[3].to_bits() & !MAT_FLAGS);
-                    }
-                }
-            };
-            mark(words[0]);
-            if kind & MAT_BACK != 0 {
-                mark(word(words[3][1]));
+            let back = (kind & MAT_BACK != 0).then(|| with_layers(word(words[3][1])));
+            let mut kinds = 0;
+            for k in std::iter::once(with_layers(words[0])).chain(back).flatten() {
+                kinds |= k;
+                material_kinds |= 1 << (k & !MAT_FLAGS);
             }
             // An anisotropic material needs the CPU's dp/du, which the
             // vertex uvs and a sphere's axes give.

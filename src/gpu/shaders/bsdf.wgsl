@@ -35,17 +35,17 @@ const MAT_ROUGH_PLASTIC: u32 = 4u;
 const MAT_ROUGH_DIELECTRIC: u32 = 5u;
 const MAT_PRINCIPLED: u32 = 6u;
 const MAT_PRINCIPLED_THIN: u32 = 1u;
+const MAT_BLEND: u32 = 7u;
+const MAT_MIRROR: u32 = 8u;
+const MAT_DIELECTRIC: u32 = 9u;
+const MAT_CONDUCTOR: u32 = 10u;
+const MAT_THIN_DIELECTRIC: u32 = 11u;
 
 // Whether the scene has blends and Disney BSDFs (principled.wgsl): set
 // per scene at pipeline creation (flatten.rs's `shader_constants`), so the
 // compiler drops their code from kernels that never run it.
 override BLENDS: bool = true;
 override DISNEY: bool = true;
-const MAT_BLEND: u32 = 7u;
-const MAT_MIRROR: u32 = 8u;
-const MAT_DIELECTRIC: u32 = 9u;
-const MAT_CONDUCTOR: u32 = 10u;
-const MAT_THIN_DIELECTRIC: u32 = 11u;
 
 struct BsdfSample {
     wo: vec3<f32>,
@@ -177,11 +177,11 @@ fn layer_at(base: u32) -> Layer {
     return Layer(base, shapes[base].xyz, b.xyz, shapes[base + 2u].xyz, b.w);
 }
 
-// Whether the texture in `slot` (0: A, 1: B, 2: the roughness, 3: C) of
-// a material of kind `kind` is read as one value (`eval_1`): roughness,
-// and the principled BSDFs' B.x and C.x (principled.wgsl).
-fn slot_is_one_value(kind: u32, slot: u32) -> bool {
-    return slot == 2u || (slot != 0u && (kind == MAT_PRINCIPLED || kind == MAT_PRINCIPLED_THIN));
+// Whether a Disney BSDF's B.x or C.x texture (principled.wgsl) is in
+// texture `slot` (0: A, 1: B, 2: the roughness, 3: C) of a material of
+// kind `kind`: a single value, as the roughness is.
+fn disney_value_slot(kind: u32, slot: u32) -> bool {
+    return (slot == 1u || slot == 3u) && (kind == MAT_PRINCIPLED || kind == MAT_PRINCIPLED_THIN);
 }
 
 // `layer` with the texel `t` of its texture `slot` read in.
@@ -189,7 +189,7 @@ fn with_texel(layer_in: Layer, slot: u32, t: vec3<f32>, record: u32) -> Layer {
     var layer = layer_in;
     let w0 = shapes[layer.base];
     let kind = bitcast<u32>(w0.w) & ~MAT_FLAGS;
-    if (slot_is_one_value(kind, slot) && slot != 2u) {
+    if (disney_value_slot(kind, slot)) {
         let v = texture_value_1(record, t);
         if (slot == 1u) {
             layer.b.x = v;
@@ -273,7 +273,7 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
         // Opacity, weight and roughness are read as one value (`eval_1`).
         let slot = (k + 1u) % 4u;
         let kind = select(kinds.x, kinds.y, k >= 7u) & ~MAT_FLAGS;
-        let one = k == 0u || k == 2u || (k >= 3u && slot_is_one_value(kind, slot));
+        let one = k == 0u || k == 2u || (k >= 3u && (slot == 2u || disney_value_slot(kind, slot)));
         let t = texture_lookup(record, uv, one);
         if (k == 0u) {
             mat_opacity = clamp(texture_value_1(record, t), 0.0, 1.0);
