@@ -11,14 +11,15 @@ use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
 use crate::bsdf::{Blend, Bsdf, BsdfParam, Principled, PrincipledThin, Tilt, Tilted};
 use crate::camera::{Aperture, Projection};
 use crate::color::Rgb;
-use crate::emitter::Emitter;
+use crate::emitter::{Emitter, LightBounds};
 use crate::geometry::{build_boxes, Geometry, SphereUv};
 use crate::integrator::{Integrator, Strategy};
 use crate::math::{Aabb, Transform, Vec2, Vec3, PI};
 use crate::render::RenderJob;
-use crate::sampling::Distribution1D;
 use crate::scene::Scene;
 use crate::texture::{FilterType, Texture, WrapMode};
+
+use super::light_groups::{choice_tables, LightGroup};
 
 /// "No index" in the GPU's records.
 pub const NONE: u32 = u32::MAX;
@@ -31,7 +32,7 @@ pub const DISK: u32 = u32::MAX - 2;
 pub const DISK_FLIPPED: u32 = u32::MAX - 3;
 
 /// Vec4 words per area or delta light in `lights`.
-pub const LIGHT_WORDS: usize = 5;
+pub const LIGHT_WORDS: usize = 6;
 
 /// Light kinds (`lights[LIGHT_WORDS i].w`), as `emitter.wgsl` names them.
 pub const LIGHT_TRIANGLE: u32 = 0;
@@ -231,6 +232,13 @@ pub struct Params {
     /// Where Beckmann's visible-slope guesses start in `shapes`
     /// (`bsdf/beckmann_slopes.rs`'s table, four to a word).
     pub beckmann_table: u32,
+    /// The light choice (`light_groups.rs`): where its group records start
+    /// in `lights`, how many groups are at infinity (first) and bounded,
+    /// and the probability of choosing any light at infinity.
+    pub group_base: u32,
+    pub unbounded_groups: u32,
+    pub bounded_groups: u32,
+    pub p_unbounded: f32,
     /// To WGSL's size of the struct (a multiple of 16 bytes).
     pub _pad: [u32; 3],
 }
@@ -266,12 +274,15 @@ pub struct GpuScene {
     /// `LIGHT_WORDS` per light: (p0, centre, position or direction to the
     /// light; kind), (p1, (radius, 0, 0) or the spot's world-to-local row
     /// 0; area or the spot's cos cutoff), (p2 or row 1; CDF up to and
-    /// including it), (radiance, intensity or irradiance; shape, a spot's
+    /// including it within its group), (radiance, intensity or irradiance; shape, a spot's
     /// projected texture's record as bits, or NONE),
     /// (row 2, a disk's front normal or a triangle's or sphere's
     /// vertex-data slot (uvs, (u, v) frame) as bits; the spot's cos beam or
     /// an area light's radiance texture record as bits, NONE if
-    /// untextured). A disk's (p0, p1, p2) are its centre and axes ex, ey.
+    /// untextured), (its emitter group as bits, probability within the
+    /// group, 0, 0). A disk's (p0, p1, p2) are its centre and axes ex, ey;
+    /// the CDF in word 2 runs within the light's group. Then, from
+    /// `Params::group_base`, the emitter groups (`light_groups.rs`).
     pub lights: Vec<[f32; 4]>,
     /// The filter's weight at `radius * i / (FILTER_TABLE - 1)`.
     pub filter_table: Vec<f32>,
@@ -1194,8 +1205,9 @@ impl GpuScene {
         let mut env_kind = ENV_NONE;
         let mut tables = None;
         let mut delta_lights = Vec::new();
+        let mut env_power = None;
         let ctx = scene.emitter_context();
-        for e in &scene.emitters {
+        for (ei, e) in scene.emitters.iter().enumerate() {
             if matches!(e, Emitter::Constant(_) | Emitter::Environment(_)) && env_kind != ENV_NONE {
                 return unsupported("more than one environment");
             }
@@ -1205,11 +1217,13 @@ impl GpuScene {
                 Emitter::Constant(c) => {
                     env = v4(c.radiance, 0.0);
                     env_kind = ENV_CONSTANT;
+                    env_power = Some(e.power(&ctx));
                 }
                 Emitter::Environment(map) => {
                     if let Some(t) = map.gpu_tables() {
                         env_kind = ENV_MAP;
                         tables = Some(t);
+                        env_power = Some(e.power(&ctx));
                     }
                 }
                 Emitter::Point(p) => delta_lights.push((
@@ -1220,7 +1234,7 @@ impl GpuScene {
                         v4(p.intensity, none),
                         [0.0; 4],
                     ],
-                    e.power(&ctx),
+                    ei,
                 )),
                 Emitter::Spot(s) => {
                     // A projected texture: its record in word 3's last value.
@@ -1240,7 +1254,7 @@ impl GpuScene {
                             v4(s.intensity, texture),
                             v4(rows.z_axis, s.cos_beam()),
                         ],
-                        e.power(&ctx),
+                        ei,
                     ));
                 }
                 Emitter::Directional(d) => delta_lights.push((
@@ -1251,7 +1265,7 @@ impl GpuScene {
                         v4(d.irradiance, none),
                         [0.0; 4],
                     ],
-                    e.power(&ctx),
+                    ei,
                 )),
                 Emitter::Projector(pj) => {
                     // The shader takes the axis from the world-to-local
@@ -1277,7 +1291,7 @@ impl GpuScene {
                             v4(colour, texture),
                             v4(rows.z_axis, pj.aspect()),
                         ],
-                        e.power(&ctx),
+                        ei,
                     ));
                 }
             }
@@ -1304,11 +1318,14 @@ impl GpuScene {
             env_data.push(0.0);
         }
 
-        // Lights: one entry per emitting triangle or sphere, and the delta
-        // lights, chosen in proportion to power.
+        // Lights: one record per emitting triangle, sphere or disk, and the
+        // delta lights; grouped per emitter for the choice
+        // (`light_groups.rs`).
         let mut lights = Vec::new();
-        let mut weights = Vec::new();
+        let mut groups: Vec<LightGroup> = Vec::new();
+        let mut group_of_emitter = vec![NONE; scene.emitters.len()];
         let mut prim_light = vec![NONE; prims.len()];
+        let mut light_count = 0usize;
         for (pi, p) in prims.iter().enumerate() {
             let (shape, rec, area) = match *p {
                 Prim::Triangle { shape, v, .. } => {
@@ -1356,14 +1373,15 @@ impl GpuScene {
             };
             let (radiance, texture) = emissions[shape as usize];
             let power = area * luminance(radiance);
-            if power > 0.0 && power.is_finite() {
+            let emitter = scene.shape_emitter[shape as usize];
+            if let (Some(e), true) = (emitter, power > 0.0 && power.is_finite()) {
                 if let Prim::Sphere {
                     placement: Some(_), ..
                 } = p
                 {
                     return unsupported("an emitting sphere that an instance scales unevenly");
                 }
-                prim_light[pi] = weights.len() as u32;
+                prim_light[pi] = light_count as u32;
                 lights.extend(rec);
                 lights.push(v4(radiance, bits(shape)));
                 // A disk's front; a triangle's or sphere's vertex-data slot
@@ -1373,26 +1391,39 @@ impl GpuScene {
                     Prim::Disk { disk, .. } => v4(disk.frame.n, texture),
                     _ => [bits(NONE), 0.0, 0.0, texture],
                 });
-                weights.push(power);
+                // The choice's word (`choice_tables`).
+                lights.push([0.0; 4]);
+                // An emitter's primitives are consecutive (shape order).
+                let e = e as usize;
+                if group_of_emitter[e] == NONE {
+                    group_of_emitter[e] = groups.len() as u32;
+                    let power = scene.emitters[e].power(&ctx);
+                    groups.push(LightGroup {
+                        bounds: LightBounds::of(&scene.emitters[e], &ctx, power),
+                        power,
+                        first: light_count,
+                        weights: Vec::new(),
+                    });
+                }
+                groups[group_of_emitter[e] as usize].weights.push(area);
+                light_count += 1;
             }
         }
-        for (rec, power) in delta_lights {
-            if power > 0.0 && power.is_finite() {
-                lights.extend(rec);
-                weights.push(power);
-            }
+        for (rec, e) in delta_lights {
+            let power = scene.emitters[e].power(&ctx);
+            groups.push(LightGroup {
+                bounds: LightBounds::of(&scene.emitters[e], &ctx, power),
+                power,
+                first: light_count,
+                weights: vec![1.0],
+            });
+            lights.extend(rec);
+            lights.push([0.0; 4]);
+            light_count += 1;
         }
-        if !weights.is_empty() {
-            let choice = Distribution1D::new(&weights);
-            for (i, &upper) in choice.cdf()[1..].iter().enumerate() {
-                lights[LIGHT_WORDS * i + 2][3] = upper;
-            }
-        }
-        let env_prob = match (env_kind != ENV_NONE, !weights.is_empty()) {
-            (true, true) => 0.5,
-            (true, false) => 1.0,
-            _ => 0.0,
-        };
+        let choice = choice_tables(&groups, env_power, &mut lights);
+        let group_base = lights.len() as u32;
+        lights.extend(&choice.groups);
 
         // The BVH, primitives in its leaf order.
         // Built over scattered boxes (`build_boxes`: identical primitives
@@ -1540,9 +1571,13 @@ impl GpuScene {
             near_clip: cam.near_clip,
             far_clip: cam.far_clip,
             filter_radius: radius,
-            light_count: weights.len() as u32,
+            light_count: light_count as u32,
             env,
-            env_prob,
+            env_prob: choice.env_prob,
+            group_base,
+            unbounded_groups: choice.unbounded_groups,
+            bounded_groups: choice.bounded_groups,
+            p_unbounded: choice.p_unbounded,
             node_count: bvh.nodes.len() as u32,
             env_kind,
             env_visible: 1,
@@ -1604,6 +1639,7 @@ impl GpuScene {
 mod tests {
     use super::*;
     use crate::bsdf::specular_to_eta;
+    use crate::gpu::light_groups::GROUP_WORDS;
     use crate::integrator::PathParams;
 
     fn veach() -> (Scene, RenderJob) {
@@ -1642,16 +1678,39 @@ mod tests {
         assert_eq!((flat.params.max_depth, flat.params.rr_depth), (7, 4));
     }
 
-    /// Every light is one record, and the choice CDF ends at one.
+    /// Every light is one record in its emitter's group: Veach's spheres
+    /// are bounded groups of one record each, weighed per point; each
+    /// record names its group, whose range holds it, and its CDF within
+    /// the group ends at one.
     #[test]
-    fn lights_are_records_with_a_choice_cdf() {
+    fn lights_are_records_in_emitter_groups() {
         let (scene, job) = veach();
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         let n = flat.params.light_count as usize;
-        assert!(n >= 4, "{n} lights");
-        assert_eq!(flat.lights.len(), n * LIGHT_WORDS);
-        let last = flat.lights[LIGHT_WORDS * (n - 1) + 2][3];
-        assert!((last - 1.0).abs() < 1e-6, "{last}");
+        let groups = (flat.params.unbounded_groups + flat.params.bounded_groups) as usize;
+        assert_eq!(flat.params.group_base as usize, n * LIGHT_WORDS);
+        assert_eq!(flat.lights.len(), n * LIGHT_WORDS + groups * GROUP_WORDS);
+        let emitters = scene.emitters.len();
+        assert!(emitters >= 4, "{emitters} emitters");
+        assert_eq!(flat.params.bounded_groups as usize, emitters);
+        assert_eq!((flat.params.p_unbounded, flat.params.env_prob), (0.0, 0.0));
+        for i in 0..n {
+            let rec = &flat.lights[LIGHT_WORDS * i..][..LIGHT_WORDS];
+            let g = rec[5][0].to_bits() as usize;
+            let group = &flat.lights[n * LIGHT_WORDS + g * GROUP_WORDS..][..GROUP_WORDS];
+            let (first, count) = (
+                group[2][1].to_bits() as usize,
+                group[2][2].to_bits() as usize,
+            );
+            assert!(
+                (first..first + count).contains(&i),
+                "record {i} in group {g}"
+            );
+            assert!(group[2][0] > 0.0, "group {g} has power");
+            if i + 1 == first + count {
+                assert_eq!(rec[2][3], 1.0, "record {i} ends its group's CDF");
+            }
+        }
     }
 
     /// Asserts that the GPU refuses `scene` with an error naming `what`.

@@ -14,6 +14,7 @@
 //! support is an error naming it.
 
 pub mod flatten;
+mod light_groups;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -35,6 +36,7 @@ const PATH_SHADER: &str = concat!(
     include_str!("shaders/texture.wgsl"),
     include_str!("shaders/bsdf.wgsl"),
     include_str!("shaders/principled.wgsl"),
+    include_str!("shaders/light_choice.wgsl"),
     include_str!("shaders/emitter.wgsl"),
     include_str!("shaders/path.wgsl"),
 );

@@ -1,17 +1,18 @@
 // Emitter sampling (next-event estimation) and the densities MIS weighs
 // against: area lights (triangles, spheres and disks, by area, one-sided) and
-// point, spot and directional lights, chosen in proportion to power, and
+// point, spot and directional lights, chosen by light_choice.wgsl, and
 // the environment: constant (uniform sphere) or a lat-long map.
 // A light's record (flatten.rs, LIGHT_WORDS vec4s): [0] = (p0, centre,
 // position or direction to the light; kind), [1] = (p1, (radius, 0, 0) or
 // the spot's world-to-local row 0; area or cos cutoff), [2] = (p2 or row
-// 1; CDF), [3] = (radiance, intensity or irradiance; shape), [4] = (row 2
-// or a disk's front normal; cos beam). A disk's p0, p1, p2 are its centre
+// 1; CDF within its group), [3] = (radiance, intensity or irradiance;
+// shape), [4] = (row 2 or a disk's front normal; cos beam), [5] = (group,
+// probability within it). A disk's p0, p1, p2 are its centre
 // and axes. A projector's (emitter/projector.rs) is a spot's with
 // tan(fov_x / 2) in [1].w, pi scale (times a constant irradiance) in [3]
 // and the image's aspect ratio in [4].w.
 
-const LIGHT_WORDS: u32 = 5u;
+const LIGHT_WORDS: u32 = 6u;
 const LIGHT_SPHERE: u32 = 1u;
 const LIGHT_POINT: u32 = 2u;
 const LIGHT_SPOT: u32 = 3u;
@@ -34,15 +35,6 @@ fn no_light() -> LightSample {
     return LightSample(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, false, false);
 }
 
-// Probability that emitter sampling picks area light `i`.
-fn light_choice_pdf(i: u32) -> f32 {
-    var below = 0.0;
-    if (i > 0u) {
-        below = lights[LIGHT_WORDS * (i - 1u) + 2u].w;
-    }
-    return (1.0 - P.env_prob) * (lights[LIGHT_WORDS * i + 2u].w - below);
-}
-
 // Cosine of the half-angle of the cone a sphere (centre `c`, radius `r`)
 // fills seen from `p`, or 2 if `p` is inside it (then it is sampled by area).
 fn sphere_cone_cos(p: vec3<f32>, c: vec3<f32>, r: f32) -> f32 {
@@ -54,13 +46,14 @@ fn sphere_cone_cos(p: vec3<f32>, c: vec3<f32>, r: f32) -> f32 {
 }
 
 // Solid-angle density of sampling area light `i` at the point `q` with
-// normal `n`, seen from `p`.
-fn area_pdf(i: u32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
+// normal `n`, seen from `p`, where the choice picks it with probability
+// `choice`.
+fn area_pdf(i: u32, choice: f32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
     let r0 = lights[LIGHT_WORDS * i];
     if (bitcast<u32>(r0.w) == LIGHT_SPHERE) {
         let cos_max = sphere_cone_cos(p, r0.xyz, lights[LIGHT_WORDS * i + 1u].x);
         if (cos_max < 1.0) {
-            return light_choice_pdf(i) / (2.0 * PI * (1.0 - cos_max));
+            return choice / (2.0 * PI * (1.0 - cos_max));
         }
     }
     let d = q - p;
@@ -69,7 +62,7 @@ fn area_pdf(i: u32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
     if (cos_l <= 0.0) {
         return 0.0;
     }
-    return light_choice_pdf(i) * dist2 / (cos_l * lights[LIGHT_WORDS * i + 1u].w);
+    return choice * dist2 / (cos_l * lights[LIGHT_WORDS * i + 1u].w);
 }
 
 // --- The environment: constant (uniform sphere) or a lat-long map
@@ -346,10 +339,10 @@ fn projector_at(i: u32, p: vec3<f32>, wi: vec3<f32>, uv: ptr<function, vec2<f32>
 // (emitter/point.rs, spot.rs, directional.rs, projector.rs): intensity /
 // dist^2, the irradiance or the projector's factor, with the probability
 // of the choice as its pdf; a projector's image position in `*uv`.
-fn sample_delta_light(i: u32, p: vec3<f32>, uv: ptr<function, vec2<f32>>) -> LightSample {
+fn sample_delta_light(i: u32, choice: f32, p: vec3<f32>, uv: ptr<function, vec2<f32>>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let power = lights[LIGHT_WORDS * i + 3u].xyz;
-    let pdf = light_choice_pdf(i);
+    let pdf = choice;
     if (bitcast<u32>(r0.w) == LIGHT_DIRECTIONAL) {
         return LightSample(r0.xyz, INF, power, pdf, true, true);
     }
@@ -389,26 +382,18 @@ fn light_sphere_uv(i: u32, n: vec3<f32>) -> vec2<f32> {
     return sphere_uv(n, SLOT_WORDS * slot);
 }
 
-fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
+// A light sample from `p` with shading normal `n`, whose choice_total is
+// `total`: the environment with probability P.env_prob, else the light
+// light_choice.wgsl picks.
+fn sample_light(p: vec3<f32>, n: vec3<f32>, total: f32, u_choice: f32, u: vec2<f32>) -> LightSample {
     if (u_choice < P.env_prob) {
         return sample_env(u);
     }
-    if (P.light_count == 0u) {
+    let c = choose_light(p, n, total, u_choice);
+    if (!c.ok) {
         return no_light();
     }
-    let uc = (u_choice - P.env_prob) / (1.0 - P.env_prob);
-    // The first light whose CDF exceeds uc.
-    var lo = 0u;
-    var hi = P.light_count - 1u;
-    while (lo < hi) {
-        let mid = (lo + hi) / 2u;
-        if (lights[LIGHT_WORDS * mid + 2u].w > uc) {
-            hi = mid;
-        } else {
-            lo = mid + 1u;
-        }
-    }
-    let i = lo;
+    let i = c.light;
     let kind = bitcast<u32>(lights[LIGHT_WORDS * i].w);
     // One texture read for every kind (shaders inline each call): an area
     // light's radiance (its record in word 4) or a spot's or projector's
@@ -418,7 +403,7 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
     var ls: LightSample;
     let projects = kind == LIGHT_SPOT || kind == LIGHT_PROJECTOR;
     if ((kind >= LIGHT_POINT && kind <= LIGHT_DIRECTIONAL) || kind == LIGHT_PROJECTOR) {
-        ls = sample_delta_light(i, p, &uv);
+        ls = sample_delta_light(i, c.prob, p, &uv);
         if (projects) {
             record = bitcast<u32>(lights[LIGHT_WORDS * i + 3u].w);
         }
@@ -426,7 +411,7 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
             uv = spot_uv(i, -ls.wi);
         }
     } else {
-        ls = sample_area_light(i, p, u, &uv);
+        ls = sample_area_light(i, c.prob, p, u, &uv);
         record = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].w);
     }
     if (record != NONE && ls.ok) {
@@ -440,7 +425,7 @@ fn sample_light(p: vec3<f32>, u_choice: f32, u: vec2<f32>) -> LightSample {
 
 // Area light `i` sampled from `p`: its constant radiance (the mean of a
 // textured one, which the caller reads at `*uv`).
-fn sample_area_light(i: u32, p: vec3<f32>, u: vec2<f32>, uv: ptr<function, vec2<f32>>) -> LightSample {
+fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, uv: ptr<function, vec2<f32>>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let r1 = lights[LIGHT_WORDS * i + 1u];
     let kind = bitcast<u32>(r0.w);
@@ -468,7 +453,7 @@ fn sample_area_light(i: u32, p: vec3<f32>, u: vec2<f32>, uv: ptr<function, vec2<
             let disc = max(b * b - (dot(oc, oc) - r1.x * r1.x), 0.0);
             cone_wi = wi;
             cone_t = -b - sqrt(disc);
-            cone_pdf = light_choice_pdf(i) / (2.0 * PI * (1.0 - cos_max));
+            cone_pdf = choice / (2.0 * PI * (1.0 - cos_max));
             n = normalize(oc + cone_t * wi);
         } else {
             n = square_to_uniform_sphere(u);
@@ -507,6 +492,6 @@ fn sample_area_light(i: u32, p: vec3<f32>, u: vec2<f32>, uv: ptr<function, vec2<
     if (cos_l <= 0.0) {
         return no_light();
     }
-    let pdf = light_choice_pdf(i) * dist * dist / (cos_l * r1.w);
+    let pdf = choice * dist * dist / (cos_l * r1.w);
     return LightSample(wi, dist, le, pdf, false, true);
 }

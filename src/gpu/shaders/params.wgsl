@@ -41,6 +41,10 @@ struct Params {
     aperture_rotation: f32,
     off_density: u32,
     beckmann_table: u32,
+    group_base: u32,
+    unbounded_groups: u32,
+    bounded_groups: u32,
+    p_unbounded: f32,
 }
 
 const ENV_NONE: u32 = 0u;

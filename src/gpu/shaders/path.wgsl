@@ -83,6 +83,10 @@ fn li(camera: Ray) -> vec3<f32> {
     var specular = true;
     var prev_pdf = 0.0;
     var prev_p = ray.o;
+    // The previous vertex's shading normal and choice_total (for the MIS
+    // weight of a light its BSDF sample finds).
+    var prev_n = vec3<f32>(0.0);
+    var prev_total = 0.0;
     var eta_scale = 1.0;
     var depth = 0u;
     // Mitsuba's hide_emitters: the camera ray passes through up to 64
@@ -122,7 +126,8 @@ fn li(camera: Ray) -> vec3<f32> {
         if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide)) {
             var w = 1.0;
             if (!specular) {
-                w = power_heuristic(prev_pdf, area_pdf(s.light, prev_p, s.p, s.ng));
+                let choice = light_choice_pdf(s.light, prev_p, prev_n, prev_total);
+                w = power_heuristic(prev_pdf, area_pdf(s.light, choice, prev_p, s.p, s.ng));
             }
             l += beta * light_radiance(s.light, s.uv) * w;
         }
@@ -138,8 +143,10 @@ fn li(camera: Ray) -> vec3<f32> {
         // Next-event estimation.
         let u_choice = next_1d();
         let u_light = next_2d();
+        var total = 0.0;
         if (!is_specular()) {
-            let ls = sample_light(s.p, u_choice, u_light);
+            total = choice_total(s.p, s.ns);
+            let ls = sample_light(s.p, s.ns, total, u_choice, u_light);
             if (ls.ok) {
                 let wo = to_local(frame, ls.wi);
                 let fp = bsdf_eval_pdf(wi, wo);
@@ -186,6 +193,8 @@ fn li(camera: Ray) -> vec3<f32> {
         specular = bs.specular;
         prev_pdf = select(bs.pdf, 0.0, bs.specular);
         prev_p = s.p;
+        prev_n = s.ns;
+        prev_total = total;
         if (max3(beta) <= 0.0) {
             break;
         }
