@@ -8,7 +8,7 @@
 //! blends;
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
 //! checkerboard radiance), point, spot (plain and projecting a bitmap) and
-//! directional lights, a constant sky and
+//! directional lights, the light choice past 64 emitters, a constant sky and
 //! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
 //! sun); perspective, thin-lens (disk and polygon) and orthographic
 //! cameras; hide_emitters; and the showcase.
@@ -118,6 +118,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/principled.xml",
         "tests/conformance/principled_thin.xml",
         "tests/gpu/principled_thin.xml",
+        "tests/gpu/many_lights.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();
