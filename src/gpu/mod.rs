@@ -36,6 +36,7 @@ const PATH_SHADER: &str = concat!(
     include_str!("shaders/texture.wgsl"),
     include_str!("shaders/bsdf.wgsl"),
     include_str!("shaders/principled.wgsl"),
+    include_str!("shaders/spherical_triangle.wgsl"),
     include_str!("shaders/light_choice.wgsl"),
     include_str!("shaders/emitter.wgsl"),
     include_str!("shaders/path.wgsl"),

@@ -8,7 +8,8 @@
 //! blends;
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
 //! checkerboard radiance), point, spot (plain and projecting a bitmap) and
-//! directional lights, the light choice past 64 emitters, a constant sky and
+//! directional lights, the light choice past 64 emitters, a light triangle
+//! sampled by solid angle, a constant sky and
 //! environment maps (Mitsuba's and Nori's texel rows, a real probe with a
 //! sun); perspective, thin-lens (disk and polygon) and orthographic
 //! cameras; hide_emitters; and the showcase.
@@ -119,6 +120,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/conformance/principled_thin.xml",
         "tests/gpu/principled_thin.xml",
         "tests/gpu/many_lights.xml",
+        "bench/lights/near_light.xml",
     ];
     let pairs: Vec<_> = files.iter().map(|f| (*f, estimates(f))).collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();

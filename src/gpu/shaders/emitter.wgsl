@@ -1,5 +1,6 @@
 // Emitter sampling (next-event estimation) and the densities MIS weighs
-// against: area lights (triangles, spheres and disks, by area, one-sided) and
+// against: area lights (triangles by area or, where large, by solid angle;
+// spheres by their cone; disks by area; one-sided) and
 // point, spot and directional lights, chosen by light_choice.wgsl, and
 // the environment: constant (uniform sphere) or a lat-long map.
 // A light's record (flatten.rs, LIGHT_WORDS vec4s): [0] = (p0, centre,
@@ -13,6 +14,7 @@
 // and the image's aspect ratio in [4].w.
 
 const LIGHT_WORDS: u32 = 6u;
+const LIGHT_TRIANGLE: u32 = 0u;
 const LIGHT_SPHERE: u32 = 1u;
 const LIGHT_POINT: u32 = 2u;
 const LIGHT_SPOT: u32 = 3u;
@@ -50,6 +52,13 @@ fn sphere_cone_cos(p: vec3<f32>, c: vec3<f32>, r: f32) -> f32 {
 // `choice`.
 fn area_pdf(i: u32, choice: f32, p: vec3<f32>, q: vec3<f32>, n: vec3<f32>) -> f32 {
     let r0 = lights[LIGHT_WORDS * i];
+    if (bitcast<u32>(r0.w) == LIGHT_TRIANGLE) {
+        // Sampled by the solid angle it subtends from p, where large.
+        let omega = spherical_omega(r0.xyz, lights[LIGHT_WORDS * i + 1u].xyz, lights[LIGHT_WORDS * i + 2u].xyz, p);
+        if (omega > 0.0) {
+            return choice / omega;
+        }
+    }
     if (bitcast<u32>(r0.w) == LIGHT_SPHERE) {
         let cos_max = sphere_cone_cos(p, r0.xyz, lights[LIGHT_WORDS * i + 1u].x);
         if (cos_max < 1.0) {
@@ -435,6 +444,8 @@ fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, uv: ptr<fu
     var cone_wi = vec3<f32>(0.0);
     var cone_t = 0.0;
     var cone_pdf = 0.0;
+    // A triangle's solid-angle density where it is sampled so.
+    var solid_pdf = 0.0;
     if (kind == LIGHT_SPHERE) {
         // A sphere seen from outside: uniformly in the cone it fills
         // (geometry/sphere.rs's sample_cone), else by area.
@@ -466,8 +477,20 @@ fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, uv: ptr<fu
         n = lights[LIGHT_WORDS * i + 4u].xyz;
         *uv = disk_uv(l);
     } else {
-        let b = square_to_uniform_triangle(u);
         let p2 = lights[LIGHT_WORDS * i + 2u].xyz;
+        var b = square_to_uniform_triangle(u);
+        // A triangle large from p: uniformly in the solid angle it
+        // subtends (area.rs's sample_spherical), else by area.
+        let omega = spherical_omega(r0.xyz, r1.xyz, p2, p);
+        if (omega > 0.0) {
+            let d = sample_spherical_triangle(normalize(r0.xyz - p), normalize(r1.xyz - p), normalize(p2 - p), u);
+            let along = barycentrics_along(r0.xyz, r1.xyz, p2, p, d.xyz);
+            if (d.w == 0.0 || along.z == 0.0) {
+                return no_light();
+            }
+            b = along.xy;
+            solid_pdf = choice / omega;
+        }
         q = (1.0 - b.x - b.y) * r0.xyz + b.x * r1.xyz + b.y * p2;
         n = normalize(cross(r1.xyz - r0.xyz, p2 - r0.xyz));
         // The triangle's vertex uvs, as surface_at interpolates them.
@@ -492,6 +515,9 @@ fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, uv: ptr<fu
     if (cos_l <= 0.0) {
         return no_light();
     }
-    let pdf = choice * dist * dist / (cos_l * r1.w);
+    var pdf = choice * dist * dist / (cos_l * r1.w);
+    if (solid_pdf > 0.0) {
+        pdf = solid_pdf;
+    }
     return LightSample(wi, dist, le, pdf, false, true);
 }
