@@ -194,7 +194,11 @@ pub struct Params {
     pub near_clip: f32,
     pub far_clip: f32,
     pub filter_radius: f32,
-    pub light_count: u32,
+    /// 1 where the bounded emitters are chosen by power (more than
+    /// `EXHAUSTIVE_MAX` of them), 0 where weighed per shading point: the
+    /// tables' decision (`light_groups.rs`), which the shader reads
+    /// rather than repeating the limit.
+    pub bounded_by_power: u32,
     /// Constant environment radiance.
     pub env: [f32; 4],
     /// Probability that emitter sampling picks the environment.
@@ -304,7 +308,7 @@ fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
     Err(Unsupported(what.into()))
 }
 
-fn bits(u: u32) -> f32 {
+pub(super) fn bits(u: u32) -> f32 {
     f32::from_bits(u)
 }
 
@@ -1323,6 +1327,17 @@ impl GpuScene {
         // (`light_groups.rs`).
         let mut lights = Vec::new();
         let mut groups: Vec<LightGroup> = Vec::new();
+        // Emitter `e`'s group, its records from `first` on (weights added
+        // as they come).
+        let group = |e: usize, first: usize| {
+            let power = scene.emitters[e].power(&ctx);
+            LightGroup {
+                bounds: LightBounds::of(&scene.emitters[e], &ctx, power),
+                power,
+                first,
+                weights: Vec::new(),
+            }
+        };
         let mut group_of_emitter = vec![NONE; scene.emitters.len()];
         let mut prim_light = vec![NONE; prims.len()];
         let mut light_count = 0usize;
@@ -1397,25 +1412,16 @@ impl GpuScene {
                 let e = e as usize;
                 if group_of_emitter[e] == NONE {
                     group_of_emitter[e] = groups.len() as u32;
-                    let power = scene.emitters[e].power(&ctx);
-                    groups.push(LightGroup {
-                        bounds: LightBounds::of(&scene.emitters[e], &ctx, power),
-                        power,
-                        first: light_count,
-                        weights: Vec::new(),
-                    });
+                    groups.push(group(e, light_count));
                 }
                 groups[group_of_emitter[e] as usize].weights.push(area);
                 light_count += 1;
             }
         }
         for (rec, e) in delta_lights {
-            let power = scene.emitters[e].power(&ctx);
             groups.push(LightGroup {
-                bounds: LightBounds::of(&scene.emitters[e], &ctx, power),
-                power,
-                first: light_count,
                 weights: vec![1.0],
+                ..group(e, light_count)
             });
             lights.extend(rec);
             lights.push([0.0; 4]);
@@ -1571,7 +1577,7 @@ impl GpuScene {
             near_clip: cam.near_clip,
             far_clip: cam.far_clip,
             filter_radius: radius,
-            light_count: light_count as u32,
+            bounded_by_power: choice.bounded_by_power as u32,
             env,
             env_prob: choice.env_prob,
             group_base,
@@ -1686,9 +1692,10 @@ mod tests {
     fn lights_are_records_in_emitter_groups() {
         let (scene, job) = veach();
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
-        let n = flat.params.light_count as usize;
+        let n = flat.params.group_base as usize / LIGHT_WORDS;
         let groups = (flat.params.unbounded_groups + flat.params.bounded_groups) as usize;
         assert_eq!(flat.params.group_base as usize, n * LIGHT_WORDS);
+        assert_eq!(flat.params.bounded_by_power, 0);
         assert_eq!(flat.lights.len(), n * LIGHT_WORDS + groups * GROUP_WORDS);
         let emitters = scene.emitters.len();
         assert!(emitters >= 4, "{emitters} emitters");

@@ -10,7 +10,7 @@
 
 use crate::emitter::{LightBounds, EXHAUSTIVE_MAX};
 
-use super::flatten::LIGHT_WORDS;
+use super::flatten::{bits, LIGHT_WORDS};
 
 /// Vec4 words per emitter group: (bounds centre, radius), (emission axis,
 /// cos theta_o), (power, first light record as bits, record count as bits,
@@ -39,10 +39,9 @@ pub struct ChoiceTables {
     /// Groups at infinity come first, then the bounded ones.
     pub unbounded_groups: u32,
     pub bounded_groups: u32,
-}
-
-fn bits(u: usize) -> f32 {
-    f32::from_bits(u as u32)
+    /// Whether the bounded groups are chosen by power (more than
+    /// [`EXHAUSTIVE_MAX`]), not weighed per point.
+    pub bounded_by_power: bool,
 }
 
 /// The group records for `groups` (those without power are never chosen)
@@ -107,7 +106,12 @@ pub fn choice_tables(
         });
         records.push([b.centre.x, b.centre.y, b.centre.z, b.radius]);
         records.push([b.axis.x, b.axis.y, b.axis.z, b.cos_theta_o]);
-        records.push([g.power, bits(g.first), bits(g.weights.len()), upper as f32]);
+        records.push([
+            g.power,
+            bits(g.first as u32),
+            bits(g.weights.len() as u32),
+            upper as f32,
+        ]);
         // The choice within the group.
         let total: f64 = g.weights.iter().map(|&w| w.max(0.0) as f64).sum();
         let mut below = 0.0f64;
@@ -120,7 +124,7 @@ pub fn choice_tables(
             } else {
                 below as f32
             };
-            rec[5] = [bits(k), p as f32, 0.0, 0.0];
+            rec[5] = [bits(k as u32), p as f32, 0.0, 0.0];
         }
     }
     // The last fixed choice ends at one (rounding).
@@ -135,6 +139,7 @@ pub fn choice_tables(
         p_unbounded: p_unbounded as f32,
         unbounded_groups: unbounded.len() as u32,
         bounded_groups: bounded.len() as u32,
+        bounded_by_power: by_power,
     }
 }
 
@@ -176,6 +181,7 @@ mod tests {
         ];
         let t = choice_tables(&groups, Some(3.0), &mut lights);
         assert_eq!((t.unbounded_groups, t.bounded_groups), (1, 1));
+        assert!(!t.bounded_by_power);
         assert!((t.p_unbounded - 2.0 / 3.0).abs() < 1e-6);
         assert!((t.env_prob - 0.5).abs() < 1e-6, "{}", t.env_prob);
         // The directional group first (fixed, ending at p_unbounded),
@@ -203,6 +209,7 @@ mod tests {
             .map(|i| bounded(1.0 + i as f32, i, vec![1.0]))
             .collect();
         let t = choice_tables(&groups, Some(1.0), &mut lights);
+        assert!(t.bounded_by_power);
         assert!((t.p_unbounded - 0.5).abs() < 1e-6);
         let uppers: Vec<f32> = t.groups.chunks(GROUP_WORDS).map(|g| g[2][3]).collect();
         let total = (n * (n + 1) / 2) as f32;

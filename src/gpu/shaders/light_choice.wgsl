@@ -4,14 +4,14 @@
 // triangle by area). Lights at infinity (the environment, then directional
 // lights) share P.p_unbounded by power; bounded emitters are weighed at
 // each point by their light-bounds importance (pbrt-v4's), or by power
-// when there are more than EXHAUSTIVE_MAX of them.
+// when there are more than light_choice.rs's EXHAUSTIVE_MAX of them
+// (P.bounded_by_power, decided by light_groups.rs).
 // A group's words (GROUP_WORDS vec4s from P.group_base in `lights`): (bounds
 // centre, radius), (emission axis, cos theta_o), (power, first record as
 // bits, record count as bits, the fixed choice's CDF up to and including
 // it). A light record's word 5: (its group as bits, probability within it).
 
 const GROUP_WORDS: u32 = 3u;
-const EXHAUSTIVE_MAX: u32 = 64u;
 // light_choice.rs's MIN_FACTOR: the least the cone and normal terms give.
 const MIN_FACTOR: f32 = 0.02;
 const ONE_MINUS_EPSILON: f32 = 0.99999994;
@@ -79,7 +79,7 @@ fn group_importance(g: u32, p: vec3<f32>, n: vec3<f32>) -> f32 {
 
 // Whether the bounded groups are weighed one by one at each point.
 fn weighs_per_point() -> bool {
-    return P.bounded_groups >= 2u && P.bounded_groups <= EXHAUSTIVE_MAX;
+    return P.bounded_groups >= 2u && P.bounded_by_power == 0u;
 }
 
 // LightChoice::at: the sum of the bounded groups' importance at (p, n),
@@ -111,7 +111,7 @@ fn fixed_group_prob(g: u32) -> f32 {
 // Probability that the choice at (p, n), whose choice_total is `total`,
 // picks group `g`.
 fn group_prob(g: u32, p: vec3<f32>, n: vec3<f32>, total: f32) -> f32 {
-    if (g < P.unbounded_groups || P.bounded_groups > EXHAUSTIVE_MAX) {
+    if (g < P.unbounded_groups || P.bounded_by_power != 0u) {
         return fixed_group_prob(g);
     }
     let p_bounded = 1.0 - P.p_unbounded;
@@ -163,7 +163,7 @@ fn choose_light(p: vec3<f32>, n: vec3<f32>, total: f32, u: f32) -> LightChoice {
     var prob = 0.0;
     // `u` rescaled to [0, 1) within the chosen group's share.
     var ug = 0.0;
-    if (u < P.p_unbounded || P.bounded_groups > EXHAUSTIVE_MAX) {
+    if (u < P.p_unbounded || P.bounded_by_power != 0u) {
         var lo = 0u;
         var count = P.unbounded_groups;
         if (u >= P.p_unbounded) {

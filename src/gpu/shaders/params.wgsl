@@ -16,7 +16,7 @@ struct Params {
     near_clip: f32,
     far_clip: f32,
     filter_radius: f32,
-    light_count: u32,
+    bounded_by_power: u32,
     env: vec4<f32>,
     env_prob: f32,
     node_count: u32,
