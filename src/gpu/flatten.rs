@@ -11,7 +11,7 @@ use crate::bsdf::distribution::{MicrofacetDistribution, MicrofacetType};
 use crate::bsdf::{Blend, Bsdf, BsdfParam, Principled, PrincipledThin, Tilt, Tilted};
 use crate::camera::{Aperture, Projection};
 use crate::color::Rgb;
-use crate::emitter::{Emitter, LightBounds};
+use crate::emitter::{Emitter, EnvGpuFacing, LightBounds};
 use crate::geometry::{build_boxes, Geometry, SphereUv};
 use crate::integrator::{Integrator, Strategy};
 use crate::math::{Aabb, Transform, Vec2, Vec3, PI};
@@ -135,8 +135,14 @@ pub const TILT_INSIDE_TWO_SIDED: u32 = 4;
 /// tilt the normal), its second number the map's scale.
 pub const TILT_BUMP: u32 = 16;
 
+/// Set in the kind word of a shape's (front) record where its BSDF
+/// `favours_facing_light`: light sampling at its first vertex then uses the
+/// environment map's facing density (`envmap/facing.rs`), as the CPU does.
+pub const MAT_FACING: u32 = 0x40000;
+
 /// Every flag of a kind word (the rest is the kind).
-pub const MAT_FLAGS: u32 = MAT_EMITS | MAT_TWO_SIDED | MAT_MASK | MAT_BACK | MAT_TEXTURED_ANY;
+pub const MAT_FLAGS: u32 =
+    MAT_EMITS | MAT_TWO_SIDED | MAT_MASK | MAT_BACK | MAT_TEXTURED_ANY | MAT_FACING;
 
 /// Every texture flag.
 pub const MAT_TEXTURED_ANY: u32 = MAT_TEXTURED
@@ -243,8 +249,15 @@ pub struct Params {
     pub unbounded_groups: u32,
     pub bounded_groups: u32,
     pub p_unbounded: f32,
-    /// To WGSL's size of the struct (a multiple of 16 bytes).
-    pub _pad: [u32; 3],
+    /// The env map's facing density (`EnvGpuFacing`; `env_blocks` 0 where
+    /// it has none): where its tables start in `env_data`, and its blocks.
+    pub off_block_cdf: u32,
+    pub off_band_sums: u32,
+    pub off_cell_sums: u32,
+    pub env_blocks: u32,
+    pub env_blocks_across: u32,
+    pub env_block_col_shift: u32,
+    pub env_block_band_shift: u32,
 }
 
 /// `Params::env_kind`.
@@ -292,7 +305,8 @@ pub struct GpuScene {
     pub filter_table: Vec<f32>,
     /// The environment map's tables (`EnvGpuTables`), one after another:
     /// texels (RGB), band edges, inverse band heights, texel rows (as
-    /// bits), band CDF, column CDFs.
+    /// bits), band CDF, column CDFs, density values, and the facing
+    /// density's block CDFs, band and cell running sums.
     pub env_data: Vec<f32>,
     /// Bit `1 << kind` for every material kind some record or blend layer
     /// has: the shader is specialised to them ([`GpuScene::shader_constants`]).
@@ -1073,6 +1087,9 @@ impl GpuScene {
             if scene.shape_emitter[s].is_some() {
                 words[0][3] = bits(words[0][3].to_bits() | MAT_EMITS);
             }
+            if scene.bsdfs[s].favours_facing_light() {
+                words[0][3] = bits(words[0][3].to_bits() | MAT_FACING);
+            }
             shapes.extend(words);
             let (emission, texture) = match scene.shape_emitter[s] {
                 Some(e) => match &scene.emitters[e as usize] {
@@ -1301,9 +1318,12 @@ impl GpuScene {
             }
         }
         let mut env_data: Vec<f32> = Vec::new();
-        let mut offsets = [0u32; 6];
+        let mut offsets = [0u32; 9];
         if let Some(t) = &tables {
             env_data.extend(t.texels.iter().flatten());
+            let facing = |f: fn(&EnvGpuFacing) -> &Vec<f32>| {
+                t.facing.as_ref().map_or_else(Vec::new, |g| f(g).clone())
+            };
             for (k, part) in [
                 t.edges.clone(),
                 t.inv_heights.clone(),
@@ -1311,6 +1331,9 @@ impl GpuScene {
                 t.band_cdf.clone(),
                 t.col_cdf.clone(),
                 t.density.clone(),
+                facing(|g| &g.block_cdf),
+                facing(|g| &g.band_sums),
+                facing(|g| &g.cell_sums),
             ]
             .into_iter()
             .enumerate()
@@ -1612,7 +1635,16 @@ impl GpuScene {
                 params.off_band_cdf,
                 params.off_col_cdf,
                 params.off_density,
+                params.off_block_cdf,
+                params.off_band_sums,
+                params.off_cell_sums,
             ] = offsets;
+            if let Some(f) = &t.facing {
+                params.env_blocks = f.blocks;
+                params.env_blocks_across = f.across;
+                params.env_block_col_shift = f.col_shift;
+                params.env_block_band_shift = f.band_shift;
+            }
         }
         Ok(GpuScene {
             params,
@@ -1682,6 +1714,44 @@ mod tests {
         };
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         assert_eq!((flat.params.max_depth, flat.params.rr_depth), (7, 4));
+    }
+
+    /// A map of a few small bright boxes (where sampling for what a
+    /// surface faces pays, `envmap/facing.rs`) gets the facing tables: per
+    /// normal bin a CDF over the blocks ending at one, or zeros for a bin
+    /// that sees no light. Shapes whose BSDF favours facing light are flagged, the
+    /// glass sphere not; a smooth sunset probe gets no facing tables.
+    #[test]
+    fn facing_tables_and_flags() {
+        let (scene, job) = load("tests/gpu/env_facing.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let p = flat.params;
+        let blocks = p.env_blocks as usize;
+        assert!(blocks > 0);
+        let rows = &flat.env_data[p.off_block_cdf as usize..][..64 * blocks];
+        let (mut seeing, mut blind) = (0, 0);
+        for row in rows.chunks(blocks) {
+            if row.iter().all(|&c| c == 0.0) {
+                blind += 1;
+                continue;
+            }
+            seeing += 1;
+            assert!(row.windows(2).all(|w| w[0] <= w[1]));
+            assert_eq!(row[blocks - 1], 1.0);
+        }
+        assert!(seeing > blind, "{seeing} bins see light, {blind} none");
+        assert!(p.off_band_sums > p.off_block_cdf && p.off_cell_sums > p.off_band_sums);
+        let cells = (p.env_width * p.env_bands) as usize;
+        assert_eq!(flat.env_data.len(), p.off_cell_sums as usize + cells);
+        let facing: Vec<bool> = (0..scene.geometry.len())
+            .map(|s| flat.shapes[SHAPE_WORDS * s][3].to_bits() & MAT_FACING != 0)
+            .collect();
+        assert_eq!(facing, [true, true, true, false, true]);
+
+        let (scene, job) = load("tests/gpu/env_sunset_nori.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        assert_eq!(flat.params.env_kind, ENV_MAP);
+        assert_eq!(flat.params.env_blocks, 0);
     }
 
     /// Every light is one record in its emitter's group: Veach's spheres
@@ -2068,6 +2138,7 @@ mod tests {
             ("MAT_TEXTURED_MASK", MAT_TEXTURED_MASK),
             ("MAT_BACK", MAT_BACK),
             ("MAT_NORMAL_MAP", MAT_NORMAL_MAP),
+            ("MAT_FACING", MAT_FACING),
             ("TILT_FLIP", TILT_FLIP),
             ("TILT_SHADOW", TILT_SHADOW),
             ("TILT_INSIDE_TWO_SIDED", TILT_INSIDE_TWO_SIDED),
@@ -2121,7 +2192,7 @@ mod tests {
         let top = |s: usize| flat.shapes[s * SHAPE_WORDS];
         // The floor: a bitmap weight; a checkerboard diffuse and a rough
         // plastic.
-        assert_eq!(kind(top(0)), MAT_BLEND | MAT_TEXTURED);
+        assert_eq!(kind(top(0)), MAT_BLEND | MAT_TEXTURED | MAT_FACING);
         let weight = word(top(0)[0]);
         assert_eq!(
             weight[3].to_bits() as usize,
@@ -2198,7 +2269,10 @@ mod tests {
             panic!("with a bitmap");
         };
         let words = &flat.shapes[0..SHAPE_WORDS];
-        assert_eq!(words[0][3].to_bits(), MAT_DIFFUSE | MAT_TEXTURED);
+        assert_eq!(
+            words[0][3].to_bits(),
+            MAT_DIFFUSE | MAT_TEXTURED | MAT_FACING
+        );
         let record = words[0][0].to_bits() as usize;
         let header = &flat.shapes[record..record + 3];
         let img = b.image();

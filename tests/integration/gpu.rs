@@ -100,6 +100,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "scenes/cbox/cbox.xml",
         "tests/gpu/env_rows.xml",
         "tests/gpu/env_sunset_nori.xml",
+        "tests/gpu/env_facing.xml",
         "tests/gpu/glossy_delta_lights.xml",
         "scenes/showcase/showcase-mirror.xml",
         "tests/gpu/hidden_emitters.xml",

@@ -333,6 +333,24 @@ pub(super) struct FacingWarp {
     /// of a block up to it (row-major, like the cells): a segment's sums
     /// are one cache line.
     cell_sums: Vec<f32>,
+    /// Per block, the map's integral over it (what the bins' alias
+    /// tables weigh by their cosine bounds; kept for the GPU's tables).
+    block_weights: Vec<f64>,
+}
+
+/// A facing density as the GPU backend reads it (`gpu_tables.rs`): how
+/// cells group into blocks, each bin's block weights (zero for a bin that
+/// sees no light), and the running sums the CPU samples bands and cells
+/// with.
+pub(super) struct FacingParts<'a> {
+    pub across: u32,
+    pub col_shift: u32,
+    pub band_shift: u32,
+    pub blocks: u32,
+    /// `BINS` rows of `blocks` weights, as the alias tables have them.
+    pub pick_weights: Vec<f32>,
+    pub band_sums: &'a [f32],
+    pub cell_sums: &'a [f32],
 }
 
 /// Below this predicted ratio of variances (facing density / map's, see
@@ -409,28 +427,31 @@ impl FacingWarp {
                 warp.running_cell_weights(cols.clone(), band, &mut cell_sums[band * w..][cols]);
             }
         }
-        let total: f64 = block_weights.iter().sum();
-        let mut pick_weights = vec![0.0f32; BINS * blocks.count()];
         let mut scales = vec![0.0f32; BINS];
-        for (bin, scale) in scales.iter_mut().enumerate() {
-            let row = &mut pick_weights[bin * blocks.count()..(bin + 1) * blocks.count()];
-            for (k, (p, &w)) in row.iter_mut().zip(&block_weights).enumerate() {
-                *p = (bounds.cos(bin, k) as f64 * w) as f32;
-            }
-            let seen: f64 = row.iter().map(|&p| p as f64).sum();
-            if seen > 0.0 && total > 0.0 {
-                *scale = (total / seen) as f32;
-            } else {
-                row.fill(0.0);
-            }
-        }
+        let pick_weights = pick_weights(bounds, &block_weights, &mut scales);
         Some(FacingWarp {
             bounds: bounds.clone(),
             picks: AliasRows::new(&pick_weights, blocks.count()),
             scales,
             band_sums,
             cell_sums,
+            block_weights,
         })
+    }
+
+    /// What the GPU backend reads (see [`FacingParts`]).
+    pub fn parts(&self) -> FacingParts<'_> {
+        let b = &self.bounds.blocks;
+        let mut scales = vec![0.0f32; BINS];
+        FacingParts {
+            across: b.across as u32,
+            col_shift: b.col_shift,
+            band_shift: b.band_shift,
+            blocks: b.count() as u32,
+            pick_weights: pick_weights(&self.bounds, &self.block_weights, &mut scales),
+            band_sums: &self.band_sums,
+            cell_sums: &self.cell_sums,
+        }
     }
 
     /// The factor from the map's (u, v) density to bin `bin`'s at a point.
@@ -467,6 +488,28 @@ impl FacingWarp {
         let (i, ux) = pick_running(&self.cell_sums[band * w..][cols.clone()], ux)?;
         Some(warp.place(CellPick::new(cols.start + i, band, ux, uy)))
     }
+}
+
+/// Per bin, the blocks' weights `c x block weight` (`BINS` rows; a row of
+/// zeros for a bin that sees no light), and each bin's `Z / Z_bin` in
+/// `scales` (zero for such a bin).
+fn pick_weights(bounds: &FacingBounds, block_weights: &[f64], scales: &mut [f32]) -> Vec<f32> {
+    let count = block_weights.len();
+    let total: f64 = block_weights.iter().sum();
+    let mut weights = vec![0.0f32; BINS * count];
+    for (bin, scale) in scales.iter_mut().enumerate() {
+        let row = &mut weights[bin * count..(bin + 1) * count];
+        for (k, (p, &w)) in row.iter_mut().zip(block_weights).enumerate() {
+            *p = (bounds.cos(bin, k) as f64 * w) as f32;
+        }
+        let seen: f64 = row.iter().map(|&p| p as f64).sum();
+        if seen > 0.0 && total > 0.0 {
+            *scale = (total / seen) as f32;
+        } else {
+            row.fill(0.0);
+        }
+    }
+    weights
 }
 
 /// Picks an entry of running sums `sums` (non-decreasing) with `u` in

@@ -2,9 +2,11 @@
 //! texels, the grid's cells exactly as [`TexelGrid`] lays them out (so the
 //! GPU's lookup is this one), the rotation both ways, and the CPU's own
 //! MIS-compensated sampling density (`warp.rs`: bilinear in each cell for
-//! the bilinear filter, what `path`'s MIS samples with; not the facing
-//! densities) as its values and CDFs over bands and cells in place of the
-//! alias tables (binary searches suit a GPU).
+//! the bilinear filter, what `path`'s MIS samples with) as its values and
+//! CDFs over bands and cells in place of the alias tables (binary searches
+//! suit a GPU), and that density's facing version where it has one
+//! (`facing.rs`: per normal bin a CDF over blocks, then the CPU's own
+//! running sums over a block's bands and a band's cells).
 
 use super::warp::band_integral;
 use super::{EnvFilter, EnvMap};
@@ -37,6 +39,25 @@ pub struct EnvGpuTables {
     pub to_world: [[f32; 3]; 3],
     pub to_local: [[f32; 3]; 3],
     pub visible: bool,
+    /// The facing density's tables, where the map has one.
+    pub facing: Option<EnvGpuFacing>,
+}
+
+/// A facing density's tables (see `facing.rs`).
+pub struct EnvGpuFacing {
+    /// Blocks along u; log2 of the columns and of the bands per block.
+    pub across: u32,
+    pub col_shift: u32,
+    pub band_shift: u32,
+    pub blocks: u32,
+    /// Per normal bin (`facing::BINS` of them), the upper ends of its CDF
+    /// over the blocks; all zeros for a bin that sees no light.
+    pub block_cdf: Vec<f32>,
+    /// Per block, running sums over its bands (`1 << band_shift` each).
+    pub band_sums: Vec<f32>,
+    /// Per cell (row-major), the running sum over its band's segment of
+    /// its block up to it.
+    pub cell_sums: Vec<f32>,
 }
 
 /// The upper ends of `weights`' CDF cells (a [`Distribution1D`]'s running
@@ -90,6 +111,30 @@ impl EnvMap {
             to_world: rot(m),
             to_local: rot(inv),
             visible: self.visible,
+            facing: self
+                .warp(LightPdf::MisCompensated)?
+                .facing
+                .as_ref()
+                .map(|f| {
+                    let parts = f.parts();
+                    let mut block_cdf = Vec::with_capacity(parts.pick_weights.len());
+                    for row in parts.pick_weights.chunks(parts.blocks as usize) {
+                        if row.iter().any(|&w| w > 0.0) {
+                            block_cdf.extend(cdf(row));
+                        } else {
+                            block_cdf.extend(std::iter::repeat_n(0.0, row.len()));
+                        }
+                    }
+                    EnvGpuFacing {
+                        across: parts.across,
+                        col_shift: parts.col_shift,
+                        band_shift: parts.band_shift,
+                        blocks: parts.blocks,
+                        block_cdf,
+                        band_sums: parts.band_sums.to_vec(),
+                        cell_sums: parts.cell_sums.to_vec(),
+                    }
+                }),
         })
     }
 }

@@ -72,6 +72,7 @@ mod grid;
 mod latlong;
 mod warp;
 
+pub use gpu_tables::{EnvGpuFacing, EnvGpuTables};
 pub use grid::TexelRows;
 
 use crate::color::{luminance, Rgb};

@@ -102,8 +102,12 @@ const MAT_BACK: u32 = 0x8000u;
 // texture's record, D.w the TILT_* flags (flatten.rs), D.y a bump map's
 // scale.
 const MAT_NORMAL_MAP: u32 = 0x10000u;
+// Set in a shape's front record where the BSDF favours facing light
+// (bsdf/mod.rs's favours_facing_light): the environment map's facing
+// density serves light sampling at the path's first vertex.
+const MAT_FACING: u32 = 0x40000u;
 const MAT_FLAGS: u32 = MAT_EMITS | MAT_TEXTURED | MAT_TEXTURED_B | MAT_TEXTURED_C | MAT_TEXTURED_ALPHA
-    | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK | MAT_NORMAL_MAP;
+    | MAT_TWO_SIDED | MAT_MASK | MAT_TEXTURED_MASK | MAT_BACK | MAT_NORMAL_MAP | MAT_FACING;
 
 // The current layer's kind.
 fn material_kind() -> u32 {
@@ -142,6 +146,7 @@ var<private> mat_flags: u32;
 var<private> mat_layers: u32;
 var<private> mat_blend_w: f32;
 var<private> mat_specular: bool;
+var<private> mat_facing: bool;
 var<private> mat_opacity: f32;
 // A normal map's texel as a normal (2c - 1), or a bump map's height
 // slopes along u and v (times its scale) in x and y; the TILT_* flags
@@ -238,6 +243,7 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
         second_layer = layer_at(bitcast<u32>(w0.z));
         kinds.y = bitcast<u32>(shapes[second_layer.base].w);
     }
+    mat_facing = (front_flags & MAT_FACING) != 0u;
     mat_specular = (kinds.x & ~MAT_FLAGS) >= MAT_MIRROR
         && (!blend || (kinds.y & ~MAT_FLAGS) >= MAT_MIRROR);
     // One loop, so the texture lookup is inlined once: the mask's opacity,
@@ -298,6 +304,11 @@ fn shape_emits(shape: u32) -> bool {
 // Purely specular materials: no light sampling at their surfaces.
 fn is_specular() -> bool {
     return mat_specular;
+}
+
+// bsdf/mod.rs's favours_facing_light, decided per shape (MAT_FACING).
+fn favours_facing_light() -> bool {
+    return mat_facing;
 }
 
 fn reflect_about(wi: vec3<f32>, m: vec3<f32>) -> vec3<f32> {

@@ -194,8 +194,9 @@ fn sample_linear(a: f32, b: f32, u: f32) -> f32 {
 }
 
 // Radiance along world direction `d` (rgb) and the density emitter
-// sampling would have chosen it with, the choice included (w).
-fn env_eval_pdf(d: vec3<f32>) -> vec4<f32> {
+// sampling would have chosen it with, the choice included (w): the map's,
+// or its facing density's for normal bin `bin` (NONE: the map's).
+fn env_eval_pdf(d: vec3<f32>, bin: u32) -> vec4<f32> {
     if (P.env_kind == ENV_CONSTANT) {
         return vec4<f32>(P.env.xyz, P.env_prob * 0.25 * INV_PI);
     }
@@ -210,7 +211,13 @@ fn env_eval_pdf(d: vec3<f32>) -> vec4<f32> {
     }
     let v = clamp(atan2(sin_theta, l.y) * INV_PI, 0.0, 1.0);
     let c = env_locate(vec2<f32>(u, v));
-    return vec4<f32>(env_lookup(c), P.env_prob * env_cell_pdf(c, sin_theta));
+    var pdf = 0.0;
+    if (bin == NONE) {
+        pdf = env_cell_pdf(c, sin_theta);
+    } else {
+        pdf = env_facing_pdf(c, sin_theta, bin);
+    }
+    return vec4<f32>(env_lookup(c), P.env_prob * pdf);
 }
 
 // The first index in cdf[base .. base + n] whose value exceeds `x`.
@@ -228,10 +235,15 @@ fn env_search(base: u32, n: u32, x: f32) -> u32 {
     return lo;
 }
 
-fn sample_env(u: vec2<f32>) -> LightSample {
+// A light sample of the environment with `u`, from the map's density or,
+// for normal bin `bin` (not NONE), from its facing density.
+fn sample_env(u: vec2<f32>, bin: u32) -> LightSample {
     if (P.env_kind == ENV_CONSTANT) {
         let wi = square_to_uniform_sphere(u);
         return LightSample(wi, INF, P.env.xyz, P.env_prob * 0.25 * INV_PI, false, true);
+    }
+    if (bin != NONE) {
+        return sample_env_facing(u, bin);
     }
     // A band, then a column in it; what is left of each number places the
     // point inside the cell.
@@ -247,7 +259,14 @@ fn sample_env(u: vec2<f32>) -> LightSample {
     if (col > 0u) {
         c0 = env_data[base + col - 1u];
     }
-    var fx = clamp((u.x - c0) / (env_data[base + col] - c0), 0.0, 1.0);
+    let fx = clamp((u.x - c0) / (env_data[base + col] - c0), 0.0, 1.0);
+    return env_place(band, col, fx, fy_u, NONE);
+}
+
+// The point of cell (band, col) that (fx, fy) in [0, 1]^2 places (warp.rs's
+// place), as a light sample with its radiance and the density of `bin`.
+fn env_place(band: u32, col: u32, fx_u: f32, fy_u: f32, bin: u32) -> LightSample {
+    var fx = fx_u;
     var fy = fy_u;
     if (P.env_bilinear != 0u) {
         // warp.rs's place: the marginal in u is linear between the column
@@ -276,12 +295,134 @@ fn sample_env(u: vec2<f32>) -> LightSample {
         let wi = normalize(env_rotate(P.env_to_world, l));
         // Radiance and density where the direction lands (the same cell
         // but for rounding).
-        let e = env_eval_pdf(wi);
+        let e = env_eval_pdf(wi, bin);
         if (e.w > 0.0) {
             return LightSample(wi, INF, e.xyz, e.w, false, true);
         }
     }
     return no_light();
+}
+
+// --- The facing density (envmap/facing.rs): for a surface that only
+// reflects, per octahedral bin of its normal (in the map's frame) a CDF
+// over blocks of cells, then the CPU's running sums over the block's
+// bands and over the band's cells in the block. Its pdf is read from the
+// same tables, so that sampling and pdf agree on the device to the bit.
+
+const FACING_BIN_SIDE: u32 = 8u;
+
+// facing.rs's bin_of for a world-space normal; NONE where the map has no
+// facing density, or for a zero or non-finite normal.
+fn env_facing_bin(n_world: vec3<f32>) -> u32 {
+    if (P.env_kind != ENV_MAP || P.env_blocks == 0u) {
+        return NONE;
+    }
+    let n = env_rotate(P.env_to_local, n_world);
+    let l1 = abs(n.x) + abs(n.y) + abs(n.z);
+    if (not_finite(l1) || l1 <= 0.0) {
+        return NONE;
+    }
+    let q = n / l1;
+    var p = vec2<f32>(q.x, q.z);
+    if (q.y < 0.0) {
+        let sx = select(-1.0, 1.0, q.x >= 0.0);
+        let sz = select(-1.0, 1.0, q.z >= 0.0);
+        p = vec2<f32>((1.0 - abs(q.z)) * sx, (1.0 - abs(q.x)) * sz);
+    }
+    let side = FACING_BIN_SIDE - 1u;
+    let cell = min(vec2<u32>((p + 1.0) * (0.5 * f32(FACING_BIN_SIDE))), vec2<u32>(side));
+    return cell.y * FACING_BIN_SIDE + cell.x;
+}
+
+// A block's columns (x, y: start, end) and bands (z, w).
+fn env_block_span(k: u32) -> vec4<u32> {
+    let bx = k % P.env_blocks_across;
+    let by = k / P.env_blocks_across;
+    let cs = P.env_block_col_shift;
+    let bs = P.env_block_band_shift;
+    return vec4<u32>(bx << cs, min((bx + 1u) << cs, P.env_width), by << bs, min((by + 1u) << bs, P.env_bands));
+}
+
+// The share of entry `i` of the running sums at `base` (n of them).
+fn running_share(base: u32, i: u32, n: u32) -> f32 {
+    let total = env_data[base + n - 1u];
+    if (total <= 0.0) {
+        return 0.0;
+    }
+    var lo = 0.0;
+    if (i > 0u) {
+        lo = env_data[base + i - 1u];
+    }
+    return (env_data[base + i] - lo) / total;
+}
+
+struct RunningPick {
+    i: u32,
+    rest: f32,
+}
+
+// facing.rs's pick_running: the first of the n running sums at `base`
+// above u times their total, and u rescaled inside it. The total is
+// positive (the caller's block has weight).
+fn running_pick(base: u32, n: u32, u: f32) -> RunningPick {
+    let t = u * env_data[base + n - 1u];
+    let i = env_search(base, n, t);
+    var lo = 0.0;
+    if (i > 0u) {
+        lo = env_data[base + i - 1u];
+    }
+    let width = env_data[base + i] - lo;
+    var rest = 0.5;
+    if (width > 0.0) {
+        rest = clamp((t - lo) / width, 0.0, 0.99999994);
+    }
+    return RunningPick(i, rest);
+}
+
+// Solid-angle density of the facing density of `bin` at a point of a cell
+// at sin(theta): the probabilities of its block, band and cell, over the
+// cell's (u, v) area, times the cell's shape there.
+fn env_facing_pdf(c: EnvCell, sin_theta: f32, bin: u32) -> f32 {
+    if (sin_theta <= 0.0) {
+        return 0.0;
+    }
+    let k = (c.band >> P.env_block_band_shift) * P.env_blocks_across + (c.col >> P.env_block_col_shift);
+    let span = env_block_span(k);
+    let p_block = running_share(P.off_block_cdf + bin * P.env_blocks, k, P.env_blocks);
+    let bands_per = 1u << P.env_block_band_shift;
+    let p_band = running_share(P.off_band_sums + k * bands_per, c.band - span.z, span.w - span.z);
+    let p_cell = running_share(P.off_cell_sums + c.band * P.env_width + span.x, c.col - span.x, span.y - span.x);
+    let dv = env_data[P.off_edges + c.band + 1u] - env_data[P.off_edges + c.band];
+    let pdf_uv = p_block * p_band * p_cell * f32(P.env_width) / dv * env_cell_shape(c);
+    return pdf_uv / (2.0 * PI * PI * sin_theta);
+}
+
+// facing.rs's sample: a block from the bin's CDF, a band of it, a cell of
+// that band's segment, then the point inside the cell as the map's own
+// density places it.
+fn sample_env_facing(u: vec2<f32>, bin: u32) -> LightSample {
+    let row = P.off_block_cdf + bin * P.env_blocks;
+    if (env_data[row + P.env_blocks - 1u] <= 0.0) {
+        // No surface of this bin sees any light.
+        return no_light();
+    }
+    let block = running_pick(row, P.env_blocks, u.x);
+    let span = env_block_span(block.i);
+    let bands_per = 1u << P.env_block_band_shift;
+    let band_base = P.off_band_sums + block.i * bands_per;
+    let bands = span.w - span.z;
+    if (env_data[band_base + bands - 1u] <= 0.0) {
+        return no_light();
+    }
+    let b = running_pick(band_base, bands, u.y);
+    let band = span.z + b.i;
+    let cell_base = P.off_cell_sums + band * P.env_width + span.x;
+    let cols = span.y - span.x;
+    if (env_data[cell_base + cols - 1u] <= 0.0) {
+        return no_light();
+    }
+    let c = running_pick(cell_base, cols, block.rest);
+    return env_place(band, span.x + c.i, c.rest, b.rest, bin);
 }
 
 // World direction `d` in spot light `i`'s frame (its axis along +z).
@@ -392,11 +533,11 @@ fn light_sphere_uv(i: u32, n: vec3<f32>) -> vec2<f32> {
 }
 
 // A light sample from `p` with shading normal `n`, whose choice_total is
-// `total`: the environment with probability P.env_prob, else the light
-// light_choice.wgsl picks.
-fn sample_light(p: vec3<f32>, n: vec3<f32>, total: f32, u_choice: f32, u: vec2<f32>) -> LightSample {
+// `total`: the environment with probability P.env_prob (for a surface of
+// facing bin `bin`, or NONE), else the light light_choice.wgsl picks.
+fn sample_light(p: vec3<f32>, n: vec3<f32>, total: f32, u_choice: f32, u: vec2<f32>, bin: u32) -> LightSample {
     if (u_choice < P.env_prob) {
-        return sample_env(u);
+        return sample_env(u, bin);
     }
     let c = choose_light(p, n, total, u_choice);
     if (!c.ok) {

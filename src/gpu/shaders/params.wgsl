@@ -45,6 +45,13 @@ struct Params {
     unbounded_groups: u32,
     bounded_groups: u32,
     p_unbounded: f32,
+    off_block_cdf: u32,
+    off_band_sums: u32,
+    off_cell_sums: u32,
+    env_blocks: u32,
+    env_blocks_across: u32,
+    env_block_col_shift: u32,
+    env_block_band_shift: u32,
 }
 
 const ENV_NONE: u32 = 0u;

@@ -87,6 +87,8 @@ fn li(camera: Ray) -> vec3<f32> {
     // weight of a light its BSDF sample finds).
     var prev_n = vec3<f32>(0.0);
     var prev_total = 0.0;
+    // The previous vertex's facing bin for the environment (NONE: none).
+    var prev_bin = NONE;
     var eta_scale = 1.0;
     var depth = 0u;
     // Mitsuba's hide_emitters: the camera ray passes through up to 64
@@ -110,7 +112,7 @@ fn li(camera: Ray) -> vec3<f32> {
                 break;
             }
             if (P.env_kind != ENV_NONE && (depth > 0u || P.env_visible != 0u)) {
-                let e = env_eval_pdf(ray.d);
+                let e = env_eval_pdf(ray.d, prev_bin);
                 var w = 1.0;
                 if (!specular) {
                     w = power_heuristic(prev_pdf, e.w);
@@ -144,9 +146,16 @@ fn li(camera: Ray) -> vec3<f32> {
         let u_choice = next_1d();
         let u_light = next_2d();
         var total = 0.0;
+        var bin = NONE;
         if (!is_specular()) {
             total = choice_total(s.p, s.ns);
-            let ls = sample_light(s.p, s.ns, total, u_choice, u_light);
+            // path.rs: at the first vertex, a surface that only reflects
+            // samples the environment for the side of its shading normal
+            // that `wi` is on (envmap/facing.rs).
+            if (depth == 1u && favours_facing_light()) {
+                bin = env_facing_bin(select(s.ns, -s.ns, wi.z < 0.0));
+            }
+            let ls = sample_light(s.p, s.ns, total, u_choice, u_light, bin);
             if (ls.ok) {
                 let wo = to_local(frame, ls.wi);
                 let fp = bsdf_eval_pdf(wi, wo);
@@ -195,6 +204,7 @@ fn li(camera: Ray) -> vec3<f32> {
         prev_p = s.p;
         prev_n = s.ns;
         prev_total = total;
+        prev_bin = bin;
         if (max3(beta) <= 0.0) {
             break;
         }
