@@ -15,10 +15,9 @@ mod spot;
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
-pub use envmap::{
-    EnvFilter, EnvGpuFacing, EnvGpuTables, EnvMap, EnvMapError, EnvMapParam, EnvPoint, LightPdf,
-    TexelRows,
-};
+pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, EnvPoint, LightPdf, TexelRows};
+#[cfg(feature = "gpu")]
+pub use envmap::{EnvGpuFacing, EnvGpuTables};
 pub use light_choice::{ChoicePoint, LightBounds, LightChoice, EXHAUSTIVE_MAX};
 pub use point::PointLight;
 pub use projector::{Projector, ProjectorError};

@@ -335,6 +335,7 @@ pub(super) struct FacingWarp {
     cell_sums: Vec<f32>,
     /// Per block, the map's integral over it (what the bins' alias
     /// tables weigh by their cosine bounds; kept for the GPU's tables).
+    #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
     block_weights: Vec<f64>,
 }
 
@@ -342,6 +343,7 @@ pub(super) struct FacingWarp {
 /// cells group into blocks, each bin's block weights (zero for a bin that
 /// sees no light), and the running sums the CPU samples bands and cells
 /// with.
+#[cfg(feature = "gpu")]
 pub(super) struct FacingParts<'a> {
     pub across: u32,
     pub col_shift: u32,
@@ -440,6 +442,7 @@ impl FacingWarp {
     }
 
     /// What the GPU backend reads (see [`FacingParts`]).
+    #[cfg(feature = "gpu")]
     pub fn parts(&self) -> FacingParts<'_> {
         let b = &self.bounds.blocks;
         let mut scales = vec![0.0f32; BINS];

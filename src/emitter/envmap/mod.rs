@@ -72,6 +72,7 @@ mod grid;
 mod latlong;
 mod warp;
 
+#[cfg(feature = "gpu")]
 pub use gpu_tables::{EnvGpuFacing, EnvGpuTables};
 pub use grid::TexelRows;
 
