@@ -19,6 +19,7 @@ Run it with the Python that has the mitsuba wheel (.ci/run makes one):
     target/mitsuba-venv/bin/python scripts/mitsuba_compare.py [--set envmap]
         [--spp 64] [--seeds 8] [--ref-spp 4096] [--threads 2]
         [--base-rev REV] [--scenes sun_sky,studio] [--probes DIR]
+        [--sampler ldsampler]
 
 The probes are read from ../shared/data/envmaps/ (CC0 Poly Haven maps; see
 its README) or --probes. The reference is Mitsuba's llvm_ad_rgb (scalar_rgb
@@ -160,6 +161,9 @@ def main():
     ap.add_argument("--base-rev", help="also measure lente built at this git revision")
     ap.add_argument("--set", choices=["envmap", "lights", "all"], default="envmap")
     ap.add_argument("--scenes", help="comma-separated scene names (default: those of --set)")
+    ap.add_argument("--sampler", choices=["independent", "stratified", "multijitter", "ldsampler", "orthogonal"],
+                    help="render the scenes with this Mitsuba sampler (their $sampler; default: independent)."
+                         " Non-square counts are rounded up as Mitsuba rounds them, by both renderers")
     ap.add_argument("--probes", default=os.path.normpath(os.path.join(ROOT, "..", "shared", "data", "envmaps")))
     args = ap.parse_args()
 
@@ -213,6 +217,10 @@ def main():
         ref = image_values(mi, ref_path)
         pixels = len(ref) // 3
         row = {"scene": name, "samples": pixels * args.spp}
+        # The sampler only for the timed renders: the reference is the same
+        # image in expectation, and its cache is shared.
+        if args.sampler:
+            params = dict(params, sampler=args.sampler)
         # Mitsuba's scenes, one per variant, each rendered once to compile
         # its kernels before the timed renders.
         scenes = {}

@@ -29,7 +29,7 @@ use crate::image::{Bitmap, Film, FilmBlock, Filter};
 use crate::integrator::Integrator;
 use crate::math::Vec2;
 use crate::progress::{Progress, ProgressMode};
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::Scene;
 use crate::unit_queue::{Take, UnitQueue};
 
@@ -50,6 +50,8 @@ pub struct RenderJob {
     pub integrator: Integrator,
     /// Samples per pixel.
     pub spp: u32,
+    /// How a pixel's samples are spread (independent or stratified).
+    pub sampler: SamplerKind,
     /// Pixel reconstruction filter.
     pub filter: Filter,
     /// Output variables the scene asks for (Mitsuba's `aov` integrator);
@@ -251,7 +253,7 @@ fn trace_tile(
         }
         for x in tile.x..tile.x + tile.w {
             for s in s0..s1 {
-                let mut sampler = Sampler::for_pixel_sample(seed, x, y, s);
+                let mut sampler = Sampler::for_pixel_sample_of(job.sampler, seed, x, y, s);
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let aperture = sampler.next_2d();
                 let ray = scene.camera.generate_ray(film, aperture);

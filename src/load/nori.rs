@@ -37,6 +37,7 @@ use crate::image::Filter;
 use crate::integrator::{Integrator, PathParams, Strategy};
 use crate::math::{Mat4, Transform, Vec3, PI};
 use crate::render::RenderJob;
+use crate::sampling::SamplerKind;
 use crate::scene::{SceneDesc, ShapeDesc};
 use crate::texture::Texture;
 
@@ -346,6 +347,7 @@ impl<'a> Ctx<'a> {
             job: RenderJob {
                 integrator,
                 spp: sampler.map_or(1, |s| s.0),
+                sampler: SamplerKind::Independent,
                 filter,
                 aovs: Default::default(),
             },

@@ -311,6 +311,7 @@ pub fn job(integrator: Integrator, spp: u32) -> RenderJob {
     RenderJob {
         integrator,
         spp,
+        sampler: Default::default(),
         filter: Filter::Box { radius: 0.5 },
         aovs: Default::default(),
     }

@@ -52,6 +52,7 @@ fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente:
     let job = RenderJob {
         integrator: scene.integrator,
         spp,
+        sampler: Default::default(),
         filter: lente::image::Filter::default(),
         aovs: Default::default(),
     };
@@ -136,6 +137,7 @@ fn an_abandoned_unit_stops_at_once() {
     let job = RenderJob {
         integrator: scene.integrator,
         spp: 1_000_000,
+        sampler: Default::default(),
         filter: lente::image::Filter::default(),
         aovs: Default::default(),
     };
@@ -166,6 +168,7 @@ fn strips_are_the_rows_of_the_whole_render_bit_for_bit() {
     let job = RenderJob {
         integrator: scene.integrator,
         spp: 6,
+        sampler: Default::default(),
         filter: lente::image::Filter::default(),
         aovs: Default::default(),
     };

@@ -43,6 +43,7 @@ mod preview_cli;
 mod preview_e2e;
 mod render_cli;
 mod resume_merge;
+mod samplers;
 mod scene_errors;
 mod shading_frames;
 mod spectra;

@@ -14,6 +14,7 @@ use lente::integrator::{Integrator, PathParams, Strategy};
 use lente::load::SceneFile;
 use lente::load::{load_scene, load_scene_str_with, load_scene_with, SceneError, Warning};
 use lente::math::{Mat4, Transform, Vec2, Vec3, PI};
+use lente::sampling::SamplerKind;
 
 use crate::common::{load, load_clean, load_err};
 
@@ -408,13 +409,34 @@ fn films_filters_and_samplers() {
             c: 0.5
         }
     );
-    // Other samplers are mapped to independent sampling, with a warning.
-    let (desc, w) = load(&with_sensor(
-        "<sensor type=\"perspective\"><sampler type=\"stratified\"><integer name=\"sample_count\" value=\"16\"/></sampler></sensor>",
-    ));
-    assert_eq!(desc.job.spp, 16);
-    assert_eq!(w.len(), 1, "{w:?}");
-    assert!(w[0].message.contains("independent"));
+    // Mitsuba's stratified samplers get lente's stratified sampling, their
+    // counts rounded as Mitsuba 3.9.1 rounds them (with a warning).
+    let sampler = |ty: &str, n: u32| {
+        load(&with_sensor(&format!(
+            "<sensor type=\"perspective\"><sampler type=\"{ty}\"><integer name=\"sample_count\" value=\"{n}\"/></sampler></sensor>"
+        )))
+    };
+    for (ty, n, want) in [
+        ("independent", 10, 10),
+        ("stratified", 16, 16),
+        ("stratified", 10, 16),
+        ("ldsampler", 20, 64),
+        ("multijitter", 10, 12),
+        ("orthogonal", 10, 25),
+    ] {
+        let (desc, w) = sampler(ty, n);
+        assert_eq!(desc.job.spp, want, "{ty} {n}");
+        let kind = if ty == "independent" {
+            SamplerKind::Independent
+        } else {
+            SamplerKind::Stratified
+        };
+        assert_eq!(desc.job.sampler, kind);
+        assert_eq!(w.len(), usize::from(n != want), "{w:?}");
+        if n != want {
+            assert!(w[0].message.contains(&format!("up to {want}")), "{w:?}");
+        }
+    }
     // An unknown pixel format is a warning; crop windows are errors.
     let (_, w) = load(&with_sensor(
         "<sensor type=\"perspective\"><film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"cmyk\"/></film></sensor>",

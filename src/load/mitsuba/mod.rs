@@ -746,6 +746,7 @@ impl<'d> Ctx<'d> {
             job: RenderJob {
                 integrator,
                 spp: sensor.spp,
+                sampler: sensor.sampler,
                 filter: sensor.filter,
                 aovs: std::mem::take(&mut self.aovs),
             },

@@ -8,6 +8,7 @@ use crate::load::props::{int_in, Kind, Props};
 use crate::load::xml::{Pos, SceneNode};
 use crate::load::SceneError;
 use crate::math::{Aabb, Mat4, Transform, Vec3};
+use crate::sampling::SamplerKind;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -16,6 +17,7 @@ pub(super) struct SensorDesc {
     pub camera: CameraParams,
     pub filter: Filter,
     pub spp: u32,
+    pub sampler: SamplerKind,
     /// The medium the camera sits in.
     pub medium: Option<u32>,
 }
@@ -66,9 +68,9 @@ impl<'d> Ctx<'d> {
             Some(c) => self.enter(c, |x| x.film(c.node))?,
             None => (768, 576, mitsuba_gaussian(0.5)),
         };
-        let spp = match &sampler {
+        let (spp, sampler) = match &sampler {
             Some(c) => self.enter(c, |x| x.sampler(c.node))?,
-            None => 4,
+            None => (4, SamplerKind::Independent),
         };
         let medium = match &medium {
             Some(c) => Some(self.medium_index(c)?),
@@ -154,6 +156,7 @@ impl<'d> Ctx<'d> {
             camera,
             filter,
             spp,
+            sampler,
             medium,
         })
     }
@@ -287,9 +290,12 @@ impl<'d> Ctx<'d> {
         Ok(filter)
     }
 
-    /// Samplers: `sample_count` (default 4). lente has one sampler; the
-    /// others give the same expected image with different noise.
-    pub(super) fn sampler(&mut self, node: &'d SceneNode) -> Result<u32> {
+    /// Samplers: `sample_count` (default 4) and the kind of sampling.
+    /// Mitsuba's stratified samplers round the count up as Mitsuba does
+    /// (with its warning) and all take lente's stratified sampling
+    /// (`sampling/sobol.rs`), which is stratified in 2D and in 1D like
+    /// the best of them.
+    pub(super) fn sampler(&mut self, node: &'d SceneNode) -> Result<(u32, SamplerKind)> {
         let ty = self.object_type(
             node,
             &[
@@ -304,24 +310,73 @@ impl<'d> Ctx<'d> {
         let owner = format!("<sampler type=\"{ty}\">");
         let (mut p, children) = self.read_object(node, &owner)?;
         self.no_children(&children, &owner)?;
-        let spp = int_in(&mut p, "sample_count", 4, 1, u32::MAX as i64)? as u32;
+        // Every rounding below stays within u32 for counts up to 2^30.
+        let asked = int_in(&mut p, "sample_count", 4, 1, 1 << 30)? as u32;
         if p.has("seed") {
             p.get_int("seed", 0)?;
             p.warn("seed", "'seed' is ignored; use lente's --seed");
         }
-        if ty != "independent" {
-            p.get_bool("jitter", true)?;
-            p.get_int("strength", 2)?;
-            self.warn(
-                node.pos,
+        let (spp, kind) = match ty {
+            "independent" => (asked, SamplerKind::Independent),
+            _ => {
+                if ty != "ldsampler" {
+                    p.get_bool("jitter", true)?;
+                }
+                if ty == "orthogonal" {
+                    p.get_int("strength", 2)?;
+                }
+                (mitsuba_sample_count(ty, asked), SamplerKind::Stratified)
+            }
+        };
+        if spp != asked {
+            p.warn(
+                "sample_count",
                 format!(
-                    "the {ty} sampler is rendered with independent sampling \
-                     (the same image in expectation, with different noise)"
+                    "the {ty} sampler rounds 'sample_count' {asked} up to {spp}, as Mitsuba does"
                 ),
             );
         }
         p.finish(&mut self.warnings);
-        Ok(spp)
+        Ok((spp, kind))
+    }
+}
+
+/// The sample count Mitsuba 3's `ty` sampler takes for `asked`:
+/// `stratified` the next square, `ldsampler` the next square of a power
+/// of two (at least 4), `multijitter` a grid of ceil(asked / r) x r with
+/// r = floor(sqrt(asked)), `orthogonal` the next square of a prime
+/// (checked against Mitsuba 3.9.1 for counts 1-1024).
+pub(super) fn mitsuba_sample_count(ty: &str, asked: u32) -> u32 {
+    let next_square = |ok: &dyn Fn(u32) -> bool, start: u32| {
+        let mut r = start;
+        while r * r < asked || !ok(r) {
+            r += 1;
+        }
+        r * r
+    };
+    match ty {
+        "stratified" => next_square(&|_| true, 1),
+        "ldsampler" => next_square(&|r: u32| r.is_power_of_two(), 2),
+        "orthogonal" => next_square(
+            &|r: u32| {
+                (2..r)
+                    .take_while(|d| d * d <= r)
+                    .all(|d| !r.is_multiple_of(d))
+            },
+            2,
+        ),
+        "multijitter" => {
+            // The integer square root, exact where a float's may round.
+            let mut r = (asked as f64).sqrt() as u32;
+            while (r + 1) * (r + 1) <= asked {
+                r += 1;
+            }
+            while r * r > asked {
+                r -= 1;
+            }
+            asked.div_ceil(r) * r
+        }
+        _ => asked,
     }
 }
 
@@ -464,6 +519,7 @@ pub(super) fn default_sensor(bounds: Aabb) -> SensorDesc {
         camera,
         filter: mitsuba_gaussian(0.5),
         spp: 4,
+        sampler: SamplerKind::Independent,
         medium: None,
     }
 }
@@ -472,4 +528,55 @@ pub(super) fn default_sensor(bounds: Aabb) -> SensorDesc {
 /// more than 1e-3 somewhere (mirrors do not count as scale).
 fn has_scale(t: &Transform) -> bool {
     !t.is_rotation(super::ROTATION_TOLERANCE)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mitsuba_sample_count;
+
+    /// The counts Mitsuba 3.9.1's samplers report (`sample_count()` after
+    /// `load_dict`) for these requests.
+    #[test]
+    fn sample_counts_round_as_mitsuba() {
+        let asked = [
+            1, 2, 4, 5, 8, 9, 10, 16, 20, 27, 63, 64, 65, 100, 125, 128, 256, 1000, 1024,
+        ];
+        let mitsuba: [(&str, [u32; 19]); 4] = [
+            (
+                "stratified",
+                [
+                    1, 4, 4, 9, 9, 9, 16, 16, 25, 36, 64, 64, 81, 100, 144, 144, 256, 1024, 1024,
+                ],
+            ),
+            (
+                "multijitter",
+                [
+                    1, 2, 4, 6, 8, 9, 12, 16, 20, 30, 63, 64, 72, 100, 132, 132, 256, 1023, 1024,
+                ],
+            ),
+            (
+                "ldsampler",
+                [
+                    4, 4, 4, 16, 16, 16, 16, 16, 64, 64, 64, 64, 256, 256, 256, 256, 256, 1024,
+                    1024,
+                ],
+            ),
+            (
+                "orthogonal",
+                [
+                    4, 4, 4, 9, 9, 9, 25, 25, 25, 49, 121, 121, 121, 121, 169, 169, 289, 1369, 1369,
+                ],
+            ),
+        ];
+        for (ty, want) in mitsuba {
+            for (n, w) in asked.iter().zip(want) {
+                assert_eq!(mitsuba_sample_count(ty, *n), w, "{ty} {n}");
+            }
+        }
+        assert_eq!(mitsuba_sample_count("independent", 10), 10);
+        // The largest count the reader accepts rounds without overflow.
+        for ty in ["stratified", "multijitter", "ldsampler", "orthogonal"] {
+            assert!(mitsuba_sample_count(ty, 1 << 30) >= 1 << 30);
+        }
+    }
 }
