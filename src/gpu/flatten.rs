@@ -16,6 +16,7 @@ use crate::geometry::{build_boxes, Geometry, SphereUv};
 use crate::integrator::{Integrator, Strategy};
 use crate::math::{Aabb, Transform, Vec2, Vec3, PI};
 use crate::render::RenderJob;
+use crate::sampling::{SamplerKind, STRATIFIED_DIMENSIONS};
 use crate::scene::Scene;
 use crate::texture::{FilterType, Texture, WrapMode};
 
@@ -258,6 +259,11 @@ pub struct Params {
     pub env_blocks_across: u32,
     pub env_block_col_shift: u32,
     pub env_block_band_shift: u32,
+    /// How many numbers of each sample come from scrambled (0, 2)
+    /// sequences (`sampling/sobol.rs`): `STRATIFIED_DIMENSIONS` for a
+    /// stratified sampler, 0 for an independent one.
+    pub stratified_dims: u32,
+    pub _pad: [u32; 3],
 }
 
 /// `Params::env_kind`.
@@ -1615,6 +1621,10 @@ impl GpuScene {
             aperture_blades,
             aperture_rotation,
             beckmann_table,
+            stratified_dims: match job.sampler {
+                SamplerKind::Independent => 0,
+                SamplerKind::Stratified => STRATIFIED_DIMENSIONS,
+            },
             ..Params::zeroed()
         };
         if let Some(t) = &tables {

@@ -52,6 +52,10 @@ struct Params {
     env_blocks_across: u32,
     env_block_col_shift: u32,
     env_block_band_shift: u32,
+    stratified_dims: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 const ENV_NONE: u32 = 0u;

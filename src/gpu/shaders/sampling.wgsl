@@ -1,7 +1,14 @@
-// Random numbers (PCG, one stream per pixel sample) and warps
-// (sampling/warp.rs).
+// Random numbers (PCG, one stream per pixel sample; a stratified
+// sampler's first numbers from scrambled (0, 2) sequences, as
+// sampling/sobol.rs) and warps (sampling/warp.rs).
 
 var<private> rng_state: u32;
+// A stratified sample: its index's bits reversed, its pixel's seed, the
+// next dimension and where scrambled numbers end (0: independent).
+var<private> ld_reversed_index: u32;
+var<private> ld_seed: u32;
+var<private> ld_dim: u32;
+var<private> ld_dims: u32;
 
 fn pcg_hash(v: u32) -> u32 {
     let s = v * 747796405u + 2891336453u;
@@ -13,9 +20,60 @@ fn pcg_hash(v: u32) -> u32 {
 fn rng_init(pixel: u32, s: u32) {
     let seed = pcg_hash(P.seed_lo ^ pcg_hash(P.seed_hi));
     rng_state = pcg_hash(pcg_hash(seed ^ pcg_hash(pixel)) ^ (s * 0x9e3779b9u));
+    ld_reversed_index = reverseBits(s);
+    ld_seed = pcg_hash(pcg_hash(seed ^ 0x57a71f1eu) ^ pcg_hash(pixel));
+    ld_dim = 0u;
+    ld_dims = P.stratified_dims;
+}
+
+// sobol.rs's upward_hash: bit j of the result depends on bits 0..=j of x
+// only; on reversed bits, an Owen scramble.
+fn upward_hash(x0: u32, seed: u32) -> u32 {
+    var x = x0 + seed;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return x;
+}
+
+// sobol.rs's sobol_second_reversed: Sobol's second dimension, bits reversed.
+fn sobol_second_reversed(index: u32) -> u32 {
+    var x = index;
+    x ^= (x >> 1u) & 0x55555555u;
+    x ^= (x >> 2u) & 0x33333333u;
+    x ^= (x >> 4u) & 0x0f0f0f0fu;
+    x ^= (x >> 8u) & 0x00ff00ffu;
+    return x ^ (x >> 16u);
+}
+
+// A binary fraction as a float in [0, 1): its top 24 bits.
+fn to_unit(x: u32) -> f32 {
+    return f32(x >> 8u) * (1.0 / 16777216.0);
+}
+
+// The current dimension's seeds: the index shuffle's, the first
+// coordinate's scramble; the dimension moves on by `n`.
+fn ld_seeds(n: u32) -> vec2<u32> {
+    let a = pcg_hash(ld_seed ^ ((ld_dim + 1u) * 0x9e3779b9u));
+    ld_dim += n;
+    return vec2<u32>(a, pcg_hash(a ^ 0x85ebca6bu));
+}
+
+// The shuffled sample index of the current dimension (sobol.rs's point_2d).
+fn ld_index(shuffle: u32) -> u32 {
+    return reverseBits(upward_hash(ld_reversed_index, shuffle));
 }
 
 fn next_1d() -> f32 {
+    if (ld_dim < ld_dims) {
+        let s = ld_seeds(1u);
+        return to_unit(reverseBits(upward_hash(ld_index(s.x), s.y)));
+    }
+    return next_independent();
+}
+
+fn next_independent() -> f32 {
     rng_state = rng_state * 747796405u + 2891336453u;
     let s = rng_state;
     let w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
@@ -23,8 +81,17 @@ fn next_1d() -> f32 {
 }
 
 fn next_2d() -> vec2<f32> {
-    let x = next_1d();
-    return vec2<f32>(x, next_1d());
+    if (ld_dim + 1u < ld_dims) {
+        let s = ld_seeds(2u);
+        let i = ld_index(s.x);
+        let y_seed = pcg_hash(s.y ^ 0x5bd1e995u);
+        return vec2<f32>(
+            to_unit(reverseBits(upward_hash(i, s.y))),
+            to_unit(reverseBits(upward_hash(sobol_second_reversed(i), y_seed))),
+        );
+    }
+    let x = next_independent();
+    return vec2<f32>(x, next_independent());
 }
 
 // Shirley and Chiu's concentric map of the square to the unit disk.
