@@ -10,6 +10,7 @@ use lente::geometry::Geometry;
 use lente::integrator::Strategy;
 use lente::math::Vec3;
 use lente::render::{render, RenderJob, RenderOptions};
+use lente::sampling::SamplerKind;
 
 fn small_scene() -> TestScene {
     scene_sized(40, 30)
@@ -43,7 +44,13 @@ fn scene_sized(width: u32, height: u32) -> TestScene {
     d.build()
 }
 
-fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente::image::Bitmap {
+fn render_kind(
+    threads: usize,
+    scene: &TestScene,
+    spp: u32,
+    seed: u64,
+    sampler: SamplerKind,
+) -> lente::image::Bitmap {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -52,7 +59,7 @@ fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente:
     let job = RenderJob {
         integrator: scene.integrator,
         spp,
-        sampler: Default::default(),
+        sampler,
         filter: lente::image::Filter::default(),
         aovs: Default::default(),
     };
@@ -62,25 +69,34 @@ fn render_with(threads: usize, scene: &TestScene, spp: u32, seed: u64) -> lente:
 #[test]
 fn one_and_two_threads_render_identical_bits() {
     let scene = small_scene();
-    let a = render_with(1, &scene, 4, 5);
-    let b = render_with(2, &scene, 4, 5);
-    assert!(a.mean().x > 0.0, "image is black");
-    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
-        assert_eq!(
-            p.to_array().map(f32::to_bits),
-            q.to_array().map(f32::to_bits),
-            "pixel {i}"
-        );
+    for kind in [SamplerKind::Independent, SamplerKind::Stratified] {
+        let a = render_kind(1, &scene, 4, 5, kind);
+        let b = render_kind(2, &scene, 4, 5, kind);
+        assert!(a.mean().x > 0.0, "image is black");
+        for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+            assert_eq!(
+                p.to_array().map(f32::to_bits),
+                q.to_array().map(f32::to_bits),
+                "{kind:?}: pixel {i}"
+            );
+        }
     }
 }
 
 /// Renders with different seeds are independent: the differences of two
 /// pairs of renders with four distinct seeds are uncorrelated (Spearman's
-/// rank correlation, robust to fireflies), while pairs sharing a seed are not.
+/// rank correlation, robust to fireflies), while pairs sharing a seed are
+/// not; for a stratified sampler too (the seed changes its scrambles).
 #[test]
 fn different_seeds_are_independent() {
+    for kind in [SamplerKind::Independent, SamplerKind::Stratified] {
+        seeds_are_independent(kind);
+    }
+}
+
+fn seeds_are_independent(kind: SamplerKind) {
     let scene = small_scene();
-    let img = |seed| render_with(2, &scene, 2, seed);
+    let img = |seed| render_kind(2, &scene, 2, seed, kind);
     let (a, b, c, d, e) = (img(1), img(2), img(3), img(4), img(5));
     let diff = |x: &lente::image::Bitmap, y: &lente::image::Bitmap| -> Vec<f64> {
         x.pixels
@@ -122,7 +138,10 @@ fn different_seeds_are_independent() {
     let n = a.pixels.len() as f64;
     let r = spearman(&diff(&a, &c), &diff(&b, &d));
     // Under independence r is ~ N(0, 1/n): 4 sigma bound.
-    assert!(r.abs() < 4.0 / n.sqrt(), "correlation {r} between seeds");
+    assert!(
+        r.abs() < 4.0 / n.sqrt(),
+        "{kind:?}: correlation {r} between seeds"
+    );
     // Sanity: sharing a render makes them correlated (the test can fail).
     let shared = spearman(&diff(&a, &c), &diff(&a, &e));
     assert!(shared > 0.3, "shared-seed correlation only {shared}");
