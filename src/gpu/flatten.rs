@@ -73,10 +73,13 @@ pub const MAT_PRINCIPLED: u32 = 6;
 /// with `MAT_TEXTURED`; the first and the second BSDF's three words, as
 /// indices in the shapes buffer). Neither is a blend.
 pub const MAT_BLEND: u32 = 7;
-pub const MAT_MIRROR: u32 = 8;
-pub const MAT_DIELECTRIC: u32 = 9;
-pub const MAT_CONDUCTOR: u32 = 10;
-pub const MAT_THIN_DIELECTRIC: u32 = 11;
+/// Nori's `microfacet`: A its kd, B (ks, 0, 0, alpha), C (eta, 0, 0, -1:
+/// an isotropic Beckmann distribution for `microfacet()`).
+pub const MAT_MICROFACET: u32 = 8;
+pub const MAT_MIRROR: u32 = 9;
+pub const MAT_DIELECTRIC: u32 = 10;
+pub const MAT_CONDUCTOR: u32 = 11;
+pub const MAT_THIN_DIELECTRIC: u32 = 12;
 
 /// Set in a material's kind word on shapes that have an area emitter
 /// (camera rays pass through them under `hide_emitters`).
@@ -263,8 +266,17 @@ pub struct Params {
     /// sequences (`sampling/sobol.rs`): `STRATIFIED_DIMENSIONS` for a
     /// stratified sampler, 0 for an independent one.
     pub stratified_dims: u32,
-    pub _pad: [u32; 3],
+    /// How light is gathered: `STRATEGY_MIS`, `STRATEGY_MATS` (BSDF
+    /// sampling only) or `STRATEGY_EMS` (emitter sampling, and emission
+    /// found by the path only after specular bounces), as `path.rs`.
+    pub strategy: u32,
+    pub _pad: [u32; 2],
 }
+
+/// `Params::strategy`.
+pub const STRATEGY_MIS: u32 = 0;
+pub const STRATEGY_MATS: u32 = 1;
+pub const STRATEGY_EMS: u32 = 2;
 
 /// `Params::env_kind`.
 pub const ENV_NONE: u32 = 0;
@@ -321,7 +333,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and the Disney BSDFs' base colour, metallic, spec_trans and eta), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination using MIS); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, Nori's microfacet, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and the Disney BSDFs' base colour, metallic, spec_trans and eta), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination by MIS, BSDF sampling or emitter sampling); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -687,6 +699,11 @@ fn material(
         Bsdf::Principled(p) => principled(p, table_base, tables)?,
         Bsdf::PrincipledThin(p) => principled_thin(p, table_base, tables)?,
         Bsdf::Mirror(_) => [v4(Vec3::ONE, bits(MAT_MIRROR)), zero, zero],
+        Bsdf::Microfacet(m) => [
+            v4(m.kd, bits(MAT_MICROFACET)),
+            [m.ks, 0.0, 0.0, m.alpha],
+            [m.eta, 0.0, 0.0, -1.0],
+        ],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
             [d.eta, 0.0, 0.0, 0.0],
@@ -1043,25 +1060,16 @@ fn texture_record(
 impl GpuScene {
     /// Flattens `scene` for `job`, or says what the GPU cannot render.
     pub fn new(scene: &Scene, job: &RenderJob, seed: u64) -> Result<GpuScene, Unsupported> {
-        let (max_depth, rr_depth, hide_emitters) = match &job.integrator {
-            Integrator::Path {
-                strategy: Strategy::Mis,
-                params,
-            } => (
+        let (strategy, max_depth, rr_depth, hide_emitters) = match &job.integrator {
+            Integrator::Path { strategy, params } => (
+                *strategy,
                 params.max_depth.unwrap_or(NONE),
                 params.rr_depth,
                 params.hide_emitters,
             ),
             // Direct illumination is the path tracer's first two segments
             // (integrator/mod.rs).
-            Integrator::Direct {
-                strategy: Strategy::Mis,
-            } => (2, NONE, false),
-            Integrator::Path { .. } | Integrator::Direct { .. } => {
-                return unsupported(
-                    "a single sampling strategy (path_mats, path_ems, direct_mats, direct_ems)",
-                )
-            }
+            Integrator::Direct { strategy } => (*strategy, 2, NONE, false),
             other => return unsupported(format!("the {} integrator", variant_name(other))),
         };
         if !scene.media.is_empty() || scene.camera_medium.is_some() {
@@ -1247,7 +1255,7 @@ impl GpuScene {
                     env_power = Some(e.power(&ctx));
                 }
                 Emitter::Environment(map) => {
-                    if let Some(t) = map.gpu_tables() {
+                    if let Some(t) = map.gpu_tables(strategy.light_pdf()) {
                         env_kind = ENV_MAP;
                         tables = Some(t);
                         env_power = Some(e.power(&ctx));
@@ -1621,6 +1629,11 @@ impl GpuScene {
             aperture_blades,
             aperture_rotation,
             beckmann_table,
+            strategy: match strategy {
+                Strategy::Mis => STRATEGY_MIS,
+                Strategy::Mats => STRATEGY_MATS,
+                Strategy::Ems => STRATEGY_EMS,
+            },
             stratified_dims: match job.sampler {
                 SamplerKind::Independent => 0,
                 SamplerKind::Stratified => STRATIFIED_DIMENSIONS,
@@ -1698,7 +1711,7 @@ mod tests {
     }
 
     /// Direct illumination is the path tracer cut after two segments, as
-    /// on the CPU; a single strategy is named as unsupported.
+    /// on the CPU, with any of the three strategies.
     #[test]
     fn direct_illumination_is_two_path_segments() {
         let (scene, mut job) = veach();
@@ -1710,10 +1723,14 @@ mod tests {
         ));
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
         assert_eq!((flat.params.max_depth, flat.params.rr_depth), (2, NONE));
-        job.integrator = Integrator::Direct {
-            strategy: Strategy::Ems,
-        };
-        assert_refused(&scene, &job, "a single sampling strategy");
+        for (strategy, word) in [
+            (Strategy::Ems, STRATEGY_EMS),
+            (Strategy::Mats, STRATEGY_MATS),
+        ] {
+            job.integrator = Integrator::Direct { strategy };
+            let flat = GpuScene::new(&scene, &job, 1).unwrap();
+            assert_eq!((flat.params.max_depth, flat.params.strategy), (2, word));
+        }
         job.integrator = Integrator::Path {
             strategy: Strategy::Mis,
             params: PathParams {
@@ -2134,6 +2151,7 @@ mod tests {
             ("MAT_PRINCIPLED", MAT_PRINCIPLED),
             ("MAT_PRINCIPLED_THIN", MAT_PRINCIPLED_THIN),
             ("MAT_BLEND", MAT_BLEND),
+            ("MAT_MICROFACET", MAT_MICROFACET),
             ("MAT_MIRROR", MAT_MIRROR),
             ("MAT_DIELECTRIC", MAT_DIELECTRIC),
             ("MAT_CONDUCTOR", MAT_CONDUCTOR),

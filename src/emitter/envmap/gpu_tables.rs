@@ -67,8 +67,10 @@ fn cdf(weights: &[f32]) -> Vec<f32> {
 }
 
 impl EnvMap {
-    /// The map's tables for the GPU; `None` if it emits nothing.
-    pub fn gpu_tables(&self) -> Option<EnvGpuTables> {
+    /// The map's tables for the GPU, with the density `which` light
+    /// sampling draws from (the MIS-compensated one for `path`, the
+    /// complete one for `path_ems`); `None` if it emits nothing.
+    pub fn gpu_tables(&self, which: LightPdf) -> Option<EnvGpuTables> {
         if !self.emits() {
             return None;
         }
@@ -77,7 +79,7 @@ impl EnvMap {
         let bands = g.bands();
         let bilinear = g.filter == EnvFilter::Bilinear;
         let px = &self.image.pixels;
-        let warp = &self.warp(LightPdf::MisCompensated)?.map;
+        let warp = &self.warp(which)?.map;
         // Band and cell weights as `EnvWarp::new` gives them to its alias
         // tables.
         let mut band_w = Vec::with_capacity(bands);
@@ -111,30 +113,26 @@ impl EnvMap {
             to_world: rot(m),
             to_local: rot(inv),
             visible: self.visible,
-            facing: self
-                .warp(LightPdf::MisCompensated)?
-                .facing
-                .as_ref()
-                .map(|f| {
-                    let parts = f.parts();
-                    let mut block_cdf = Vec::with_capacity(parts.pick_weights.len());
-                    for row in parts.pick_weights.chunks(parts.blocks as usize) {
-                        if row.iter().any(|&w| w > 0.0) {
-                            block_cdf.extend(cdf(row));
-                        } else {
-                            block_cdf.extend(std::iter::repeat_n(0.0, row.len()));
-                        }
+            facing: self.warp(which)?.facing.as_ref().map(|f| {
+                let parts = f.parts();
+                let mut block_cdf = Vec::with_capacity(parts.pick_weights.len());
+                for row in parts.pick_weights.chunks(parts.blocks as usize) {
+                    if row.iter().any(|&w| w > 0.0) {
+                        block_cdf.extend(cdf(row));
+                    } else {
+                        block_cdf.extend(std::iter::repeat_n(0.0, row.len()));
                     }
-                    EnvGpuFacing {
-                        across: parts.across,
-                        col_shift: parts.col_shift,
-                        band_shift: parts.band_shift,
-                        blocks: parts.blocks,
-                        block_cdf,
-                        band_sums: parts.band_sums.to_vec(),
-                        cell_sums: parts.cell_sums.to_vec(),
-                    }
-                }),
+                }
+                EnvGpuFacing {
+                    across: parts.across,
+                    col_shift: parts.col_shift,
+                    band_shift: parts.band_shift,
+                    blocks: parts.blocks,
+                    block_cdf,
+                    band_sums: parts.band_sums.to_vec(),
+                    cell_sums: parts.cell_sums.to_vec(),
+                }
+            }),
         })
     }
 }

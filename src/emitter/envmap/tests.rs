@@ -1116,7 +1116,8 @@ fn facing_away_from_all_light_samples_nothing() {
     }
 }
 
-/// The GPU backend's tables describe the CPU's MIS-compensated density:
+/// The GPU backend's tables describe the CPU's densities, MIS-compensated
+/// (for `path`) and complete (for `path_ems`):
 /// a band's and a cell's probabilities from the CDFs, over the cell's
 /// (u, v) area, times the density's shape inside it (`emitter.wgsl`'s
 /// `env_cell_pdf`), give `pdf` at every direction, for the bilinear and
@@ -1137,59 +1138,61 @@ fn gpu_tables_give_the_cpus_density() {
         env_poles(gradient(24, 12), rot_mirror()),
     ];
     for (k, map) in maps.iter().enumerate() {
-        let t = map.gpu_tables().expect("the map emits");
-        let w = t.width as usize;
-        let before = |cdf: &[f32], i: usize| if i > 0 { cdf[i - 1] } else { 0.0 };
-        let mut s = Sampler::new(11, k as u64);
-        let mut positive = 0;
-        // Uniform directions, and directions the density draws (a
-        // compensated sun map is zero but near the sun).
-        for i in 0..40_000 {
-            let d = if i % 2 == 0 {
-                square_to_uniform_sphere(s.next_2d())
-            } else {
-                match map.sample(s.next_2d(), LightPdf::MisCompensated, None) {
-                    Some((d, _, _)) => d,
-                    None => continue,
-                }
-            };
-            let cpu = map.pdf(d, LightPdf::MisCompensated, None);
-            let at = map.locate(d).unwrap();
-            let (p, sin_theta) = (at.p, at.sin_theta);
-            let (b, c) = (p.band, p.col);
-            let band_p = t.band_cdf[b] - before(&t.band_cdf, b);
-            let row = &t.col_cdf[b * w..(b + 1) * w];
-            let col_p = row[c] - before(row, c);
-            let shape = if t.bilinear {
-                let c1 = (c + 1) % w;
-                let v = &t.density;
-                let (v00, v10) = (v[b * w + c], v[b * w + c1]);
-                let (v01, v11) = (v[(b + 1) * w + c], v[(b + 1) * w + c1]);
-                let sum = v00 + v10 + v01 + v11;
-                let top = v00 + (v10 - v00) * p.fx;
-                let bottom = v01 + (v11 - v01) * p.fx;
-                if sum > 0.0 {
-                    4.0 * (top + (bottom - top) * p.fy) / sum
+        for which in [LightPdf::MisCompensated, LightPdf::Complete] {
+            let t = map.gpu_tables(which).expect("the map emits");
+            let w = t.width as usize;
+            let before = |cdf: &[f32], i: usize| if i > 0 { cdf[i - 1] } else { 0.0 };
+            let mut s = Sampler::new(11, k as u64);
+            let mut positive = 0;
+            // Uniform directions, and directions the density draws (a
+            // compensated sun map is zero but near the sun).
+            for i in 0..40_000 {
+                let d = if i % 2 == 0 {
+                    square_to_uniform_sphere(s.next_2d())
                 } else {
-                    0.0
+                    match map.sample(s.next_2d(), which, None) {
+                        Some((d, _, _)) => d,
+                        None => continue,
+                    }
+                };
+                let cpu = map.pdf(d, which, None);
+                let at = map.locate(d).unwrap();
+                let (p, sin_theta) = (at.p, at.sin_theta);
+                let (b, c) = (p.band, p.col);
+                let band_p = t.band_cdf[b] - before(&t.band_cdf, b);
+                let row = &t.col_cdf[b * w..(b + 1) * w];
+                let col_p = row[c] - before(row, c);
+                let shape = if t.bilinear {
+                    let c1 = (c + 1) % w;
+                    let v = &t.density;
+                    let (v00, v10) = (v[b * w + c], v[b * w + c1]);
+                    let (v01, v11) = (v[(b + 1) * w + c], v[(b + 1) * w + c1]);
+                    let sum = v00 + v10 + v01 + v11;
+                    let top = v00 + (v10 - v00) * p.fx;
+                    let bottom = v01 + (v11 - v01) * p.fx;
+                    if sum > 0.0 {
+                        4.0 * (top + (bottom - top) * p.fy) / sum
+                    } else {
+                        0.0
+                    }
+                } else {
+                    1.0
+                };
+                let dv = t.edges[b + 1] - t.edges[b];
+                let gpu = band_p * col_p * w as f32 / dv * shape
+                    / (2.0 * std::f32::consts::PI.powi(2) * sin_theta);
+                if cpu > 0.0 {
+                    positive += 1;
                 }
-            } else {
-                1.0
-            };
-            let dv = t.edges[b + 1] - t.edges[b];
-            let gpu = band_p * col_p * w as f32 / dv * shape
-                / (2.0 * std::f32::consts::PI.powi(2) * sin_theta);
-            if cpu > 0.0 {
-                positive += 1;
+                assert!(
+                    (gpu - cpu).abs() <= 2e-3 * cpu.max(1e-6),
+                    "map {k}, {which:?}, {d}: GPU tables {gpu}, CPU {cpu}"
+                );
             }
             assert!(
-                (gpu - cpu).abs() <= 2e-3 * cpu.max(1e-6),
-                "map {k}, {d}: GPU tables {gpu}, CPU {cpu}"
+                positive > 10_000,
+                "map {k}: {positive} directions with density"
             );
         }
-        assert!(
-            positive > 10_000,
-            "map {k}: {positive} directions with density"
-        );
     }
 }

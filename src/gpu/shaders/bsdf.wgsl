@@ -36,10 +36,11 @@ const MAT_ROUGH_DIELECTRIC: u32 = 5u;
 const MAT_PRINCIPLED: u32 = 6u;
 const MAT_PRINCIPLED_THIN: u32 = 1u;
 const MAT_BLEND: u32 = 7u;
-const MAT_MIRROR: u32 = 8u;
-const MAT_DIELECTRIC: u32 = 9u;
-const MAT_CONDUCTOR: u32 = 10u;
-const MAT_THIN_DIELECTRIC: u32 = 11u;
+const MAT_MICROFACET: u32 = 8u;
+const MAT_MIRROR: u32 = 9u;
+const MAT_DIELECTRIC: u32 = 10u;
+const MAT_CONDUCTOR: u32 = 11u;
+const MAT_THIN_DIELECTRIC: u32 = 12u;
 
 // Whether the scene has blends and Disney BSDFs (principled.wgsl): set
 // per scene at pipeline creation (flatten.rs's `shader_constants`), so the
@@ -741,6 +742,12 @@ fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     }
     let md = microfacet();
     let h = normalize(wi + wo);
+    if (kind == MAT_MICROFACET) {
+        // bsdf/microfacet.rs: kd / pi plus ks D F G / (4 cos_i cos_o).
+        let f = fresnel_dielectric(dot(h, wi), c.x).x;
+        let g = smith_g1(md, wi, h) * smith_g1(md, wo, h);
+        return a * INV_PI + vec3<f32>(b.x * microfacet_d(md, h) * f * g / (4.0 * wi.z * wo.z));
+    }
     let dg = microfacet_d(md, h) * smith_g1(md, wi, h) * smith_g1(md, wo, h) / (4.0 * wi.z * wo.z);
     if (kind == MAT_ROUGH_CONDUCTOR) {
         return a * fresnel_conductor(dot(wi, h), b, mat_c) * dg;
@@ -779,6 +786,12 @@ fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
         let c = material_word(2u);
         let f_i = fresnel_dielectric(wi.z, c.x).x;
         return (1.0 - prob_specular(f_i, c.y)) * wo.z * INV_PI;
+    }
+    if (kind == MAT_MICROFACET) {
+        let ks = material_word(1u).x;
+        let h = normalize(wi + wo);
+        let spec = microfacet_d(microfacet(), h) * h.z / (4.0 * abs(dot(h, wo)));
+        return ks * spec + (1.0 - ks) * wo.z * INV_PI;
     }
     let glossy = microfacet_reflection_pdf(microfacet(), wi, wo);
     if (kind == MAT_ROUGH_CONDUCTOR) {
@@ -847,6 +860,18 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     }
     if (kind == MAT_DIFFUSE) {
         return lobe_direction(wi, u, false);
+    }
+    if (kind == MAT_MICROFACET) {
+        // Nori's: reflected about a normal drawn from D cos (not the
+        // visible normals) with probability ks, else cosine-distributed.
+        if (u_lobe >= material_word(1u).x) {
+            return lobe_direction(wi, u, false);
+        }
+        let wo = reflect_about(wi, square_to_beckmann(u, mat_alpha));
+        if (wo.z <= 0.0 || not_finite(wo.x + wo.y + wo.z)) {
+            return no_sample();
+        }
+        return direction_only(wo, 1.0);
     }
     let mirror = vec3<f32>(-wi.x, -wi.y, wi.z);
     if (kind == MAT_MIRROR) {

@@ -53,10 +53,15 @@ struct Params {
     env_block_col_shift: u32,
     env_block_band_shift: u32,
     stratified_dims: u32,
+    strategy: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
+
+// Params::strategy: how light is gathered (path.rs's Strategy).
+const STRATEGY_MIS: u32 = 0u;
+const STRATEGY_MATS: u32 = 1u;
+const STRATEGY_EMS: u32 = 2u;
 
 const ENV_NONE: u32 = 0u;
 const ENV_CONSTANT: u32 = 1u;

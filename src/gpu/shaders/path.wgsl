@@ -76,6 +76,22 @@ fn max3(v: vec3<f32>) -> f32 {
     return max(v.x, max(v.y, v.z));
 }
 
+// Whether emission a path finds counts: always under MIS (weighed) and
+// BSDF sampling alone; under emitter sampling alone only where no emitter
+// sample could have found it (the camera ray, after a specular bounce).
+fn count_emission(specular: bool) -> bool {
+    return P.strategy != STRATEGY_EMS || specular;
+}
+
+// The MIS weight of emission found by a BSDF sample of density `pdf`
+// against emitter sampling's `light_pdf`: 1 under a single strategy.
+fn found_weight(specular: bool, pdf: f32, light_pdf: f32) -> f32 {
+    if (P.strategy != STRATEGY_MIS || specular) {
+        return 1.0;
+    }
+    return power_heuristic(pdf, light_pdf);
+}
+
 fn li(camera: Ray) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     var beta = vec3<f32>(1.0);
@@ -111,13 +127,9 @@ fn li(camera: Ray) -> vec3<f32> {
             if (depth == 0u && hide) {
                 break;
             }
-            if (P.env_kind != ENV_NONE && (depth > 0u || P.env_visible != 0u)) {
+            if (P.env_kind != ENV_NONE && (depth > 0u || P.env_visible != 0u) && count_emission(specular)) {
                 let e = env_eval_pdf(ray.d, prev_bin);
-                var w = 1.0;
-                if (!specular) {
-                    w = power_heuristic(prev_pdf, e.w);
-                }
-                l += beta * e.xyz * w;
+                l += beta * e.xyz * found_weight(specular, prev_pdf, e.w);
             }
             break;
         }
@@ -125,9 +137,9 @@ fn li(camera: Ray) -> vec3<f32> {
         // Seen from behind the shading normal: a two-sided material's back.
         load_material(s.shape, s.uv, dot(ray.d, s.ns) > 0.0);
         // Emission found by following the path (front side only).
-        if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide)) {
+        if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide) && count_emission(specular)) {
             var w = 1.0;
-            if (!specular) {
+            if (!specular && P.strategy == STRATEGY_MIS) {
                 let choice = light_choice_pdf(s.light, prev_p, prev_n, prev_total);
                 w = power_heuristic(prev_pdf, area_pdf(s.light, choice, prev_p, s.p, s.ng));
             }
@@ -147,7 +159,7 @@ fn li(camera: Ray) -> vec3<f32> {
         let u_light = next_2d();
         var total = 0.0;
         var bin = NONE;
-        if (!is_specular()) {
+        if (!is_specular() && P.strategy != STRATEGY_MATS) {
             total = choice_total(s.p, s.ns);
             // path.rs: at the first vertex, a surface that only reflects
             // samples the environment for the side of its shading normal
@@ -176,7 +188,7 @@ fn li(camera: Ray) -> vec3<f32> {
                     }
                     if (!occluded(o, d, tmax)) {
                         var w = 1.0;
-                        if (!ls.delta) {
+                        if (!ls.delta && P.strategy == STRATEGY_MIS) {
                             w = power_heuristic(ls.pdf, fp.w);
                         }
                         l += beta * f * abs(wo.z) * ls.le * (w / ls.pdf);

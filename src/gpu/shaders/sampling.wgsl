@@ -94,6 +94,16 @@ fn next_2d() -> vec2<f32> {
     return vec2<f32>(x, next_independent());
 }
 
+// sampling/warp.rs's square_to_beckmann: a normal drawn from Beckmann's
+// D(m) cos(theta_m).
+fn square_to_beckmann(u: vec2<f32>, alpha: f32) -> vec3<f32> {
+    let tan2 = -alpha * alpha * log(1.0 - u.x);
+    let cos_theta = 1.0 / sqrt(1.0 + tan2);
+    let sin_theta = sqrt(tan2) * cos_theta;
+    let phi = 2.0 * PI * u.y;
+    return vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta);
+}
+
 // Shirley and Chiu's concentric map of the square to the unit disk.
 fn square_to_uniform_disk(u: vec2<f32>) -> vec2<f32> {
     let o = 2.0 * u - vec2<f32>(1.0);
