@@ -437,6 +437,24 @@ fn films_filters_and_samplers() {
             assert!(w[0].message.contains(&format!("up to {want}")), "{w:?}");
         }
     }
+    // Strata centres and orthogonal arrays of other strengths are not
+    // rendered as Mitsuba renders them: a warning each.
+    for (sampler, name) in [
+        (
+            "<sampler type=\"stratified\"><boolean name=\"jitter\" value=\"false\"/></sampler>",
+            "jitter",
+        ),
+        (
+            "<sampler type=\"orthogonal\"><integer name=\"strength\" value=\"3\"/></sampler>",
+            "strength",
+        ),
+    ] {
+        let (_, w) = load(&with_sensor(&format!(
+            "<sensor type=\"perspective\">{sampler}</sensor>"
+        )));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].message.contains(name), "{w:?}");
+    }
     // An unknown pixel format is a warning; crop windows are errors.
     let (_, w) = load(&with_sensor(
         "<sensor type=\"perspective\"><film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"cmyk\"/></film></sensor>",

@@ -319,11 +319,18 @@ impl<'d> Ctx<'d> {
         let (spp, kind) = match ty {
             "independent" => (asked, SamplerKind::Independent),
             _ => {
-                if ty != "ldsampler" {
-                    p.get_bool("jitter", true)?;
+                if ty != "ldsampler" && !p.get_bool("jitter", true)? {
+                    p.warn(
+                        "jitter",
+                        "'jitter' false (points at the strata's centres) is not supported: \
+                         lente's stratified points are always scrambled within their strata",
+                    );
                 }
-                if ty == "orthogonal" {
-                    p.get_int("strength", 2)?;
+                if ty == "orthogonal" && p.get_int("strength", 2)? != 2 {
+                    p.warn(
+                        "strength",
+                        "'strength' is ignored: lente's stratified points are (0, 2) sequences",
+                    );
                 }
                 (mitsuba_sample_count(ty, asked), SamplerKind::Stratified)
             }
