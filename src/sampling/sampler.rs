@@ -122,7 +122,7 @@ impl Sampler {
             return to_unit(point_1d(self.reversed_index, seed));
         }
         // 24 random mantissa bits: exactly representable, strictly below 1.
-        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+        to_unit(self.next_u32())
     }
 
     pub fn next_2d(&mut self) -> Vec2 {

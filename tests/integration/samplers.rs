@@ -1,10 +1,10 @@
 //! Mitsuba's stratified samplers: the same image in expectation as the
 //! independent sampler, with less error at equal sample counts.
 
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use std::path::Path;
-
+use lente::color::luminance;
 use lente::image::Bitmap;
 use lente::load::load_scene_with;
 use lente::render::{render, RenderJob, RenderOptions};
@@ -38,8 +38,7 @@ pub fn luminances(img: &Bitmap) -> Vec<f64> {
     let mut v = Vec::new();
     for y in 0..img.height {
         for x in 0..img.width {
-            let c = img.get(x, y);
-            v.push((0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64);
+            v.push(luminance(img.get(x, y)) as f64);
         }
     }
     v

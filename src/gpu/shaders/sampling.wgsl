@@ -73,11 +73,12 @@ fn next_1d() -> f32 {
     return next_independent();
 }
 
+// The PCG stream's next number: the permuted output of its state, which
+// then advances (the same step pcg_hash takes).
 fn next_independent() -> f32 {
+    let x = pcg_hash(rng_state);
     rng_state = rng_state * 747796405u + 2891336453u;
-    let s = rng_state;
-    let w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
-    return f32(((w >> 22u) ^ w) >> 8u) * (1.0 / 16777216.0);
+    return to_unit(x);
 }
 
 fn next_2d() -> vec2<f32> {

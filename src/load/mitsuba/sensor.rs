@@ -373,14 +373,7 @@ pub(super) fn mitsuba_sample_count(ty: &str, asked: u32) -> u32 {
             2,
         ),
         "multijitter" => {
-            // The integer square root, exact where a float's may round.
-            let mut r = (asked as f64).sqrt() as u32;
-            while (r + 1) * (r + 1) <= asked {
-                r += 1;
-            }
-            while r * r > asked {
-                r -= 1;
-            }
+            let r = asked.isqrt();
             asked.div_ceil(r) * r
         }
         _ => asked,
