@@ -47,6 +47,12 @@ impl RoughSubstrate {
     }
 
     /// The coating's share of the samples: F(cos θi).
+    /// The diffuse lobe's constant factor, 28 (1 - r^2) / (23 pi) (the
+    /// GPU folds it into kd).
+    pub fn diffuse_scale(&self) -> f32 {
+        self.diffuse_scale
+    }
+
     #[inline]
     fn coating_probability(&self, wi: Vec3) -> f32 {
         fresnel_dielectric(wi.z, self.eta).0

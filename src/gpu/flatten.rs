@@ -76,10 +76,25 @@ pub const MAT_BLEND: u32 = 7;
 /// Nori's `microfacet`: A its kd, B (ks, 0, 0, alpha), C (eta, 0, 0, -1:
 /// an isotropic Beckmann distribution for `microfacet()`).
 pub const MAT_MICROFACET: u32 = 8;
-pub const MAT_MIRROR: u32 = 9;
-pub const MAT_DIELECTRIC: u32 = 10;
-pub const MAT_CONDUCTOR: u32 = 11;
-pub const MAT_THIN_DIELECTRIC: u32 = 12;
+/// The Zaragoza Nori fork's `roughconductor`: A r0 (Schlick's Fresnel), B
+/// (0, 0, 0, alpha), C (0, 0, 0, -1: isotropic Beckmann), sampled from D
+/// cos as Nori samples it.
+pub const MAT_SCHLICK_CONDUCTOR: u32 = 9;
+/// The Zaragoza Nori fork's `roughsubstrate` (Ashikhmin-Shirley): A its kd
+/// times the diffuse scale 28 (1 - r^2) / (23 pi), B (0, 0, 0, alpha), C
+/// (eta, 0, 0, -1).
+pub const MAT_ROUGH_SUBSTRATE: u32 = 10;
+/// Mitsuba's `pplastic`, unpolarised: A its diffuse reflectance, B (its
+/// specular reflectance, alpha), C (eta, specular sampling weight, 0,
+/// distribution).
+pub const MAT_POLARIZED_PLASTIC: u32 = 11;
+pub const MAT_MIRROR: u32 = 12;
+pub const MAT_DIELECTRIC: u32 = 13;
+pub const MAT_CONDUCTOR: u32 = 14;
+pub const MAT_THIN_DIELECTRIC: u32 = 15;
+/// Straight through with weight A: Mitsuba's `null` (1) and `polarizer`
+/// (half its transmittance), a delta lobe of probability 1.
+pub const MAT_PASS: u32 = 16;
 
 /// Set in a material's kind word on shapes that have an area emitter
 /// (camera rays pass through them under `hide_emitters`).
@@ -497,6 +512,7 @@ fn anisotropic(bsdf: &Bsdf) -> bool {
         Bsdf::RoughConductor(c) => !c.distr.is_isotropic(),
         Bsdf::RoughDielectric(d) => !d.distr.is_isotropic(),
         Bsdf::RoughPlastic(p) => !p.distr.is_isotropic(),
+        Bsdf::PolarizedPlastic(p) => !p.distr.is_isotropic(),
         Bsdf::Textured(t) => anisotropic(t.base()),
         Bsdf::Mask(m) => anisotropic(&m.nested),
         Bsdf::TwoSided(t) => anisotropic(&t.front) || anisotropic(&t.back),
@@ -704,6 +720,26 @@ fn material(
             [m.ks, 0.0, 0.0, m.alpha],
             [m.eta, 0.0, 0.0, -1.0],
         ],
+        Bsdf::SchlickConductor(c) => [
+            v4(c.r0, bits(MAT_SCHLICK_CONDUCTOR)),
+            [0.0, 0.0, 0.0, c.alpha],
+            [0.0, 0.0, 0.0, -1.0],
+        ],
+        Bsdf::RoughSubstrate(r) => [
+            v4(r.kd * r.diffuse_scale(), bits(MAT_ROUGH_SUBSTRATE)),
+            [0.0, 0.0, 0.0, r.alpha],
+            [r.eta, 0.0, 0.0, -1.0],
+        ],
+        Bsdf::PolarizedPlastic(p) => {
+            let (alpha, distr) = roughness(&p.distr);
+            [
+                v4(p.diffuse_reflectance, bits(MAT_POLARIZED_PLASTIC)),
+                v4(p.specular_reflectance, alpha),
+                [p.eta, p.specular_sampling_weight, 0.0, distr],
+            ]
+        }
+        Bsdf::Null => [v4(Vec3::ONE, bits(MAT_PASS)), zero, zero],
+        Bsdf::Polarizer(p) => [v4(p.transmittance * 0.5, bits(MAT_PASS)), zero, zero],
         Bsdf::Dielectric(d) => [
             v4(Vec3::ONE, bits(MAT_DIELECTRIC)),
             [d.eta, 0.0, 0.0, 0.0],
@@ -2152,10 +2188,14 @@ mod tests {
             ("MAT_PRINCIPLED_THIN", MAT_PRINCIPLED_THIN),
             ("MAT_BLEND", MAT_BLEND),
             ("MAT_MICROFACET", MAT_MICROFACET),
+            ("MAT_SCHLICK_CONDUCTOR", MAT_SCHLICK_CONDUCTOR),
+            ("MAT_ROUGH_SUBSTRATE", MAT_ROUGH_SUBSTRATE),
+            ("MAT_POLARIZED_PLASTIC", MAT_POLARIZED_PLASTIC),
             ("MAT_MIRROR", MAT_MIRROR),
             ("MAT_DIELECTRIC", MAT_DIELECTRIC),
             ("MAT_CONDUCTOR", MAT_CONDUCTOR),
             ("MAT_THIN_DIELECTRIC", MAT_THIN_DIELECTRIC),
+            ("MAT_PASS", MAT_PASS),
             ("MAT_EMITS", MAT_EMITS),
             ("MAT_TEXTURED", MAT_TEXTURED),
             ("MAT_TEXTURED_B", MAT_TEXTURED_B),

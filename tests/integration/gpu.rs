@@ -4,8 +4,9 @@
 //! threshold at 1% for all blocks together). The scenes cover what the GPU
 //! renders: rectangles, disks, spheres, cubes and OBJ meshes; diffuse,
 //! two-sided diffuse, mirror, smooth and rough dielectric, conductor,
-//! rough conductor (GGX and Beckmann), plastic and rough plastic, masks,
-//! blends;
+//! rough conductor (GGX and Beckmann), plastic, rough plastic and
+//! pplastic, Nori's microfacet and the Zaragoza fork's roughconductor and
+//! roughsubstrate, masks, blends, null and polarizer;
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
 //! checkerboard radiance), point, spot (plain and projecting a bitmap) and
 //! directional lights, the light choice past 64 emitters, a light triangle
@@ -126,6 +127,8 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/stratified.xml",
         "tests/gpu/path_ems_env.xml",
         "tests/gpu/path_mats_light.xml",
+        "tests/gpu/pass_and_pplastic.xml",
+        "tests/gpu/nori_rough.xml",
     ];
     // LENTE_GPU_ONLY=text: only the scenes whose path contains it (while
     // working on one; the Sidak threshold then covers those alone).

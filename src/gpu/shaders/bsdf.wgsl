@@ -1,6 +1,8 @@
 // The BSDFs the GPU renders (bsdf/diffuse.rs, two_sided.rs, blend.rs,
 // mirror.rs, dielectric.rs, thin_dielectric.rs, conductor.rs,
 // rough_conductor.rs, plastic.rs, rough_plastic.rs, rough_dielectric.rs,
+// microfacet.rs, schlick_conductor.rs, rough_substrate.rs,
+// polarized_plastic.rs, polarizer.rs and `null`,
 // principled.rs, principled_thin.rs (principled.wgsl);
 // their reflectances, transmittances and isotropic roughness textured as
 // textured.rs reads them, texture.wgsl), in the shading frame (z along
@@ -37,10 +39,15 @@ const MAT_PRINCIPLED: u32 = 6u;
 const MAT_PRINCIPLED_THIN: u32 = 1u;
 const MAT_BLEND: u32 = 7u;
 const MAT_MICROFACET: u32 = 8u;
-const MAT_MIRROR: u32 = 9u;
-const MAT_DIELECTRIC: u32 = 10u;
-const MAT_CONDUCTOR: u32 = 11u;
-const MAT_THIN_DIELECTRIC: u32 = 12u;
+const MAT_SCHLICK_CONDUCTOR: u32 = 9u;
+const MAT_ROUGH_SUBSTRATE: u32 = 10u;
+const MAT_POLARIZED_PLASTIC: u32 = 11u;
+const MAT_MIRROR: u32 = 12u;
+const MAT_DIELECTRIC: u32 = 13u;
+const MAT_CONDUCTOR: u32 = 14u;
+const MAT_THIN_DIELECTRIC: u32 = 15u;
+// Straight through with weight A (`null`, `polarizer`).
+const MAT_PASS: u32 = 16u;
 
 // Whether the scene has blends and Disney BSDFs (principled.wgsl): set
 // per scene at pipeline creation (flatten.rs's `shader_constants`), so the
@@ -752,6 +759,26 @@ fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (kind == MAT_ROUGH_CONDUCTOR) {
         return a * fresnel_conductor(dot(wi, h), b, mat_c) * dg;
     }
+    if (kind == MAT_SCHLICK_CONDUCTOR) {
+        // schlick_conductor.rs: Schlick's Fresnel with r0 = A.
+        let w = schlick_weight(dot(h, wi));
+        return (a + (vec3<f32>(1.0) - a) * w) * dg;
+    }
+    if (kind == MAT_ROUGH_SUBSTRATE) {
+        // rough_substrate.rs: a dielectric coating over Ashikhmin-Shirley's
+        // diffuse base (A holds kd times its constant).
+        let f = fresnel_dielectric(dot(h, wi), c.x).x;
+        let base = (1.0 - schlick_weight(0.5 * wi.z)) * (1.0 - schlick_weight(0.5 * wo.z));
+        return vec3<f32>(dg * f) + a * base;
+    }
+    if (kind == MAT_POLARIZED_PLASTIC) {
+        // polarized_plastic.rs: no internal reflections, no tables.
+        let eta = c.x;
+        let f = fresnel_dielectric(dot(wi, h), eta).x;
+        let f_i = fresnel_dielectric(wi.z, eta).x;
+        let f_o = fresnel_dielectric(wo.z, eta).x;
+        return b * (dg * f) + a * ((1.0 - f_i) * (1.0 - f_o) * INV_PI);
+    }
     // Rough plastic.
     let eta = c.x;
     let f = fresnel_dielectric(dot(wi, h), eta).x;
@@ -787,15 +814,25 @@ fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
         let f_i = fresnel_dielectric(wi.z, c.x).x;
         return (1.0 - prob_specular(f_i, c.y)) * wo.z * INV_PI;
     }
-    if (kind == MAT_MICROFACET) {
-        let ks = material_word(1u).x;
+    // Nori's: normals drawn from D cos.
+    if (kind == MAT_MICROFACET || kind == MAT_SCHLICK_CONDUCTOR || kind == MAT_ROUGH_SUBSTRATE) {
         let h = normalize(wi + wo);
         let spec = microfacet_d(microfacet(), h) * h.z / (4.0 * abs(dot(h, wo)));
-        return ks * spec + (1.0 - ks) * wo.z * INV_PI;
+        var p = 1.0;
+        if (kind == MAT_MICROFACET) {
+            p = material_word(1u).x;
+        } else if (kind == MAT_ROUGH_SUBSTRATE) {
+            p = fresnel_dielectric(wi.z, material_word(2u).x).x;
+        }
+        return p * spec + (1.0 - p) * wo.z * INV_PI;
     }
     let glossy = microfacet_reflection_pdf(microfacet(), wi, wo);
     if (kind == MAT_ROUGH_CONDUCTOR) {
         return glossy;
+    }
+    if (kind == MAT_POLARIZED_PLASTIC) {
+        let p = material_word(2u).y;
+        return p * glossy + (1.0 - p) * wo.z * INV_PI;
     }
     let p = rough_plastic_glossy_prob(wi);
     return p * glossy + (1.0 - p) * wo.z * INV_PI;
@@ -854,6 +891,9 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
         }
         return BsdfSample(-wi, mat_b, 1.0 - r, true, 1.0, true);
     }
+    if (kind == MAT_PASS) {
+        return BsdfSample(-wi, a, 1.0, true, 1.0, true);
+    }
     // The rest are one-sided.
     if (wi.z <= 0.0) {
         return no_sample();
@@ -861,10 +901,18 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     if (kind == MAT_DIFFUSE) {
         return lobe_direction(wi, u, false);
     }
-    if (kind == MAT_MICROFACET) {
+    if (kind == MAT_MICROFACET || kind == MAT_SCHLICK_CONDUCTOR || kind == MAT_ROUGH_SUBSTRATE) {
         // Nori's: reflected about a normal drawn from D cos (not the
-        // visible normals) with probability ks, else cosine-distributed.
-        if (u_lobe >= material_word(1u).x) {
+        // visible normals) with probability ks (microfacet.rs), 1
+        // (schlick_conductor.rs) or the coating's Fresnel reflectance
+        // (rough_substrate.rs), else cosine-distributed.
+        var p = 1.0;
+        if (kind == MAT_MICROFACET) {
+            p = material_word(1u).x;
+        } else if (kind == MAT_ROUGH_SUBSTRATE) {
+            p = fresnel_dielectric(wi.z, material_word(2u).x).x;
+        }
+        if (u_lobe >= p) {
             return lobe_direction(wi, u, false);
         }
         let wo = reflect_about(wi, square_to_beckmann(u, mat_alpha));
@@ -872,6 +920,9 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
             return no_sample();
         }
         return direction_only(wo, 1.0);
+    }
+    if (kind == MAT_POLARIZED_PLASTIC) {
+        return lobe_direction(wi, u, u_lobe < material_word(2u).y);
     }
     let mirror = vec3<f32>(-wi.x, -wi.y, wi.z);
     if (kind == MAT_MIRROR) {
