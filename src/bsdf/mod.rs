@@ -494,6 +494,10 @@ impl Bsdf {
                 b.first.null_transmission(at, cos_i) * (1.0 - w)
                     + b.second.null_transmission(at, cos_i) * w
             }
+            // A textured thin dielectric passes its transmittance there; a
+            // normal or bump map does not stop what its BSDF lets through.
+            Bsdf::Textured(b) => b.null_transmission(at, cos_i),
+            Bsdf::Tilted(b) => b.nested.null_transmission(at, cos_i),
             _ => Rgb::ZERO,
         }
     }

@@ -185,6 +185,14 @@ impl Textured {
         }
     }
 
+    /// [`Bsdf::null_transmission`] with the textures read at `at`.
+    pub fn null_transmission(&self, at: SurfacePoint, cos_i: f32) -> Rgb {
+        match self.at(at) {
+            Local::ThinDielectric(b) => b.null_transmission(cos_i),
+            _ => Rgb::ZERO,
+        }
+    }
+
     pub fn eval(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> Rgb {
         match self.at(at) {
             Local::Diffuse(b) => b.eval(wi, wo),
@@ -228,6 +236,39 @@ impl Textured {
             Local::Microfacet(b) => b.sample(wi, u, u_lobe),
             Local::SchlickConductor(b) => b.sample(wi, u),
             Local::RoughSubstrate(b) => b.sample(wi, u, u_lobe),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::ThinDielectric;
+    use crate::texture::{Checkerboard, UvTransform};
+
+    /// A textured thin dielectric lets through what the untextured one with
+    /// the texel's transmittance does (volpath's shadow rays keep it).
+    #[test]
+    fn textured_thin_dielectric_passes_its_texel_transmittance() {
+        let (t0, t1) = (Rgb::new(0.9, 0.5, 0.1), Rgb::new(0.2, 0.3, 0.4));
+        let plain = |t: Rgb| ThinDielectric::new(1.5, 1.0, Rgb::ONE, t).unwrap();
+        let board = Texture::Checkerboard(Checkerboard {
+            color0: t0,
+            color1: t1,
+            to_uv: UvTransform::IDENTITY,
+        });
+        let textured = Bsdf::Textured(Box::new(
+            Textured::new(
+                Bsdf::ThinDielectric(plain(Rgb::ONE)),
+                vec![(BsdfParam::SpecularTransmittance, board)],
+            )
+            .unwrap(),
+        ));
+        for (uv, t) in [(Vec2::new(0.25, 0.25), t0), (Vec2::new(0.75, 0.25), t1)] {
+            let at = SurfacePoint::from(uv);
+            let want = plain(t).null_transmission(0.6);
+            assert!(want.min_element() > 0.0);
+            assert_eq!(textured.null_transmission(at, 0.6), want);
         }
     }
 }

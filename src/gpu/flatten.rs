@@ -285,7 +285,13 @@ pub struct Params {
     /// sampling only) or `STRATEGY_EMS` (emitter sampling, and emission
     /// found by the path only after specular bounces), as `path.rs`.
     pub strategy: u32,
-    pub _pad: [u32; 2],
+    /// 1 for Mitsuba's `volpath` (`volpath.wgsl`), 0 for the path tracer.
+    pub volpath: u32,
+    /// The medium the camera sits in (`NONE`: vacuum).
+    pub camera_medium: u32,
+    /// Where the media tables start in `shapes` (`media_words`).
+    pub media_base: u32,
+    pub _pad: [u32; 3],
 }
 
 /// `Params::strategy`.
@@ -348,7 +354,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, Nori's microfacet, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and the Disney BSDFs' base colour, metallic, spec_trans and eta), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination by MIS, BSDF sampling or emitter sampling); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, pplastic, null, polarizer, Nori's microfacet, the Zaragoza fork's roughconductor and roughsubstrate, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and the Disney BSDFs' base colour, metallic, spec_trans and eta), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination by MIS, BSDF sampling or emitter sampling, and volpath through homogeneous media); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -491,6 +497,55 @@ fn variant_name(v: &impl std::fmt::Debug) -> String {
         .next()
         .unwrap_or("this")
         .to_string()
+}
+
+/// Phase function kinds (`volpath.wgsl`'s `PHASE_*`).
+pub const PHASE_ISOTROPIC: u32 = 0;
+pub const PHASE_HG: u32 = 1;
+pub const PHASE_RAYLEIGH: u32 = 2;
+/// Set in a medium's flags where paths sample emitters as they scatter in
+/// it (Mitsuba's `sample_emitters`).
+pub const MEDIUM_SAMPLES_EMITTERS: u32 = 0x100;
+/// Set where its albedo is zero: nothing scatters, free flights pass
+/// with the transmittance itself (`medium/mod.rs`).
+pub const MEDIUM_ABSORBS_ONLY: u32 = 0x200;
+
+/// The media as `volpath.wgsl` reads them, words from index `base` of the
+/// shapes buffer on: per shape one word (interior, exterior, 0, 0), the
+/// index of each side's medium record as bits (`NONE`: vacuum); then per
+/// medium its record, two words: (sigma_t, flags: its `PHASE_*` kind and
+/// `MEDIUM_*` bits) and (albedo, Henyey-Greenstein's g). Also the camera's
+/// medium's record index. Homogeneous media with a constant albedo only;
+/// another is named unsupported.
+fn media_words(scene: &Scene, base: usize) -> Result<(Vec<[f32; 4]>, u32), Unsupported> {
+    use crate::medium::{MediumKind, Phase};
+    let first = base + scene.shape_media.len();
+    let record = |m: Option<u32>| m.map_or(NONE, |m| (first + 2 * m as usize) as u32);
+    let mut words: Vec<[f32; 4]> = (scene.shape_media.iter())
+        .map(|i| [bits(record(i.interior)), bits(record(i.exterior)), 0.0, 0.0])
+        .collect();
+    for medium in &scene.media {
+        let MediumKind::Homogeneous(h) = &medium.kind else {
+            return unsupported("a heterogeneous medium");
+        };
+        let Some(albedo) = h.albedo.as_constant() else {
+            return unsupported("a medium whose albedo is a grid volume");
+        };
+        let (mut flags, g) = match medium.phase {
+            Phase::Isotropic => (PHASE_ISOTROPIC, 0.0),
+            Phase::HenyeyGreenstein { g } => (PHASE_HG, g),
+            Phase::Rayleigh => (PHASE_RAYLEIGH, 0.0),
+        };
+        if medium.sample_emitters {
+            flags |= MEDIUM_SAMPLES_EMITTERS;
+        }
+        if albedo == Rgb::ZERO {
+            flags |= MEDIUM_ABSORBS_ONLY;
+        }
+        words.push(v4(h.sigma_t, bits(flags)));
+        words.push(v4(albedo, g));
+    }
+    Ok((words, record(scene.camera_medium)))
 }
 
 /// The microfacet words: alpha along the shading frame's s axis (dp/du),
@@ -1096,9 +1151,18 @@ fn texture_record(
 impl GpuScene {
     /// Flattens `scene` for `job`, or says what the GPU cannot render.
     pub fn new(scene: &Scene, job: &RenderJob, seed: u64) -> Result<GpuScene, Unsupported> {
+        let volpath = matches!(job.integrator, Integrator::VolPath { .. });
         let (strategy, max_depth, rr_depth, hide_emitters) = match &job.integrator {
             Integrator::Path { strategy, params } => (
                 *strategy,
+                params.max_depth.unwrap_or(NONE),
+                params.rr_depth,
+                params.hide_emitters,
+            ),
+            // Its emitter and BSDF samples are weighed as the path
+            // tracer's with MIS.
+            Integrator::VolPath { params } => (
+                Strategy::Mis,
                 params.max_depth.unwrap_or(NONE),
                 params.rr_depth,
                 params.hide_emitters,
@@ -1108,9 +1172,10 @@ impl GpuScene {
             Integrator::Direct { strategy } => (*strategy, 2, NONE, false),
             other => return unsupported(format!("the {} integrator", variant_name(other))),
         };
-        if !scene.media.is_empty() || scene.camera_medium.is_some() {
-            return unsupported("participating media");
+        if !volpath && (!scene.media.is_empty() || scene.camera_medium.is_some()) {
+            return unsupported("participating media outside the volpath integrator");
         }
+
         let cam = &scene.camera.params;
         let (aperture_blades, aperture_rotation) = match cam.aperture {
             Aperture::Circular => (0, 0.0),
@@ -1262,6 +1327,13 @@ impl GpuScene {
             return unsupported("a scene without shapes");
         }
         shapes.extend(tables);
+        let media_base = shapes.len();
+        let (media, camera_medium) = if volpath {
+            media_words(scene, media_base)?
+        } else {
+            (Vec::new(), NONE)
+        };
+        shapes.extend(media);
         // Beckmann's visible-slope guesses, for every scene (8 KiB).
         let beckmann_table = shapes.len() as u32;
         shapes.extend(
@@ -1665,6 +1737,9 @@ impl GpuScene {
             aperture_blades,
             aperture_rotation,
             beckmann_table,
+            volpath: volpath as u32,
+            camera_medium,
+            media_base: media_base as u32,
             strategy: match strategy {
                 Strategy::Mis => STRATEGY_MIS,
                 Strategy::Mats => STRATEGY_MATS,
@@ -1722,12 +1797,13 @@ impl GpuScene {
     /// material code it keeps (`bsdf.wgsl`'s `BLENDS` and `DISNEY`), so
     /// that scenes without blends or Disney BSDFs run a smaller kernel
     /// (code the compiler drops, not a different image).
-    pub fn shader_constants(&self) -> [(&'static str, f64); 2] {
+    pub fn shader_constants(&self) -> [(&'static str, f64); 3] {
         let has = |kinds: &[u32]| kinds.iter().any(|k| self.material_kinds & (1 << k) != 0);
         let flag = |on: bool| if on { 1.0 } else { 0.0 };
         [
             ("BLENDS", flag(has(&[MAT_BLEND]))),
             ("DISNEY", flag(has(&[MAT_PRINCIPLED, MAT_PRINCIPLED_THIN]))),
+            ("VOLPATH", flag(self.params.volpath != 0)),
         ]
     }
 }
@@ -2073,7 +2149,10 @@ mod tests {
         let [checker, sheen, coat, aniso, glass] = principled[..] else {
             unreachable!()
         };
-        assert_eq!(flat.shader_constants(), [("BLENDS", 0.0), ("DISNEY", 1.0)]);
+        assert_eq!(
+            flat.shader_constants(),
+            [("BLENDS", 0.0), ("DISNEY", 1.0), ("VOLPATH", 0.0)]
+        );
         // Constants are their channel means: equal within rounding.
         let near = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-6);
         // A checkerboard base colour; metallic 0.6, spec_tint 0.5.
@@ -2164,6 +2243,7 @@ mod tests {
             include_str!("shaders/bsdf.wgsl"),
             include_str!("shaders/principled.wgsl"),
             include_str!("shaders/emitter.wgsl"),
+            include_str!("shaders/volpath.wgsl"),
         ]
         .concat();
         let ours: &[(&str, u32)] = &[
@@ -2208,6 +2288,11 @@ mod tests {
             ("MAT_NORMAL_MAP", MAT_NORMAL_MAP),
             ("MAT_FACING", MAT_FACING),
             ("TILT_FLIP", TILT_FLIP),
+            ("PHASE_ISOTROPIC", PHASE_ISOTROPIC),
+            ("PHASE_HG", PHASE_HG),
+            ("PHASE_RAYLEIGH", PHASE_RAYLEIGH),
+            ("MEDIUM_SAMPLES_EMITTERS", MEDIUM_SAMPLES_EMITTERS),
+            ("MEDIUM_ABSORBS_ONLY", MEDIUM_ABSORBS_ONLY),
             ("TILT_SHADOW", TILT_SHADOW),
             ("TILT_INSIDE_TWO_SIDED", TILT_INSIDE_TWO_SIDED),
             ("TILT_BUMP", TILT_BUMP),
@@ -2253,7 +2338,10 @@ mod tests {
     fn blends_point_at_their_two_layers() {
         let (scene, job) = load("tests/gpu/blends.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
-        assert_eq!(flat.shader_constants(), [("BLENDS", 1.0), ("DISNEY", 0.0)]);
+        assert_eq!(
+            flat.shader_constants(),
+            [("BLENDS", 1.0), ("DISNEY", 0.0), ("VOLPATH", 0.0)]
+        );
         let word = |i: f32| flat.shapes[i.to_bits() as usize];
         let kind = |w: [f32; 4]| w[3].to_bits();
         let layers = |w: [f32; 4]| [kind(word(w[1])), kind(word(w[2]))];

@@ -40,6 +40,7 @@ const PATH_SHADER: &str = concat!(
     include_str!("shaders/light_choice.wgsl"),
     include_str!("shaders/emitter.wgsl"),
     include_str!("shaders/path.wgsl"),
+    include_str!("shaders/volpath.wgsl"),
 );
 const FILM_SHADER: &str = concat!(
     include_str!("shaders/params.wgsl"),

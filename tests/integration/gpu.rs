@@ -6,7 +6,10 @@
 //! two-sided diffuse, mirror, smooth and rough dielectric, conductor,
 //! rough conductor (GGX and Beckmann), plastic, rough plastic and
 //! pplastic, Nori's microfacet and the Zaragoza fork's roughconductor and
-//! roughsubstrate, masks, blends, null and polarizer;
+//! roughsubstrate, masks, blends, null and polarizer; volpath through
+//! homogeneous media (the conformance check's fog scene, and media behind
+//! null, dielectric and thin-dielectric boundaries with every phase
+//! function);
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
 //! checkerboard radiance), point, spot (plain and projecting a bitmap) and
 //! directional lights, the light choice past 64 emitters, a light triangle
@@ -129,6 +132,8 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/path_mats_light.xml",
         "tests/gpu/pass_and_pplastic.xml",
         "tests/gpu/nori_rough.xml",
+        "tests/conformance/media.xml",
+        "tests/gpu/volumes.xml",
     ];
     // LENTE_GPU_ONLY=text: only the scenes whose path contains it (while
     // working on one; the Sidak threshold then covers those alone).
@@ -320,7 +325,7 @@ fn gpu_passes_are_reported_dropped_when_cut_and_continued() {
 #[test]
 fn unsupported_features_are_named() {
     // Needs no adapter: the scene is checked before the device is opened.
-    let (scene, job) = load("tests/conformance/media.xml");
+    let (scene, job) = load("tests/conformance/hetero.xml");
     let err = lente::gpu::render(
         &scene,
         &job,
@@ -328,10 +333,10 @@ fn unsupported_features_are_named() {
         &AtomicBool::new(false),
     )
     .err()
-    .expect("media.xml uses the volumetric path tracer");
+    .expect("hetero.xml has heterogeneous media");
     let msg = err.to_string();
     assert!(
-        msg.contains("does not support the VolPath integrator"),
+        msg.contains("does not support a heterogeneous medium"),
         "{msg}"
     );
     assert!(msg.contains("--device cpu"), "{msg}");
@@ -341,13 +346,13 @@ fn unsupported_features_are_named() {
 fn device_flag_names_what_the_gpu_lacks_and_auto_falls_back() {
     use super::cli_util::{run_fails_with, run_ok, text};
     let dir = tempfile::tempdir().unwrap();
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/media.xml");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/hetero.xml");
     let scene = scene.to_str().unwrap();
     let out = dir.path().join("out");
     let out = out.to_str().unwrap();
     run_fails_with(
         &["render", scene, "--device", "gpu", "--spp", "1", "-o", out],
-        "does not support the VolPath integrator",
+        "does not support a heterogeneous medium",
     );
     assert!(!dir.path().join("out.exr").exists(), "no output on failure");
     let done = run_ok(&["render", scene, "--device", "auto", "--spp", "1", "-o", out]);

@@ -889,9 +889,11 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
         if (u_lobe <= r) {
             return BsdfSample(vec3<f32>(-wi.x, -wi.y, wi.z), a, r, true, 1.0, true);
         }
+        sampled_null = true;
         return BsdfSample(-wi, mat_b, 1.0 - r, true, 1.0, true);
     }
     if (kind == MAT_PASS) {
+        sampled_null = true;
         return BsdfSample(-wi, a, 1.0, true, 1.0, true);
     }
     // The rest are one-sided.
@@ -1176,9 +1178,46 @@ fn bsdf_eval_pdf(wi: vec3<f32>, wo: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(fp.xyz * d.scale, fp.w) * mat_opacity;
 }
 
+// bsdf/mod.rs's null_transmission: what passes straight through the
+// loaded material along a direction at cosine `cos_i` to its shading
+// normal (volpath's shadow rays keep it): a mask's holes, `null`, a
+// polarizer, a thin dielectric's transmission; zero for the rest.
+fn layer_null_transmission(cos_i: f32) -> vec3<f32> {
+    let kind = material_kind();
+    if (kind == MAT_PASS) {
+        return mat_a;
+    }
+    if (kind == MAT_THIN_DIELECTRIC) {
+        let f = fresnel_dielectric(abs(cos_i), material_word(2u).x).x;
+        return mat_b * (1.0 - 2.0 * f / (1.0 + f));
+    }
+    return vec3<f32>(0.0);
+}
+
+fn bsdf_null_transmission(cos_i: f32) -> vec3<f32> {
+    var t = vec3<f32>(0.0);
+    if (BLENDS && mat_layers == 2u) {
+        for (var l = 0u; l < 2u; l++) {
+            use_layer(l);
+            t += layer_null_transmission(cos_i) * layer_share(l);
+        }
+        use_layer(0u);
+    } else {
+        t = layer_null_transmission(cos_i);
+    }
+    return vec3<f32>(1.0 - mat_opacity) + t * mat_opacity;
+}
+
+// Whether bsdf_sample's last sample was a null lobe (BsdfSample::null on
+// the CPU: straight on as if the surface were not there; volpath does
+// not count it as a bounce).
+var<private> sampled_null: bool;
+
 fn bsdf_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     let opacity = mat_opacity;
+    sampled_null = false;
     if (u_lobe >= opacity) {
+        sampled_null = true;
         return BsdfSample(-wi, vec3<f32>(1.0), 1.0 - opacity, true, 1.0, true);
     }
     var a = wi;

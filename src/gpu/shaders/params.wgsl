@@ -54,8 +54,12 @@ struct Params {
     env_block_band_shift: u32,
     stratified_dims: u32,
     strategy: u32,
+    volpath: u32,
+    camera_medium: u32,
+    media_base: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 // Params::strategy: how light is gathered (path.rs's Strategy).

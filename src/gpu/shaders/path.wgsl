@@ -1,3 +1,7 @@
+// Whether the scene is rendered with Mitsuba's `volpath` (volpath.wgsl):
+// set per scene at pipeline creation, as bsdf.wgsl's BLENDS.
+override VOLPATH: bool = false;
+
 // The path tracer with MIS (integrator/path.rs, Strategy::Mis): one
 // thread per pixel sample, writing the sample's radiance and its position
 // in the pixel for film.wgsl to reconstruct.
@@ -90,6 +94,21 @@ fn found_weight(specular: bool, pdf: f32, light_pdf: f32) -> f32 {
         return 1.0;
     }
     return power_heuristic(pdf, light_pdf);
+}
+
+// Russian roulette from P.rr_depth on (path.rs's `roulette`): survival
+// with the throughput's largest channel times `eta_scale`, at most 0.99;
+// false if the path ends.
+fn roulette(beta: ptr<function, vec3<f32>>, eta_scale: f32, depth: u32) -> bool {
+    if (depth < P.rr_depth) {
+        return true;
+    }
+    let q = min(max3(*beta) * eta_scale, 0.99);
+    if (next_1d() >= q) {
+        return false;
+    }
+    *beta /= q;
+    return true;
 }
 
 fn li(camera: Ray) -> vec3<f32> {
@@ -220,13 +239,8 @@ fn li(camera: Ray) -> vec3<f32> {
         if (max3(beta) <= 0.0) {
             break;
         }
-        // Russian roulette.
-        if (depth >= P.rr_depth) {
-            let q = min(max3(beta) * eta_scale, 0.99);
-            if (next_1d() >= q) {
-                break;
-            }
-            beta /= q;
+        if (!roulette(&beta, eta_scale, depth)) {
+            break;
         }
         ray = Ray(spawn_origin(s.p, s.ng, wo_world), wo_world, 0.0, INF);
     }
@@ -245,7 +259,12 @@ fn trace_samples(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     rng_init(pixel, s);
     let film = vec2<f32>(f32(pixel % P.width), f32(pixel / P.width)) + next_2d();
     let aperture = next_2d();
-    let l = li(camera_ray(film, aperture));
+    var l: vec3<f32>;
+    if (VOLPATH) {
+        l = vol_li(camera_ray(film, aperture));
+    } else {
+        l = li(camera_ray(film, aperture));
+    }
     let offset = film - floor(film);
     // The position in the pixel in 16-bit fixed point: its bin of 1/65536
     // (film.wgsl's unpack_offset).
