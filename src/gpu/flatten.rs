@@ -354,7 +354,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, pplastic, null, polarizer, Nori's microfacet, the Zaragoza fork's roughconductor and roughsubstrate, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and the Disney BSDFs' base colour, metallic, spec_trans and eta), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination by MIS, BSDF sampling or emitter sampling, and volpath through homogeneous media); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, pplastic, null, polarizer, Nori's microfacet, the Zaragoza fork's roughconductor and roughsubstrate, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and the Disney BSDFs' base colour, metallic, spec_trans and eta), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination by MIS, BSDF sampling or emitter sampling, and volpath through homogeneous and heterogeneous media); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -510,27 +510,41 @@ pub const MEDIUM_SAMPLES_EMITTERS: u32 = 0x100;
 /// with the transmittance itself (`medium/mod.rs`).
 pub const MEDIUM_ABSORBS_ONLY: u32 = 0x200;
 
+/// Vec4 words per medium record and per volume record in `shapes`.
+pub const MEDIUM_WORDS: usize = 4;
+pub const VOLUME_WORDS: usize = 5;
+/// Set in a heterogeneous medium's flags.
+pub const MEDIUM_HETEROGENEOUS: u32 = 0x400;
+/// At most this many grid values in all (4 bytes each) go to the GPU.
+const MAX_VOXEL_VALUES: usize = 1 << 25;
+
 /// The media as `volpath.wgsl` reads them, words from index `base` of the
 /// shapes buffer on: per shape one word (interior, exterior, 0, 0), the
 /// index of each side's medium record as bits (`NONE`: vacuum); then per
-/// medium its record, two words: (sigma_t, flags: its `PHASE_*` kind and
-/// `MEDIUM_*` bits) and (albedo, Henyey-Greenstein's g). Also the camera's
-/// medium's record index. Homogeneous media with a constant albedo only;
-/// another is named unsupported.
+/// medium its record, `MEDIUM_WORDS` words: (sigma_t, flags) for a
+/// homogeneous medium or (scale, majorant, 0, flags) for a heterogeneous
+/// one (flags: its `PHASE_*` kind and `MEDIUM_*` bits), (the extinction
+/// volume's box's min, Henyey-Greenstein's g), (its max, 0), (the albedo's
+/// and the extinction's volume records as bits, 0, 0); then the volume
+/// records, `VOLUME_WORDS` words: the world-to-volume rows, then (a
+/// constant's value, NONE) or (the grid's resolution, index of its first
+/// value in the buffer's scalars) and (values per voxel, `TEX_NEAREST` or
+/// `TEX_BILINEAR`, `WRAP_*`, 0); then the grids' values, four to a word.
+/// Also the camera's medium's record index.
 fn media_words(scene: &Scene, base: usize) -> Result<(Vec<[f32; 4]>, u32), Unsupported> {
-    use crate::medium::{MediumKind, Phase};
+    use crate::medium::{MediumKind, Phase, Volume, VolumeData, VolumeFilter};
     let first = base + scene.shape_media.len();
-    let record = |m: Option<u32>| m.map_or(NONE, |m| (first + 2 * m as usize) as u32);
+    let record = |m: Option<u32>| m.map_or(NONE, |m| (first + MEDIUM_WORDS * m as usize) as u32);
     let mut words: Vec<[f32; 4]> = (scene.shape_media.iter())
         .map(|i| [bits(record(i.interior)), bits(record(i.exterior)), 0.0, 0.0])
         .collect();
+    let volumes_first = first + MEDIUM_WORDS * scene.media.len();
+    let mut volumes: Vec<&Volume> = Vec::new();
+    let mut volume_record = |v| {
+        volumes.push(v);
+        bits((volumes_first + VOLUME_WORDS * (volumes.len() - 1)) as u32)
+    };
     for medium in &scene.media {
-        let MediumKind::Homogeneous(h) = &medium.kind else {
-            return unsupported("a heterogeneous medium");
-        };
-        let Some(albedo) = h.albedo.as_constant() else {
-            return unsupported("a medium whose albedo is a grid volume");
-        };
         let (mut flags, g) = match medium.phase {
             Phase::Isotropic => (PHASE_ISOTROPIC, 0.0),
             Phase::HenyeyGreenstein { g } => (PHASE_HG, g),
@@ -539,12 +553,65 @@ fn media_words(scene: &Scene, base: usize) -> Result<(Vec<[f32; 4]>, u32), Unsup
         if medium.sample_emitters {
             flags |= MEDIUM_SAMPLES_EMITTERS;
         }
-        if albedo == Rgb::ZERO {
-            flags |= MEDIUM_ABSORBS_ONLY;
+        match &medium.kind {
+            MediumKind::Homogeneous(h) => {
+                if h.albedo.as_constant() == Some(Rgb::ZERO) {
+                    flags |= MEDIUM_ABSORBS_ONLY;
+                }
+                words.push(v4(h.sigma_t, bits(flags)));
+                words.push([0.0, 0.0, 0.0, g]);
+                words.push([0.0; 4]);
+                words.push([volume_record(&h.albedo), bits(NONE), 0.0, 0.0]);
+            }
+            MediumKind::Heterogeneous(h) => {
+                flags |= MEDIUM_HETEROGENEOUS;
+                let bbox = h.sigma_t.bbox;
+                words.push([h.scale, h.majorant, 0.0, bits(flags)]);
+                words.push(v4(bbox.min, g));
+                words.push(v4(bbox.max, 0.0));
+                let albedo = volume_record(&h.albedo);
+                words.push([albedo, volume_record(&h.sigma_t), 0.0, 0.0]);
+            }
         }
-        words.push(v4(h.sigma_t, bits(flags)));
-        words.push(v4(albedo, g));
     }
+    let data_first = 4 * (volumes_first + VOLUME_WORDS * volumes.len());
+    let mut data: Vec<f32> = Vec::new();
+    for v in volumes {
+        let m = v.to_local.m;
+        words.extend((0..3).map(|i| m.row(i).to_array()));
+        match &v.data {
+            VolumeData::Constant(c) => {
+                words.push(v4(*c, bits(NONE)));
+                words.push([0.0; 4]);
+            }
+            VolumeData::Grid(g) => {
+                let start = data_first + data.len();
+                if data.len() + g.grid.data.len() > MAX_VOXEL_VALUES {
+                    return unsupported(format!(
+                        "grid volumes of more than {MAX_VOXEL_VALUES} values in all"
+                    ));
+                }
+                data.extend_from_slice(&g.grid.data);
+                let [nx, ny, nz] = g.grid.res.map(|n| bits(n as u32));
+                words.push([nx, ny, nz, bits(start as u32)]);
+                let filter = match g.filter {
+                    VolumeFilter::Nearest => TEX_NEAREST,
+                    VolumeFilter::Trilinear => TEX_BILINEAR,
+                };
+                words.push([
+                    bits(g.grid.channels as u32),
+                    bits(filter),
+                    bits(wrap_code(g.wrap)),
+                    0.0,
+                ]);
+            }
+        }
+    }
+    words.extend(data.chunks(4).map(|c| {
+        let mut w = [0.0; 4];
+        w[..c.len()].copy_from_slice(c);
+        w
+    }));
     Ok((words, record(scene.camera_medium)))
 }
 
@@ -1055,6 +1122,15 @@ fn blend(
     Ok([[weight, index[0], index[1], bits(kind)], [0.0; 4], [0.0; 4]])
 }
 
+/// `texture.wgsl`'s code for a wrap mode.
+fn wrap_code(wrap: WrapMode) -> u32 {
+    match wrap {
+        WrapMode::Repeat => WRAP_REPEAT,
+        WrapMode::Mirror => WRAP_MIRROR,
+        WrapMode::Clamp => WRAP_CLAMP,
+    }
+}
+
 /// Where a textured parameter goes in a material record (`material`).
 enum TextureSlot {
     /// Word A's colour (flag `MAT_TEXTURED`).
@@ -1113,13 +1189,8 @@ fn texture_record(
                 FilterType::Nearest => TEX_NEAREST,
                 FilterType::Bilinear => TEX_BILINEAR,
             };
-            let wrap = match b.wrap {
-                WrapMode::Repeat => WRAP_REPEAT,
-                WrapMode::Mirror => WRAP_MIRROR,
-                WrapMode::Clamp => WRAP_CLAMP,
-            };
             let size = (img.width(), img.height());
-            (&b.to_uv, size, filter, wrap, img.texels())
+            (&b.to_uv, size, filter, wrap_code(b.wrap), img.texels())
         }
         Texture::Checkerboard(c) => {
             colours = [c.color0, c.color1];
@@ -2293,6 +2364,9 @@ mod tests {
             ("PHASE_RAYLEIGH", PHASE_RAYLEIGH),
             ("MEDIUM_SAMPLES_EMITTERS", MEDIUM_SAMPLES_EMITTERS),
             ("MEDIUM_ABSORBS_ONLY", MEDIUM_ABSORBS_ONLY),
+            ("MEDIUM_HETEROGENEOUS", MEDIUM_HETEROGENEOUS),
+            ("MEDIUM_WORDS", MEDIUM_WORDS as u32),
+            ("VOLUME_WORDS", VOLUME_WORDS as u32),
             ("TILT_SHADOW", TILT_SHADOW),
             ("TILT_INSIDE_TWO_SIDED", TILT_INSIDE_TWO_SIDED),
             ("TILT_BUMP", TILT_BUMP),

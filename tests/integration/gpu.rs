@@ -9,7 +9,7 @@
 //! roughsubstrate, masks, blends, null and polarizer; volpath through
 //! homogeneous media (the conformance check's fog scene, and media behind
 //! null, dielectric and thin-dielectric boundaries with every phase
-//! function);
+//! function) and heterogeneous ones (the conformance check's grid volumes);
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
 //! checkerboard radiance), point, spot (plain and projecting a bitmap) and
 //! directional lights, the light choice past 64 emitters, a light triangle
@@ -134,6 +134,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/nori_rough.xml",
         "tests/conformance/media.xml",
         "tests/gpu/volumes.xml",
+        "tests/conformance/hetero.xml",
     ];
     // LENTE_GPU_ONLY=text: only the scenes whose path contains it (while
     // working on one; the Sidak threshold then covers those alone).
@@ -325,7 +326,7 @@ fn gpu_passes_are_reported_dropped_when_cut_and_continued() {
 #[test]
 fn unsupported_features_are_named() {
     // Needs no adapter: the scene is checked before the device is opened.
-    let (scene, job) = load("tests/conformance/hetero.xml");
+    let (scene, job) = load("tests/conformance/curves.xml");
     let err = lente::gpu::render(
         &scene,
         &job,
@@ -333,12 +334,9 @@ fn unsupported_features_are_named() {
         &AtomicBool::new(false),
     )
     .err()
-    .expect("hetero.xml has heterogeneous media");
+    .expect("curves.xml has curves");
     let msg = err.to_string();
-    assert!(
-        msg.contains("does not support a heterogeneous medium"),
-        "{msg}"
-    );
+    assert!(msg.contains("does not support curves"), "{msg}");
     assert!(msg.contains("--device cpu"), "{msg}");
 }
 
@@ -346,13 +344,13 @@ fn unsupported_features_are_named() {
 fn device_flag_names_what_the_gpu_lacks_and_auto_falls_back() {
     use super::cli_util::{run_fails_with, run_ok, text};
     let dir = tempfile::tempdir().unwrap();
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/hetero.xml");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/conformance/curves.xml");
     let scene = scene.to_str().unwrap();
     let out = dir.path().join("out");
     let out = out.to_str().unwrap();
     run_fails_with(
         &["render", scene, "--device", "gpu", "--spp", "1", "-o", out],
-        "does not support a heterogeneous medium",
+        "does not support curves",
     );
     assert!(!dir.path().join("out.exr").exists(), "no output on failure");
     let done = run_ok(&["render", scene, "--device", "auto", "--spp", "1", "-o", out]);

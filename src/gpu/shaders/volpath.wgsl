@@ -8,16 +8,32 @@
 // polarizer, a thin dielectric's transmission) with their null
 // transmission, changing medium as they cross, attenuated by every medium
 // on the way. Null crossings are not bounces.
+// Heterogeneous media (heterogeneous.rs) by delta tracking and, for shadow
+// rays, ratio tracking against the medium's one majorant (Mitsuba's
+// choice; the CPU's majorant grid draws other collisions of the same
+// expectation), the channel mixture as on the CPU; volumes (volume.rs:
+// constants and grids, trilinear or nearest, wrapped) for extinction and
+// albedo.
 // The media tables (flatten.rs's `media_words`, from P.media_base in
 // `shapes`): per shape (interior, exterior, 0, 0), the sides' medium
-// records as bits (NONE: vacuum); a record is (sigma_t, flags),
-// (albedo, g).
+// records as bits (NONE: vacuum); a medium record, MEDIUM_WORDS words:
+// (sigma_t, flags) or, heterogeneous, (scale, majorant, 0, flags), (its
+// extinction's box min, g), (box max, 0), (albedo and extinction volume
+// records as bits); a volume record, VOLUME_WORDS words: world-to-volume
+// rows, (constant, NONE) or (resolution, first value), (values per voxel,
+// filter, wrap, 0); grid values four to a word.
 
 const PHASE_ISOTROPIC: u32 = 0u;
 const PHASE_HG: u32 = 1u;
 const PHASE_RAYLEIGH: u32 = 2u;
 const MEDIUM_SAMPLES_EMITTERS: u32 = 0x100u;
 const MEDIUM_ABSORBS_ONLY: u32 = 0x200u;
+const MEDIUM_HETEROGENEOUS: u32 = 0x400u;
+const MEDIUM_WORDS: u32 = 4u;
+const VOLUME_WORDS: u32 = 5u;
+// heterogeneous.rs's MAX_COLLISIONS and ROULETTE_BELOW.
+const MAX_COLLISIONS: u32 = 16777216u;
+const ROULETTE_BELOW: f32 = 0.05;
 // volpath.rs's MAX_NULL_CROSSINGS: surfaces passed straight through in a
 // row before the path (or shadow ray) is given up.
 const MAX_NULL_CROSSINGS: u32 = 256u;
@@ -54,10 +70,169 @@ struct FreeFlight {
     weight: vec3<f32>,
 }
 
-// Homogeneous::sample_distance: the channel chosen uniformly, the
-// distance from its exponential, weighed by the three channels' mixed
-// density; an absorbing-only medium passes with its transmittance.
-fn sample_distance(m: u32, t_max: f32) -> FreeFlight {
+// The `i`th scalar of the shapes buffer.
+fn shape_scalar(i: u32) -> f32 {
+    return shapes[i / 4u][i % 4u];
+}
+
+fn grid_voxel(first: u32, res: vec3<i32>, channels: u32, x: i32, y: i32, z: i32) -> vec3<f32> {
+    let i = first + u32((z * res.y + y) * res.x + x) * channels;
+    if (channels == 1u) {
+        return vec3<f32>(shape_scalar(i));
+    }
+    return vec3<f32>(shape_scalar(i), shape_scalar(i + 1u), shape_scalar(i + 2u));
+}
+
+// Volume::eval at world point `p`: the constant, or the grid looked up
+// as Dr.Jit's Texture3f (voxel centres at (i + 1/2) / res).
+fn volume_eval(v: u32, p: vec3<f32>) -> vec3<f32> {
+    let w3 = shapes[v + 3u];
+    let first = bitcast<u32>(w3.w);
+    if (first == NONE) {
+        return w3.xyz;
+    }
+    let q = vec3<f32>(
+        dot(shapes[v].xyz, p) + shapes[v].w,
+        dot(shapes[v + 1u].xyz, p) + shapes[v + 1u].w,
+        dot(shapes[v + 2u].xyz, p) + shapes[v + 2u].w,
+    );
+    let res = vec3<i32>(bitcast<vec3<u32>>(w3.xyz));
+    let w4 = bitcast<vec4<u32>>(shapes[v + 4u]);
+    let channels = w4.x;
+    let wrap = w4.z;
+    if (w4.y == TEX_NEAREST) {
+        let x = tex_wrap(i32(floor(tex_bounded(q.x * f32(res.x)))), res.x, wrap);
+        let y = tex_wrap(i32(floor(tex_bounded(q.y * f32(res.y)))), res.y, wrap);
+        let z = tex_wrap(i32(floor(tex_bounded(q.z * f32(res.z)))), res.z, wrap);
+        return grid_voxel(first, res, channels, x, y, z);
+    }
+    let g = vec3<f32>(tex_bounded(q.x * f32(res.x) - 0.5), tex_bounded(q.y * f32(res.y) - 0.5), tex_bounded(q.z * f32(res.z) - 0.5));
+    let f = floor(g);
+    let t = g - f;
+    let i = vec3<i32>(f);
+    let x0 = tex_wrap(i.x, res.x, wrap);
+    let x1 = tex_wrap(i.x + 1, res.x, wrap);
+    let y0 = tex_wrap(i.y, res.y, wrap);
+    let y1 = tex_wrap(i.y + 1, res.y, wrap);
+    var plane: array<vec3<f32>, 2>;
+    for (var k = 0; k < 2; k++) {
+        let z = tex_wrap(i.z + k, res.z, wrap);
+        let a = mix(grid_voxel(first, res, channels, x0, y0, z), grid_voxel(first, res, channels, x1, y0, z), t.x);
+        let b = mix(grid_voxel(first, res, channels, x0, y1, z), grid_voxel(first, res, channels, x1, y1, z), t.x);
+        plane[k] = mix(a, b, t.y);
+    }
+    return mix(plane[0], plane[1], t.z);
+}
+
+// Aabb::ray_range of the medium's extinction box: the part of the ray
+// (o, d) up to t_max inside it, as (t0, t1, 1), or z = 0 where it misses.
+fn medium_range(m: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec3<f32> {
+    let lo = shapes[m + 1u].xyz;
+    let hi = shapes[m + 2u].xyz;
+    var t0 = 0.0;
+    var t1 = t_max;
+    for (var a = 0; a < 3; a++) {
+        if (d[a] == 0.0) {
+            if (o[a] < lo[a] || o[a] > hi[a]) {
+                return vec3<f32>(0.0);
+            }
+            continue;
+        }
+        let inv = 1.0 / d[a];
+        let n = (lo[a] - o[a]) * inv;
+        let f = (hi[a] - o[a]) * inv;
+        t0 = max(t0, min(n, f));
+        t1 = min(t1, max(n, f));
+    }
+    return vec3<f32>(t0, t1, select(0.0, 1.0, t0 <= t1));
+}
+
+// The heterogeneous medium's extinction at `p`, at most the majorant.
+fn hetero_sigma_t(m: u32, p: vec3<f32>) -> vec3<f32> {
+    let w0 = shapes[m];
+    return min(volume_eval(bitcast<u32>(shapes[m + 3u].y), p) * w0.x, vec3<f32>(w0.y));
+}
+
+// Heterogeneous::sample_distance: delta tracking, real-or-null choices
+// by one channel, weighed by the three channels' mean probability.
+fn hetero_sample_distance(m: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> FreeFlight {
+    let maj = shapes[m].y;
+    let range = medium_range(m, o, d, t_max);
+    if (range.z == 0.0 || maj <= 0.0) {
+        return FreeFlight(false, t_max, vec3<f32>(1.0));
+    }
+    let c = min(u32(next_1d() * 3.0), 2u);
+    var weight = vec3<f32>(1.0);
+    var probs = vec3<f32>(1.0);
+    var t = range.x;
+    for (var n = 0u; n < MAX_COLLISIONS; n++) {
+        t -= log(1.0 - next_1d()) / maj;
+        if (t >= range.y) {
+            return FreeFlight(false, t_max, weight);
+        }
+        let p = o + d * t;
+        let sigma_t = hetero_sigma_t(m, p);
+        var p_real = sigma_t / maj;
+        if (next_1d() < p_real[c]) {
+            let sigma_s = sigma_t * volume_eval(bitcast<u32>(shapes[m + 3u].x), p);
+            let mean = dot(probs * p_real, vec3<f32>(1.0 / 3.0));
+            return FreeFlight(true, t, weight * sigma_s / (maj * mean));
+        }
+        let p_null = vec3<f32>(1.0) - p_real;
+        let mean = dot(probs * p_null, vec3<f32>(1.0 / 3.0));
+        if (mean <= 0.0) {
+            break;
+        }
+        weight *= p_null / mean;
+        probs *= p_null / mean;
+    }
+    return FreeFlight(false, t_max, vec3<f32>(0.0));
+}
+
+// Heterogeneous::transmittance: ratio tracking, with Russian roulette
+// once the largest channel is small.
+fn hetero_transmittance(m: u32, o: vec3<f32>, d: vec3<f32>, t_end: f32) -> vec3<f32> {
+    let maj = shapes[m].y;
+    let range = medium_range(m, o, d, t_end);
+    if (range.z == 0.0 || maj <= 0.0) {
+        return vec3<f32>(1.0);
+    }
+    var tr = vec3<f32>(1.0);
+    var t = range.x;
+    for (var n = 0u; n < MAX_COLLISIONS; n++) {
+        t -= log(1.0 - next_1d()) / maj;
+        if (t >= range.y) {
+            return tr;
+        }
+        tr *= vec3<f32>(1.0) - hetero_sigma_t(m, o + d * t) / maj;
+        let largest = max3(tr);
+        if (largest < ROULETTE_BELOW) {
+            // Survive with probability 1/4, weighted by 4.
+            if (largest <= 0.0 || next_1d() >= 0.25) {
+                return vec3<f32>(0.0);
+            }
+            tr *= 4.0;
+        }
+    }
+    return vec3<f32>(0.0);
+}
+
+// Medium::transmittance along (o, d) up to t.
+fn medium_transmittance(m: u32, o: vec3<f32>, d: vec3<f32>, t: f32) -> vec3<f32> {
+    if ((medium_flags(m) & MEDIUM_HETEROGENEOUS) != 0u) {
+        return hetero_transmittance(m, o, d, t);
+    }
+    return beer(shapes[m].xyz, t);
+}
+
+// Medium::sample_distance along (o, d) up to t_max. Homogeneous: the
+// channel chosen uniformly, the distance from its exponential, weighed by
+// the three channels' mixed density; an absorbing-only medium passes with
+// its transmittance.
+fn sample_distance(m: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> FreeFlight {
+    if ((medium_flags(m) & MEDIUM_HETEROGENEOUS) != 0u) {
+        return hetero_sample_distance(m, o, d, t_max);
+    }
     let sigma = shapes[m].xyz;
     let u_channel = next_1d();
     let u = next_1d();
@@ -74,7 +249,8 @@ fn sample_distance(m: u32, t_max: f32) -> FreeFlight {
         let tr = beer(sigma, t);
         let pdf = dot(sigma * tr, vec3<f32>(1.0 / 3.0));
         if (pdf > 0.0) {
-            return FreeFlight(true, t, tr * sigma * shapes[m + 1u].xyz / pdf);
+            let albedo = volume_eval(bitcast<u32>(shapes[m + 3u].x), o + d * t);
+            return FreeFlight(true, t, tr * sigma * albedo / pdf);
         }
     }
     let tr = beer(sigma, t_max);
@@ -161,7 +337,7 @@ fn shadow_transmittance(o_in: vec3<f32>, d_in: vec3<f32>, to: vec3<f32>, finite:
         var h: Hit;
         let found = closest_hit(o, d, 0.0, remaining, &h);
         if (m != NONE) {
-            tr *= beer(shapes[m].xyz, select(remaining, h.t, found));
+            tr *= medium_transmittance(m, o, d, select(remaining, h.t, found));
         }
         if (!found) {
             return tr;
@@ -223,7 +399,7 @@ fn vol_li(camera: Ray) -> vec3<f32> {
             if (found) {
                 t_max = h.t + dot(ray.o - start.o, start.d);
             }
-            let flight = sample_distance(medium, t_max);
+            let flight = sample_distance(medium, start.o, start.d, t_max);
             beta *= flight.weight;
             if (flight.scatter) {
                 depth++;
