@@ -18,7 +18,7 @@ use crate::math::{Aabb, Transform, Vec2, Vec3, PI};
 use crate::render::RenderJob;
 use crate::sampling::{SamplerKind, STRATIFIED_DIMENSIONS};
 use crate::scene::Scene;
-use crate::texture::{FilterType, Texture, WrapMode};
+use crate::texture::{CheckerRule, FilterType, Texture, UvTransform, WrapMode};
 
 use super::light_groups::{choice_tables, LightGroup};
 
@@ -80,9 +80,9 @@ pub const MAT_MICROFACET: u32 = 8;
 /// (0, 0, 0, alpha), C (0, 0, 0, -1: isotropic Beckmann), sampled from D
 /// cos as Nori samples it.
 pub const MAT_SCHLICK_CONDUCTOR: u32 = 9;
-/// The Zaragoza Nori fork's `roughsubstrate` (Ashikhmin-Shirley): A its kd
-/// times the diffuse scale 28 (1 - r^2) / (23 pi), B (0, 0, 0, alpha), C
-/// (eta, 0, 0, -1).
+/// The Zaragoza Nori fork's `roughsubstrate` (Ashikhmin-Shirley): A its
+/// kd, B (the diffuse scale 28 (1 - r^2) / (23 pi), 0, 0, alpha), C (eta,
+/// 0, 0, -1).
 pub const MAT_ROUGH_SUBSTRATE: u32 = 10;
 /// Mitsuba's `pplastic`, unpolarised: A its diffuse reflectance, B (its
 /// specular reflectance, alpha), C (eta, specular sampling weight, 0,
@@ -182,6 +182,11 @@ pub const TEX_NEAREST: u32 = 0;
 pub const TEX_BILINEAR: u32 = 1;
 /// A checkerboard: its two colours stand where a bitmap's texels do.
 pub const TEX_CHECKERBOARD: u32 = 2;
+/// The Nori forks' `checkerboard`/`checker` (`texture/nori_checker.rs`):
+/// the wrap word holds its rule, `CHECKER_ETH` or `CHECKER_ZARAGOZA`.
+pub const TEX_NORI_CHECKER: u32 = 3;
+pub const CHECKER_ETH: u32 = 0;
+pub const CHECKER_ZARAGOZA: u32 = 1;
 pub const WRAP_REPEAT: u32 = 0;
 pub const WRAP_MIRROR: u32 = 1;
 pub const WRAP_CLAMP: u32 = 2;
@@ -772,8 +777,10 @@ fn material(
                 // An isotropic texture names both alphas; a texture on one
                 // of them only, or two textures, is anisotropic. The second
                 // name adds no record.
+                // (The Zaragoza fork's models have one alpha.)
+                let one_alpha = matches!(base, Bsdf::SchlickConductor(_) | Bsdf::RoughSubstrate(_));
                 let other = match slot {
-                    TextureSlot::Alpha => Some(BsdfParam::AlphaV),
+                    TextureSlot::Alpha if !one_alpha => Some(BsdfParam::AlphaV),
                     TextureSlot::AlphaV => Some(BsdfParam::Alpha),
                     _ => None,
                 };
@@ -848,8 +855,8 @@ fn material(
             [0.0, 0.0, 0.0, -1.0],
         ],
         Bsdf::RoughSubstrate(r) => [
-            v4(r.kd * r.diffuse_scale(), bits(MAT_ROUGH_SUBSTRATE)),
-            [0.0, 0.0, 0.0, r.alpha],
+            v4(r.kd, bits(MAT_ROUGH_SUBSTRATE)),
+            [r.diffuse_scale(), 0.0, 0.0, r.alpha],
             [r.eta, 0.0, 0.0, -1.0],
         ],
         Bsdf::PolarizedPlastic(p) => {
@@ -1150,8 +1157,20 @@ enum TextureSlot {
 fn texture_slot(param: BsdfParam, base: &Bsdf) -> Option<TextureSlot> {
     use BsdfParam as P;
     Some(match (param, base) {
-        (P::Diffuse, Bsdf::Diffuse(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_)) => TextureSlot::A,
-        (P::SpecularReflectance, Bsdf::Plastic(_) | Bsdf::RoughPlastic(_)) => TextureSlot::B,
+        (
+            P::Diffuse,
+            Bsdf::Diffuse(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::PolarizedPlastic(_)
+            | Bsdf::Microfacet(_)
+            | Bsdf::RoughSubstrate(_),
+        ) => TextureSlot::A,
+        (
+            P::SpecularReflectance,
+            Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) | Bsdf::PolarizedPlastic(_),
+        ) => TextureSlot::B,
+        (P::SpecularReflectance, Bsdf::SchlickConductor(_)) => TextureSlot::A,
         (
             P::SpecularReflectance,
             Bsdf::Conductor(_)
@@ -1164,8 +1183,18 @@ fn texture_slot(param: BsdfParam, base: &Bsdf) -> Option<TextureSlot> {
         }
         (P::Eta, Bsdf::Conductor(_) | Bsdf::RoughConductor(_)) => TextureSlot::B,
         (P::K, Bsdf::Conductor(_) | Bsdf::RoughConductor(_)) => TextureSlot::C,
-        (P::Alpha, Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_)) => TextureSlot::Alpha,
-        (P::AlphaV, Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_)) => TextureSlot::AlphaV,
+        (
+            P::Alpha,
+            Bsdf::RoughConductor(_)
+            | Bsdf::RoughDielectric(_)
+            | Bsdf::PolarizedPlastic(_)
+            | Bsdf::SchlickConductor(_)
+            | Bsdf::RoughSubstrate(_),
+        ) => TextureSlot::Alpha,
+        (
+            P::AlphaV,
+            Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) | Bsdf::PolarizedPlastic(_),
+        ) => TextureSlot::AlphaV,
         _ => return None,
     })
 }
@@ -1182,6 +1211,7 @@ fn texture_record(
     words: &mut Vec<[f32; 4]>,
 ) -> Result<f32, Unsupported> {
     let colours;
+    let nori_uv;
     let (to_uv, (width, height), filter, wrap, texels) = match texture {
         Texture::Bitmap(b) => {
             let img = b.image();
@@ -1201,6 +1231,20 @@ fn texture_record(
                 WRAP_REPEAT,
                 &colours[..],
             )
+        }
+        // The Nori forks' checkers: squares at uv * scale + offset, the
+        // rule in the wrap word, the values where the keys agree and differ.
+        Texture::NoriChecker(c) => {
+            colours = [c.same, c.differ];
+            nori_uv = UvTransform {
+                row0: [c.scale.x, 0.0, c.offset.x],
+                row1: [0.0, c.scale.y, c.offset.y],
+            };
+            let rule = match c.rule {
+                CheckerRule::Eth => CHECKER_ETH,
+                CheckerRule::Zaragoza => CHECKER_ZARAGOZA,
+            };
+            (&nori_uv, (2, 1), TEX_NORI_CHECKER, rule, &colours[..])
         }
         other => return unsupported(format!("a {} texture", variant_name(other))),
     };
@@ -2374,6 +2418,9 @@ mod tests {
             ("TEX_NEAREST", TEX_NEAREST),
             ("TEX_BILINEAR", TEX_BILINEAR),
             ("TEX_CHECKERBOARD", TEX_CHECKERBOARD),
+            ("TEX_NORI_CHECKER", TEX_NORI_CHECKER),
+            ("CHECKER_ETH", CHECKER_ETH),
+            ("CHECKER_ZARAGOZA", CHECKER_ZARAGOZA),
             ("WRAP_REPEAT", WRAP_REPEAT),
             ("WRAP_MIRROR", WRAP_MIRROR),
             ("ENV_NONE", ENV_NONE),

@@ -130,11 +130,11 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/stratified.xml",
         "tests/gpu/path_ems_env.xml",
         "tests/gpu/path_mats_light.xml",
-        "tests/gpu/pass_and_pplastic.xml",
         "tests/gpu/nori_rough.xml",
         "tests/conformance/media.xml",
         "tests/gpu/volumes.xml",
         "tests/conformance/hetero.xml",
+        "tests/conformance/pplastic.xml",
     ];
     // LENTE_GPU_ONLY=text: only the scenes whose path contains it (while
     // working on one; the Sidak threshold then covers those alone).

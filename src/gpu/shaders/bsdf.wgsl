@@ -766,9 +766,9 @@ fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     }
     if (kind == MAT_ROUGH_SUBSTRATE) {
         // rough_substrate.rs: a dielectric coating over Ashikhmin-Shirley's
-        // diffuse base (A holds kd times its constant).
+        // diffuse base (kd in A, its constant factor in B.x).
         let f = fresnel_dielectric(dot(h, wi), c.x).x;
-        let base = (1.0 - schlick_weight(0.5 * wi.z)) * (1.0 - schlick_weight(0.5 * wo.z));
+        let base = b.x * (1.0 - schlick_weight(0.5 * wi.z)) * (1.0 - schlick_weight(0.5 * wo.z));
         return vec3<f32>(dg * f) + a * base;
     }
     if (kind == MAT_POLARIZED_PLASTIC) {

@@ -10,6 +10,10 @@
 const TEX_NEAREST: u32 = 0u;
 const TEX_BILINEAR: u32 = 1u;
 const TEX_CHECKERBOARD: u32 = 2u;
+// texture/nori_checker.rs: the wrap word holds its rule.
+const TEX_NORI_CHECKER: u32 = 3u;
+const CHECKER_ETH: u32 = 0u;
+const CHECKER_ZARAGOZA: u32 = 1u;
 const WRAP_REPEAT: u32 = 0u;
 const WRAP_MIRROR: u32 = 1u;
 // color/mod.rs's luminance weights: a bitmap's `eval_1`.
@@ -44,10 +48,20 @@ fn tex_texel(first: u32, w: i32, x: i32, y: i32) -> vec3<f32> {
 // read with `swap`: a bitmap's luminance; a checkerboard colour's channel
 // mean.
 fn texture_value_1(record: u32, c: vec3<f32>) -> f32 {
-    if (bitcast<u32>(shapes[record + 2u].y) == TEX_CHECKERBOARD) {
+    if (bitcast<u32>(shapes[record + 2u].y) >= TEX_CHECKERBOARD) {
         return (c.x + c.y + c.z) / 3.0;
     }
     return dot(c, LUMINANCE);
+}
+
+// NoriChecker::key: ETH's floor(x) mod 2, the Zaragoza fork's trunc(x) % 2
+// (-1 on the negative side).
+fn nori_checker_key(x: f32, rule: u32) -> i32 {
+    let b = tex_bounded(x);
+    if (rule == CHECKER_ETH) {
+        return ((i32(floor(b)) % 2) + 2) % 2;
+    }
+    return i32(trunc(b)) % 2;
 }
 
 // A record's header (texture_record): where `uv` falls in texel units
@@ -103,6 +117,11 @@ fn tex_bilinear_cell(a: TexHeader) -> TexCell {
 // swaps them, as Mitsuba 3.9's does).
 fn texture_lookup(record: u32, uv: vec2<f32>, swap: bool) -> vec3<f32> {
     let a = tex_header(record, uv);
+    if (a.filter_type == TEX_NORI_CHECKER) {
+        // NoriChecker::eval: `same` where the squares' keys agree.
+        let same = nori_checker_key(a.st.x, a.wrap) == nori_checker_key(a.st.y, a.wrap);
+        return shapes[a.first + select(1u, 0u, same)].xyz;
+    }
     if (a.filter_type == TEX_CHECKERBOARD) {
         // Checkerboard::eval: color0 where both fractions are above a
         // half or neither is.
