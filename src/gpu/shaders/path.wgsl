@@ -111,6 +111,24 @@ fn roulette(beta: ptr<function, vec3<f32>>, eta_scale: f32, depth: u32) -> bool 
     return true;
 }
 
+// The closest hit along `ray`; with `skip` (Mitsuba's hide_emitters on a
+// camera ray), passing through up to 64 emitting shapes (path.rs's
+// skip_area_emitters), `ray` moved to start past the last one.
+fn next_hit(ray: ptr<function, Ray>, h: ptr<function, Hit>, skip: bool) -> bool {
+    var found = closest_hit((*ray).o, (*ray).d, (*ray).tmin, (*ray).tmax, h);
+    if (skip) {
+        for (var skips = 0u; skips < 64u && found; skips++) {
+            let s = surface_at(*h, (*ray).o, (*ray).d);
+            if (!shape_emits(s.shape)) {
+                break;
+            }
+            *ray = Ray(spawn_origin(s.p, s.ng, (*ray).d), (*ray).d, 0.0, INF);
+            found = closest_hit((*ray).o, (*ray).d, (*ray).tmin, (*ray).tmax, h);
+        }
+    }
+    return found;
+}
+
 fn li(camera: Ray) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     var beta = vec3<f32>(1.0);
@@ -131,17 +149,7 @@ fn li(camera: Ray) -> vec3<f32> {
     let hide = P.hide_emitters != 0u;
     loop {
         var h: Hit;
-        var found = closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h);
-        if (depth == 0u && hide) {
-            for (var skips = 0u; skips < 64u && found; skips++) {
-                let s = surface_at(h, ray.o, ray.d);
-                if (!shape_emits(s.shape)) {
-                    break;
-                }
-                ray = Ray(spawn_origin(s.p, s.ng, ray.d), ray.d, 0.0, INF);
-                found = closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h);
-            }
-        }
+        let found = next_hit(&ray, &h, depth == 0u && hide);
         if (!found) {
             if (depth == 0u && hide) {
                 break;

@@ -379,17 +379,7 @@ fn vol_li(camera: Ray) -> vec3<f32> {
     loop {
         let start = ray;
         var h: Hit;
-        var found = closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h);
-        if (depth == 0u && hide) {
-            for (var skips = 0u; skips < 64u && found; skips++) {
-                let s = surface_at(h, ray.o, ray.d);
-                if (!shape_emits(s.shape)) {
-                    break;
-                }
-                ray = Ray(spawn_origin(s.p, s.ng, ray.d), ray.d, 0.0, INF);
-                found = closest_hit(ray.o, ray.d, ray.tmin, ray.tmax, &h);
-            }
-        }
+        let found = next_hit(&ray, &h, depth == 0u && hide);
 
         // The medium along the segment (measured from the segment's
         // start, whatever emitters the camera ray skipped): scatter in it,
