@@ -46,13 +46,13 @@ impl RoughSubstrate {
         })
     }
 
-    /// The coating's share of the samples: F(cos θi).
     /// The diffuse lobe's constant factor, 28 (1 - r^2) / (23 pi) (the
-    /// GPU folds it into kd).
+    /// GPU keeps it beside kd, which may be textured).
     pub fn diffuse_scale(&self) -> f32 {
         self.diffuse_scale
     }
 
+    /// The coating's share of the samples: F(cos θi).
     #[inline]
     fn coating_probability(&self, wi: Vec3) -> f32 {
         fresnel_dielectric(wi.z, self.eta).0

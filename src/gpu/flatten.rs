@@ -1170,11 +1170,11 @@ fn texture_slot(param: BsdfParam, base: &Bsdf) -> Option<TextureSlot> {
             P::SpecularReflectance,
             Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) | Bsdf::PolarizedPlastic(_),
         ) => TextureSlot::B,
-        (P::SpecularReflectance, Bsdf::SchlickConductor(_)) => TextureSlot::A,
         (
             P::SpecularReflectance,
             Bsdf::Conductor(_)
             | Bsdf::RoughConductor(_)
+            | Bsdf::SchlickConductor(_)
             | Bsdf::ThinDielectric(_)
             | Bsdf::RoughDielectric(_),
         ) => TextureSlot::A,

@@ -85,6 +85,11 @@ fn material_word(k: u32) -> vec4<f32> {
     return shapes[mat_base + k];
 }
 
+// The `i`th scalar of the shapes buffer (tables stored four to a word).
+fn shape_scalar(i: u32) -> f32 {
+    return shapes[i / 4u][i % 4u];
+}
+
 // Set in the kind word of shapes with an area emitter (flatten.rs).
 const MAT_EMITS: u32 = 0x100u;
 
@@ -475,8 +480,7 @@ fn erfinv(x_in: f32) -> f32 {
 }
 
 fn beckmann_guess_entry(i: u32, j: u32) -> f32 {
-    let k = i * BECKMANN_COLS + j;
-    return shapes[P.beckmann_table + (k >> 2u)][k & 3u];
+    return shape_scalar(4u * P.beckmann_table + i * BECKMANN_COLS + j);
 }
 
 // The table's bilinear guess of (x + 1) / (max_x + 1).
@@ -697,9 +701,7 @@ fn coating_transmittance(cos: f32) -> f32 {
     let x = cos * 63.0;
     let i = min(u32(max(x, 0.0)), 62u);
     let t = x - f32(i);
-    let a = shapes[(base + i) / 4u][(base + i) % 4u];
-    let b = shapes[(base + i + 1u) / 4u][(base + i + 1u) % 4u];
-    return a * (1.0 - t) + b * t;
+    return shape_scalar(base + i) * (1.0 - t) + shape_scalar(base + i + 1u) * t;
 }
 
 // Probability of the rough plastic's glossy lobe seen from `wi`.
@@ -786,6 +788,19 @@ fn layer_eval(wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     return b * (dg * f) + a * (INV_PI / (eta * eta) * t);
 }
 
+// The probability of the glossy lobe of the Nori models, whose normals are
+// drawn from D cos: ks (microfacet.rs), 1 (schlick_conductor.rs) or the
+// coating's Fresnel reflectance at `wi` (rough_substrate.rs).
+fn nori_glossy_prob(kind: u32, wi: vec3<f32>) -> f32 {
+    if (kind == MAT_MICROFACET) {
+        return material_word(1u).x;
+    }
+    if (kind == MAT_ROUGH_SUBSTRATE) {
+        return fresnel_dielectric(wi.z, material_word(2u).x).x;
+    }
+    return 1.0;
+}
+
 // Solid-angle density of layer_sample's non-specular part.
 fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     let kind = material_kind();
@@ -818,12 +833,7 @@ fn layer_pdf(wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     if (kind == MAT_MICROFACET || kind == MAT_SCHLICK_CONDUCTOR || kind == MAT_ROUGH_SUBSTRATE) {
         let h = normalize(wi + wo);
         let spec = microfacet_d(microfacet(), h) * h.z / (4.0 * abs(dot(h, wo)));
-        var p = 1.0;
-        if (kind == MAT_MICROFACET) {
-            p = material_word(1u).x;
-        } else if (kind == MAT_ROUGH_SUBSTRATE) {
-            p = fresnel_dielectric(wi.z, material_word(2u).x).x;
-        }
+        let p = nori_glossy_prob(kind, wi);
         return p * spec + (1.0 - p) * wo.z * INV_PI;
     }
     let glossy = microfacet_reflection_pdf(microfacet(), wi, wo);
@@ -905,16 +915,9 @@ fn layer_sample(wi: vec3<f32>, u: vec2<f32>, u_lobe: f32) -> BsdfSample {
     }
     if (kind == MAT_MICROFACET || kind == MAT_SCHLICK_CONDUCTOR || kind == MAT_ROUGH_SUBSTRATE) {
         // Nori's: reflected about a normal drawn from D cos (not the
-        // visible normals) with probability ks (microfacet.rs), 1
-        // (schlick_conductor.rs) or the coating's Fresnel reflectance
-        // (rough_substrate.rs), else cosine-distributed.
-        var p = 1.0;
-        if (kind == MAT_MICROFACET) {
-            p = material_word(1u).x;
-        } else if (kind == MAT_ROUGH_SUBSTRATE) {
-            p = fresnel_dielectric(wi.z, material_word(2u).x).x;
-        }
-        if (u_lobe >= p) {
+        // visible normals) with `nori_glossy_prob`, else
+        // cosine-distributed.
+        if (u_lobe >= nori_glossy_prob(kind, wi)) {
             return lobe_direction(wi, u, false);
         }
         let wo = reflect_about(wi, square_to_beckmann(u, mat_alpha));

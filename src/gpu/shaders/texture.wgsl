@@ -48,7 +48,8 @@ fn tex_texel(first: u32, w: i32, x: i32, y: i32) -> vec3<f32> {
 // read with `swap`: a bitmap's luminance; a checkerboard colour's channel
 // mean.
 fn texture_value_1(record: u32, c: vec3<f32>) -> f32 {
-    if (bitcast<u32>(shapes[record + 2u].y) >= TEX_CHECKERBOARD) {
+    let kind = bitcast<u32>(shapes[record + 2u].y);
+    if (kind == TEX_CHECKERBOARD || kind == TEX_NORI_CHECKER) {
         return (c.x + c.y + c.z) / 3.0;
     }
     return dot(c, LUMINANCE);

@@ -70,11 +70,6 @@ struct FreeFlight {
     weight: vec3<f32>,
 }
 
-// The `i`th scalar of the shapes buffer.
-fn shape_scalar(i: u32) -> f32 {
-    return shapes[i / 4u][i % 4u];
-}
-
 fn grid_voxel(first: u32, res: vec3<i32>, channels: u32, x: i32, y: i32, z: i32) -> vec3<f32> {
     let i = first + u32((z * res.y + y) * res.x + x) * channels;
     if (channels == 1u) {
