@@ -13,6 +13,7 @@
 //! not bit for bit. What the scene flattening ([`flatten`]) does not
 //! support is an error naming it.
 
+mod context;
 pub mod flatten;
 mod light_groups;
 
@@ -26,6 +27,7 @@ use crate::image::Film;
 use crate::progress::Progress;
 use crate::render::{self, pass_schedule_from, PassInfo, RenderJob, RenderOptions, RenderOutput};
 use crate::scene::Scene;
+use context::GpuContext;
 pub use flatten::{GpuScene, Unsupported};
 
 /// The shaders, one file per stage, concatenated per kernel.
@@ -111,32 +113,43 @@ pub fn render_with_passes(
     }
     let start = Instant::now();
     let flat = GpuScene::new(scene, job, opts.seed)?;
-    let adapter = adapter().ok_or(GpuError::NoAdapter)?;
-    let limits = adapter.limits();
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-        label: Some("lente"),
-        required_limits: limits.clone(),
-        ..Default::default()
-    }))
-    .map_err(|e| GpuError::Device(e.to_string()))?;
-
-    // wgpu reports validation and out-of-memory errors to a handler that
-    // panics by default: record them instead, and fail the render.
-    let failure = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
-    {
-        let failure = failure.clone();
-        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
-            let mut f = failure.lock().unwrap_or_else(|p| p.into_inner());
-            f.get_or_insert_with(|| e.to_string());
-        }));
+    let mut context = context::acquire()?;
+    let result = render_on(
+        context.get(),
+        (scene, &flat),
+        job,
+        opts,
+        cancel,
+        &mut on_pass,
+        start,
+    );
+    if result.is_err() {
+        // The device may be lost: the next render makes a new one.
+        context.discard();
     }
+    result
+}
+
+/// [`render_with_passes`] on the process's GPU context.
+fn render_on(
+    ctx: &mut GpuContext,
+    (scene, flat): (&Scene, &GpuScene),
+    job: &RenderJob,
+    opts: &RenderOptions,
+    cancel: &AtomicBool,
+    on_pass: &mut impl FnMut(&PassInfo),
+    start: Instant,
+) -> Result<RenderOutput, GpuError> {
+    let trace = ctx.pipeline(PATH_SHADER, "trace_samples", &flat.shader_constants());
+    let gather = ctx.pipeline(FILM_SHADER, "gather", &[]);
+    let ctx = &*ctx;
+    let (device, queue, limits) = (&ctx.device, &ctx.queue, &ctx.limits);
     let failed = || -> Result<(), GpuError> {
-        match failure.lock().unwrap_or_else(|p| p.into_inner()).take() {
+        match ctx.take_failure() {
             Some(e) => Err(GpuError::Device(e)),
             None => Ok(()),
         }
     };
-
     let (w, h) = (flat.params.width, flat.params.height);
     let pixels = w as u64 * h as u64;
     let first = opts.first_sample.min(job.spp);
@@ -152,13 +165,13 @@ pub fn render_with_passes(
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let nodes = storage(&device, "nodes", bytemuck::cast_slice(&flat.nodes));
-    let prims = storage(&device, "prims", bytemuck::cast_slice(&flat.prims));
-    let normals = storage(&device, "normals", bytemuck::cast_slice(&flat.normals));
-    let shapes = storage(&device, "shapes", bytemuck::cast_slice(&flat.shapes));
-    let lights = storage(&device, "lights", bytemuck::cast_slice(&flat.lights));
-    let filter = storage(&device, "filter", bytemuck::cast_slice(&flat.filter_table));
-    let env = storage(&device, "env", bytemuck::cast_slice(&flat.env_data));
+    let nodes = storage(device, "nodes", bytemuck::cast_slice(&flat.nodes));
+    let prims = storage(device, "prims", bytemuck::cast_slice(&flat.prims));
+    let normals = storage(device, "normals", bytemuck::cast_slice(&flat.normals));
+    let shapes = storage(device, "shapes", bytemuck::cast_slice(&flat.shapes));
+    let lights = storage(device, "lights", bytemuck::cast_slice(&flat.lights));
+    let filter = storage(device, "filter", bytemuck::cast_slice(&flat.filter_table));
+    let env = storage(device, "env", bytemuck::cast_slice(&flat.env_data));
     let samples = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("samples"),
         size: 16 * pixels * spp_pass as u64,
@@ -179,26 +192,6 @@ pub fn render_with_passes(
         mapped_at_creation: false,
     });
 
-    let constants = flat.shader_constants();
-    let pipeline = |source: &str, entry: &str, constants: &[(&str, f64)]| {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(entry),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: None,
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                ..Default::default()
-            },
-            cache: None,
-        })
-    };
-    let trace = pipeline(PATH_SHADER, "trace_samples", &constants);
-    let gather = pipeline(FILM_SHADER, "gather", &[]);
     let bind = |p: &wgpu::ComputePipeline, buffers: &[&wgpu::Buffer]| {
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -268,6 +261,7 @@ pub fn render_with_passes(
                     pass.set_pipeline(&trace);
                     pass.set_bind_group(0, &trace_group, &[]);
                     pass.dispatch_workgroups(gx, gy, 1);
+                    ctx.count_dispatch();
                     pass.set_pipeline(&gather);
                     pass.set_bind_group(0, &gather_group, &[]);
                     pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
@@ -281,7 +275,7 @@ pub fn render_with_passes(
                 pass_samples += pixels * n as u64;
                 progress.add(pixels * n as u64);
             }
-            let mut pass_film = read_film(&device, &queue, &gpu_film, &readback, (w, h))?;
+            let mut pass_film = read_film(device, queue, &gpu_film, &readback, (w, h))?;
             failed()?;
             if let Some(aov_pass) = aov_pass {
                 match aov_pass.join() {

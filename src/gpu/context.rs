@@ -1,0 +1,160 @@
+//! The GPU device and its compiled kernels, kept for the whole process:
+//! creating a device and compiling the path kernel take about a second
+//! (lavapipe; longer on drivers that compile more), which a process that
+//! renders many times (the Python package, a distributed worker, the
+//! tests) should pay once. Renders take the context in turn; a device that
+//! failed is dropped, and the next render creates a fresh one.
+//!
+//! A device is also renewed after [`RENEW_AFTER_DISPATCHES`] path
+//! dispatches: Mesa 22.3's lavapipe keeps about 7 MB per dispatch of the
+//! path kernel until its device is dropped (measured: a process's memory
+//! grew by that much per pass, and 35 scenes x 16 renders ran CI's 24 GiB
+//! out), so a long-lived device must not live forever.
+
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use super::GpuError;
+
+/// A device, its queue, and the pipelines compiled on it.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub limits: wgpu::Limits,
+    /// The first validation or out-of-memory error wgpu reported since the
+    /// last [`GpuContext::take_failure`].
+    failure: Arc<Mutex<Option<String>>>,
+    /// Compiled pipelines by entry point and pipeline constants.
+    pipelines: HashMap<PipelineKey, wgpu::ComputePipeline>,
+    /// Path-kernel dispatches on this device so far.
+    dispatches: Cell<u32>,
+}
+
+/// Path-kernel dispatches after which the next render gets a new device
+/// (about 230 MB on lavapipe; a 64-spp render takes 7).
+pub const RENEW_AFTER_DISPATCHES: u32 = 32;
+
+/// An entry point and its pipeline constants (their bits, so that the key
+/// is hashable).
+type PipelineKey = (&'static str, Vec<(&'static str, u64)>);
+
+/// The process's context: `None` until the first render, and again after
+/// a render failed.
+static CONTEXT: Mutex<Option<GpuContext>> = Mutex::new(None);
+
+/// Holds the process's GPU context for one render; other renders wait.
+pub struct ContextGuard(MutexGuard<'static, Option<GpuContext>>);
+
+impl ContextGuard {
+    /// The context (present while the guard lives).
+    pub fn get(&mut self) -> &mut GpuContext {
+        self.0.as_mut().expect("the guard holds a context")
+    }
+
+    /// Drops the context, so that the next render starts on a fresh
+    /// device (after a device error, whose device may be lost).
+    pub fn discard(mut self) {
+        *self.0 = None;
+    }
+}
+
+/// The process's GPU context, created on first use.
+pub fn acquire() -> Result<ContextGuard, GpuError> {
+    // A render that panicked left no half-made context: the guard's
+    // `Option` is only ever replaced whole.
+    let mut guard = CONTEXT.lock().unwrap_or_else(|p| p.into_inner());
+    if guard
+        .as_ref()
+        .is_some_and(|c| c.dispatches.get() >= RENEW_AFTER_DISPATCHES)
+    {
+        // Dropped before its successor is made.
+        *guard = None;
+    }
+    if guard.is_none() {
+        *guard = Some(GpuContext::new()?);
+    }
+    let mut guard = ContextGuard(guard);
+    // An error left by an earlier render is not this render's.
+    guard.get().take_failure();
+    Ok(guard)
+}
+
+impl GpuContext {
+    fn new() -> Result<GpuContext, GpuError> {
+        let adapter = super::adapter().ok_or(GpuError::NoAdapter)?;
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("lente"),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        // wgpu reports validation and out-of-memory errors to a handler
+        // that panics by default: record them instead, and fail the render.
+        let failure = Arc::new(Mutex::new(None::<String>));
+        {
+            let failure = failure.clone();
+            device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                let mut f = failure.lock().unwrap_or_else(|p| p.into_inner());
+                f.get_or_insert_with(|| e.to_string());
+            }));
+        }
+        Ok(GpuContext {
+            device,
+            queue,
+            limits,
+            failure,
+            pipelines: HashMap::new(),
+            dispatches: Cell::new(0),
+        })
+    }
+
+    /// Counts a dispatch of the path kernel (see [`RENEW_AFTER_DISPATCHES`]).
+    pub fn count_dispatch(&self) {
+        self.dispatches.set(self.dispatches.get() + 1);
+    }
+
+    /// The error wgpu reported since the last call, if any.
+    pub fn take_failure(&self) -> Option<String> {
+        self.failure
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .take()
+    }
+
+    /// The compute pipeline of `entry` in `source` with these pipeline
+    /// constants, compiled on first use.
+    pub fn pipeline(
+        &mut self,
+        source: &'static str,
+        entry: &'static str,
+        constants: &[(&'static str, f64)],
+    ) -> wgpu::ComputePipeline {
+        let key = (
+            entry,
+            constants.iter().map(|&(n, v)| (n, v.to_bits())).collect(),
+        );
+        let device = &self.device;
+        self.pipelines
+            .entry(key)
+            .or_insert_with(|| {
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(entry),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants,
+                        ..Default::default()
+                    },
+                    cache: None,
+                })
+            })
+            .clone()
+    }
+}
