@@ -173,7 +173,8 @@ pub const MAT_TEXTURED_ANY: u32 = MAT_TEXTURED
 
 /// Vec4 words per vertex-data slot in `normals`: a triangle's three vertex
 /// normals (zero where the mesh has none), then (u0, v0, u1, v1), (u2, v2,
-/// 0, 0); a textured sphere's (u, v) frame: (object x, 1 for ETH's (u, v)
+/// its index in its mesh as bits, 1 if its corners 1 and 2 were swapped
+/// else 0); a textured sphere's (u, v) frame: (object x, 1 for ETH's (u, v)
 /// else 0), (object y, 0), (object z, 0), then unused words.
 pub const SLOT_WORDS: usize = 5;
 
@@ -185,6 +186,11 @@ pub const TEX_CHECKERBOARD: u32 = 2;
 /// The Nori forks' `checkerboard`/`checker` (`texture/nori_checker.rs`):
 /// the wrap word holds its rule, `CHECKER_ETH` or `CHECKER_ZARAGOZA`.
 pub const TEX_NORI_CHECKER: u32 = 3;
+/// Mitsuba's `mesh_attribute` (`texture/mesh_attribute.rs`): the width is
+/// the values per triangle (3: its corners', interpolated with the hit's
+/// barycentrics; 1: the face's), the height the triangles, the texels the
+/// values times the texture's scale, triangle by triangle.
+pub const TEX_MESH_ATTRIBUTE: u32 = 4;
 pub const CHECKER_ETH: u32 = 0;
 pub const CHECKER_ZARAGOZA: u32 = 1;
 pub const WRAP_REPEAT: u32 = 0;
@@ -387,6 +393,11 @@ enum Prim {
         normals: Option<[Vec3; 3]>,
         /// Vertex uvs, for shapes whose material is textured.
         uvs: Option<[Vec2; 3]>,
+        /// The triangle's index in its mesh and whether its corners 1 and
+        /// 2 were swapped (rewound by a mirroring instance): where a
+        /// `mesh_attribute` texture reads its values.
+        index: u32,
+        swapped: bool,
     },
     Sphere {
         shape: u32,
@@ -420,17 +431,18 @@ impl Prim {
                 v,
                 normals,
                 uvs,
+                index,
+                swapped,
             } => {
-                let order = if t.flips_handedness() {
-                    [0, 2, 1]
-                } else {
-                    [0, 1, 2]
-                };
+                let flips = t.flips_handedness();
+                let order = if flips { [0, 2, 1] } else { [0, 1, 2] };
                 Prim::Triangle {
                     shape,
                     v: order.map(|i| t.point(v[i])),
                     normals: normals.map(|n| order.map(|i| t.normal(n[i]).normalize_or_zero())),
                     uvs: uvs.map(|uv| order.map(|i| uv[i])),
+                    index,
+                    swapped: swapped != flips,
                 }
             }
             Prim::Sphere {
@@ -1212,6 +1224,7 @@ fn texture_record(
 ) -> Result<f32, Unsupported> {
     let colours;
     let nori_uv;
+    let scaled: Vec<Rgb>;
     let (to_uv, (width, height), filter, wrap, texels) = match texture {
         Texture::Bitmap(b) => {
             let img = b.image();
@@ -1245,6 +1258,18 @@ fn texture_record(
                 CheckerRule::Zaragoza => CHECKER_ZARAGOZA,
             };
             (&nori_uv, (2, 1), TEX_NORI_CHECKER, rule, &colours[..])
+        }
+        Texture::MeshAttribute(a) => {
+            let (values, per_triangle) = a.values();
+            scaled = values.iter().map(|&v| v * a.scale).collect();
+            let triangles = values.len() / per_triangle;
+            (
+                &UvTransform::IDENTITY,
+                (per_triangle, triangles),
+                TEX_MESH_ATTRIBUTE,
+                0,
+                &scaled[..],
+            )
         }
         other => return unsupported(format!("a {} texture", variant_name(other))),
     };
@@ -1325,6 +1350,10 @@ impl GpuScene {
                 Some(e) => match &scene.emitters[e as usize] {
                     Emitter::Area(a) => match &a.texture {
                         None => (a.radiance, bits(NONE)),
+                        // Light samples have no triangle index to read.
+                        Some(Texture::MeshAttribute(_)) => {
+                            return unsupported("an area light's mesh_attribute radiance")
+                        }
                         Some(t) => (a.radiance, texture_record(t, table_base, &mut tables)?),
                     },
                     _ => return unsupported("an emitter on a shape other than an area light"),
@@ -1373,6 +1402,8 @@ impl GpuScene {
                             v: m.vertices(t),
                             normals,
                             uvs,
+                            index: t as u32,
+                            swapped: false,
                         });
                     }
                 }
@@ -1389,13 +1420,15 @@ impl GpuScene {
                     let flip = (c[1] - c[0]).cross(c[2] - c[0]).dot(f.n) < 0.0;
                     // Mitsuba's rectangle uv: ((x + 1) / 2, (y + 1) / 2).
                     let uv = [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
-                    for k in [[0, 1, 2], [0, 2, 3]] {
+                    for (index, k) in [[0, 1, 2], [0, 2, 3]].into_iter().enumerate() {
                         let k = if flip { [k[0], k[2], k[1]] } else { k };
                         prims.push(Prim::Triangle {
                             shape,
                             v: k.map(|i| c[i]),
                             normals: None,
                             uvs: textured.then(|| k.map(|i| uv[i])),
+                            index: index as u32,
+                            swapped: flip,
                         });
                     }
                 }
@@ -1731,13 +1764,15 @@ impl GpuScene {
                     v,
                     normals: n,
                     uvs,
+                    index,
+                    swapped,
                 } => {
                     let slot = if n.is_some() || uvs.is_some() {
                         let slot = (normals.len() / SLOT_WORDS) as u32;
                         normals.extend(n.unwrap_or([Vec3::ZERO; 3]).map(|n| v4(n, 0.0)));
                         let t = uvs.unwrap_or([Vec2::ZERO; 3]);
                         normals.push([t[0].x, t[0].y, t[1].x, t[1].y]);
-                        normals.push([t[2].x, t[2].y, 0.0, 0.0]);
+                        normals.push([t[2].x, t[2].y, bits(index), f32::from(swapped)]);
                         slot
                     } else {
                         NONE
@@ -2419,6 +2454,7 @@ mod tests {
             ("TEX_BILINEAR", TEX_BILINEAR),
             ("TEX_CHECKERBOARD", TEX_CHECKERBOARD),
             ("TEX_NORI_CHECKER", TEX_NORI_CHECKER),
+            ("TEX_MESH_ATTRIBUTE", TEX_MESH_ATTRIBUTE),
             ("CHECKER_ETH", CHECKER_ETH),
             ("CHECKER_ZARAGOZA", CHECKER_ZARAGOZA),
             ("WRAP_REPEAT", WRAP_REPEAT),
@@ -2600,6 +2636,78 @@ mod tests {
         let k = sphere.unwrap()[1][1].to_bits() as usize * SLOT_WORDS;
         assert_eq!(flat.normals[k], v4(sp.x_axis, 0.0));
         assert_eq!(flat.normals[k + 2], v4(sp.axis, 0.0));
+    }
+
+    /// A mesh_attribute texture's record: its values times its scale,
+    /// triangle by triangle (three corners each for per-vertex data, one
+    /// for per-face data); unbound, it has no triangles (and reads 0).
+    #[test]
+    fn mesh_attributes_are_records_of_their_values() {
+        use crate::geometry::MeshAttribute;
+        use crate::texture::MeshAttributeTexture;
+        let colours = MeshAttribute {
+            name: "vertex_color".into(),
+            per_vertex: true,
+            channels: 3,
+            values: (0..4).map(|i| Rgb::new(i as f32, 1.0, 2.0)).collect(),
+        };
+        let weights = MeshAttribute {
+            name: "face_weight".into(),
+            per_vertex: false,
+            channels: 1,
+            values: vec![Rgb::splat(0.25), Rgb::splat(0.75)],
+        };
+        let indices = [[0, 1, 2], [2, 3, 0]];
+        let record = |name: &str, scale: f32, bind: bool| {
+            let mut t = MeshAttributeTexture::new(name.into(), scale);
+            if bind {
+                t.bind(&[colours.clone(), weights.clone()], &indices)
+                    .unwrap();
+            }
+            let mut words = vec![[0.0; 4]; 5];
+            let at = texture_record(&Texture::MeshAttribute(Box::new(t)), 100, &mut words);
+            assert_eq!(at.unwrap().to_bits(), 105);
+            words.split_off(5)
+        };
+        let header = |w: &[[f32; 4]]| {
+            (
+                w[1][3].to_bits(),
+                w[2][0].to_bits(),
+                w[2][1].to_bits(),
+                w[0][3].to_bits(),
+            )
+        };
+        let w = record("vertex_color", 0.5, true);
+        assert_eq!(header(&w), (3, 2, TEX_MESH_ATTRIBUTE, 108));
+        let reds: Vec<f32> = w[3..].iter().map(|t| t[0]).collect();
+        assert_eq!(reds, [0.0, 0.5, 1.0, 1.0, 1.5, 0.0]);
+        assert_eq!(w[3][1..3], [0.5, 1.0]);
+        let w = record("face_weight", 2.0, true);
+        assert_eq!(header(&w), (1, 2, TEX_MESH_ATTRIBUTE, 108));
+        assert_eq!(w[3][..3], [0.5; 3]);
+        assert_eq!(w[4][..3], [1.5; 3]);
+        assert_eq!(header(&record("vertex_color", 1.0, false)).1, 0);
+    }
+
+    /// Triangles of a mesh with a mesh_attribute texture know their index
+    /// in the mesh, and whether a mirroring instance swapped their corners
+    /// 1 and 2 (the barycentrics then swap back): each of the grid's 48
+    /// triangles appears once per copy (two instances and the plain
+    /// mesh), swapped in the mirrored instance only.
+    #[test]
+    fn triangles_know_their_index_in_the_mesh() {
+        let (scene, job) = load("tests/gpu/mesh_attribute.xml");
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let mut seen = vec![[0usize; 2]; 48];
+        for p in flat.prims.chunks(3) {
+            let slot = p[1][3].to_bits();
+            if matches!(slot, SPHERE | DISK | DISK_FLIPPED) || slot == NONE {
+                continue;
+            }
+            let w = flat.normals[slot as usize * SLOT_WORDS + 4];
+            seen[w[2].to_bits() as usize][usize::from(w[3] != 0.0)] += 1;
+        }
+        assert!(seen.iter().all(|&s| s == [2, 1]), "{seen:?}");
     }
 
     /// Instances place copies of their group's primitives; too many

@@ -89,6 +89,17 @@ impl MeshAttributeTexture {
         v * self.scale
     }
 
+    /// The values (before `scale`) triangle by triangle, and how many
+    /// each triangle has: its three corners' (per-vertex data) or one
+    /// (per-face data); none before binding.
+    pub fn values(&self) -> (&[Rgb], usize) {
+        let per_triangle = match &*self.values {
+            Values::PerCorner(_) => 3,
+            _ => 1,
+        };
+        (self.all(), per_triangle)
+    }
+
     fn all(&self) -> &[Rgb] {
         match &*self.values {
             Values::PerCorner(c) => c.as_flattened(),

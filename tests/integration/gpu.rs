@@ -10,6 +10,7 @@
 //! homogeneous media (the conformance check's fog scene, and media behind
 //! null, dielectric and thin-dielectric boundaries with every phase
 //! function) and heterogeneous ones (the conformance check's grid volumes);
+//! mesh_attribute textures (per vertex and per face, in a mirrored instance);
 //! rectangle, disk, sphere and mesh area lights (constant, and a bitmap or
 //! checkerboard radiance), point, spot (plain and projecting a bitmap) and
 //! directional lights, the light choice past 64 emitters, a light triangle
@@ -143,6 +144,7 @@ fn gpu_images_match_the_cpu_renderer() {
         "tests/gpu/volumes.xml",
         "tests/conformance/hetero.xml",
         "tests/conformance/pplastic.xml",
+        "tests/gpu/mesh_attribute.xml",
     ];
     // LENTE_GPU_ONLY=text: only the scenes whose path contains it (while
     // working on one; the Sidak threshold then covers those alone).

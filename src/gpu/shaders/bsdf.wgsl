@@ -233,8 +233,9 @@ fn with_texel(layer_in: Layer, slot: u32, t: vec3<f32>, record: u32) -> Layer {
     return layer;
 }
 
-fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
-    let top = SHAPE_WORDS * shape;
+fn load_material(s: Surface, from_behind: bool) {
+    let at = TexPoint(s.uv, s.tri, s.bary);
+    let top = SHAPE_WORDS * s.shape;
     // The mask's and the map's words stay the front record's.
     let w3 = shapes[top + 3u];
     let front_flags = bitcast<u32>(shapes[top].w);
@@ -286,14 +287,14 @@ fn load_material(shape: u32, uv: vec2<f32>, from_behind: bool) {
         }
         let record = bitcast<u32>(records[k]);
         if (k == 1u && (mat_tilt_flags & TILT_BUMP) != 0u) {
-            mat_tilt_n = vec3<f32>(texture_gradient_1(record, uv) * w3.y, 0.0);
+            mat_tilt_n = vec3<f32>(texture_gradient_1(record, s.uv) * w3.y, 0.0);
             continue;
         }
         // Opacity, weight and roughness are read as one value (`eval_1`).
         let slot = (k + 1u) % 4u;
         let kind = select(kinds.x, kinds.y, k >= 7u) & ~MAT_FLAGS;
         let one = k == 0u || k == 2u || (k >= 3u && (slot == 2u || disney_value_slot(kind, slot)));
-        let t = texture_lookup(record, uv, one);
+        let t = texture_lookup(record, at, one);
         if (k == 0u) {
             mat_opacity = clamp(texture_value_1(record, t), 0.0, 1.0);
         } else if (k == 1u) {

@@ -519,7 +519,7 @@ fn light_radiance(i: u32, uv: vec2<f32>) -> vec3<f32> {
     if (record == NONE) {
         return lights[LIGHT_WORDS * i + 3u].xyz;
     }
-    return texture_lookup(record, uv, false);
+    return texture_lookup(record, tex_at_uv(uv), false);
 }
 
 // The (u, v) of a textured sphere light's point along unit `n` from its
@@ -565,7 +565,7 @@ fn sample_light(p: vec3<f32>, n: vec3<f32>, total: f32, u_choice: f32, u: vec2<f
         record = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].w);
     }
     if (record != NONE && ls.ok) {
-        let t = texture_lookup(record, uv, false);
+        let t = texture_lookup(record, tex_at_uv(uv), false);
         // A spot's or projector's texture tints its intensity; an area
         // light's is its radiance.
         ls.le = select(t, ls.le * t, projects);

@@ -222,10 +222,15 @@ struct Surface {
     // triangles with a slot; the edges of other triangles.
     dpdu: vec3<f32>,
     dpdv: vec3<f32>,
+    // A slotted triangle's index in its mesh and the hit's barycentrics in
+    // the mesh's corner order (mesh_attribute textures); NONE elsewhere.
+    tri: u32,
+    bary: vec2<f32>,
 }
 
 // Vec4 words per vertex-data slot (flatten.rs's SLOT_WORDS): three
-// normals, then (u0, v0, u1, v1), (u2, v2, 0, 0).
+// normals, then (u0, v0, u1, v1), (u2, v2, index in the mesh as bits, 1
+// where corners 1 and 2 were swapped).
 const SLOT_WORDS: u32 = 5u;
 
 // A sphere's (u, v) at unit normal `n`, its frame at vertex-data word `k`
@@ -297,9 +302,9 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             let inv_det = 1.0 / dot(m0, c0);
             let du = (c0 * dpdu.x + c1 * dpdu.y + c2 * dpdu.z) * inv_det;
             let dv = (c0 * dpdv.x + c1 * dpdv.y + c2 * dpdv.z) * inv_det;
-            return Surface(o + h.t * d, nw, nw, shape, light, uv, du, dv);
+            return Surface(o + h.t * d, nw, nw, shape, light, uv, du, dv, NONE, vec2<f32>(0.0));
         }
-        return Surface(r0.xyz + r * n, n, n, shape, light, uv, dpdu, dpdv);
+        return Surface(r0.xyz + r * n, n, n, shape, light, uv, dpdu, dpdv, NONE, vec2<f32>(0.0));
     }
     if (is_disk(slot)) {
         var n = normalize(cross(r1.xyz, r2.xyz));
@@ -309,7 +314,7 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
         // The hit keeps the object coordinates in (b1, b2).
         let l = vec2<f32>(h.b1, h.b2);
         let dp = disk_derivatives(r1.xyz, r2.xyz, l);
-        return Surface(o + h.t * d, n, n, shape, light, disk_uv(l), dp[0], dp[1]);
+        return Surface(o + h.t * d, n, n, shape, light, disk_uv(l), dp[0], dp[1], NONE, vec2<f32>(0.0));
     }
     let b0 = 1.0 - h.b1 - h.b2;
     let p = b0 * r0.xyz + h.b1 * r1.xyz + h.b2 * r2.xyz;
@@ -317,6 +322,8 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
     var ns = ng;
     var uv = vec2<f32>(0.0);
     var dp = array<vec3<f32>, 2>(r1.xyz - r0.xyz, r2.xyz - r0.xyz);
+    var tri = NONE;
+    var bary = vec2<f32>(h.b1, h.b2);
     if (slot != NONE) {
         let k = SLOT_WORDS * slot;
         let n = b0 * normals[k].xyz + h.b1 * normals[k + 1u].xyz + h.b2 * normals[k + 2u].xyz;
@@ -325,11 +332,16 @@ fn surface_at(h: Hit, o: vec3<f32>, d: vec3<f32>) -> Surface {
             ns = n / len;
         }
         let t01 = normals[k + 3u];
-        let uv2 = normals[k + 4u].xy;
+        let w4 = normals[k + 4u];
+        let uv2 = w4.xy;
+        tri = bitcast<u32>(w4.z);
+        if (w4.w != 0.0) {
+            bary = bary.yx;
+        }
         uv = b0 * t01.xy + h.b1 * t01.zw + h.b2 * uv2;
         dp = triangle_derivatives(r1.xyz - r0.xyz, r2.xyz - r0.xyz, t01.zw - t01.xy, uv2 - t01.xy);
     }
-    return Surface(p, ng, ns, shape, light, uv, dp[0], dp[1]);
+    return Surface(p, ng, ns, shape, light, uv, dp[0], dp[1], tri, bary);
 }
 
 // A triangle's dp/du and dp/dv from its edges and their (u, v)

@@ -162,7 +162,7 @@ fn li(camera: Ray) -> vec3<f32> {
         }
         let s = surface_at(h, ray.o, ray.d);
         // Seen from behind the shading normal: a two-sided material's back.
-        load_material(s.shape, s.uv, dot(ray.d, s.ns) > 0.0);
+        load_material(s, dot(ray.d, s.ns) > 0.0);
         // Emission found by following the path (front side only).
         if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide) && count_emission(specular)) {
             var w = 1.0;

@@ -5,13 +5,16 @@
 // uv), wrapped by repeat, mirror or clamp. A record in `shapes`
 // (flatten.rs's texture_record): (to_uv row 0, first texel), (to_uv row 1,
 // width), (height, filter, wrap, 0), then the texels (RGB, 0); a
-// checkerboard's filter is TEX_CHECKERBOARD and its texels its colours.
+// checkerboard's filter is TEX_CHECKERBOARD and its texels its colours; a
+// mesh_attribute's is TEX_MESH_ATTRIBUTE, its width the values per
+// triangle (3 or 1), its height the triangles.
 
 const TEX_NEAREST: u32 = 0u;
 const TEX_BILINEAR: u32 = 1u;
 const TEX_CHECKERBOARD: u32 = 2u;
 // texture/nori_checker.rs: the wrap word holds its rule.
 const TEX_NORI_CHECKER: u32 = 3u;
+const TEX_MESH_ATTRIBUTE: u32 = 4u;
 const CHECKER_ETH: u32 = 0u;
 const CHECKER_ZARAGOZA: u32 = 1u;
 const WRAP_REPEAT: u32 = 0u;
@@ -113,11 +116,37 @@ fn tex_bilinear_cell(a: TexHeader) -> TexCell {
     );
 }
 
-// The texture's value at `uv`, for the record at `record`; a
+// Where a texture is read (texture/mod.rs's SurfacePoint): the uv, and for
+// a mesh's triangle its index in the mesh (NONE elsewhere) and the hit's
+// barycentrics in the mesh's corner order.
+struct TexPoint {
+    uv: vec2<f32>,
+    tri: u32,
+    bary: vec2<f32>,
+}
+
+// A point with only a uv (lights).
+fn tex_at_uv(uv: vec2<f32>) -> TexPoint {
+    return TexPoint(uv, NONE, vec2<f32>(0.0));
+}
+
+// The texture's value at `at`, for the record at `record`; a
 // checkerboard's squares swapped if `swap` (checkerboard.rs's `eval_1`
 // swaps them, as Mitsuba 3.9's does).
-fn texture_lookup(record: u32, uv: vec2<f32>, swap: bool) -> vec3<f32> {
-    let a = tex_header(record, uv);
+fn texture_lookup(record: u32, at: TexPoint, swap: bool) -> vec3<f32> {
+    let a = tex_header(record, at.uv);
+    if (a.filter_type == TEX_MESH_ATTRIBUTE) {
+        // MeshAttributeTexture::eval: 0 off the mesh (or unbound).
+        if (at.tri >= u32(a.h)) {
+            return vec3<f32>(0.0);
+        }
+        let k = a.first + at.tri * u32(a.w);
+        if (a.w == 1) {
+            return shapes[k].xyz;
+        }
+        return shapes[k].xyz * (1.0 - at.bary.x - at.bary.y) + shapes[k + 1u].xyz * at.bary.x
+            + shapes[k + 2u].xyz * at.bary.y;
+    }
     if (a.filter_type == TEX_NORI_CHECKER) {
         // NoriChecker::eval: `same` where the squares' keys agree.
         let same = nori_checker_key(a.st.x, a.wrap) == nori_checker_key(a.st.y, a.wrap);

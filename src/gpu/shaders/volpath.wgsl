@@ -338,7 +338,7 @@ fn shadow_transmittance(o_in: vec3<f32>, d_in: vec3<f32>, to: vec3<f32>, finite:
             return tr;
         }
         let s = surface_at(h, o, d);
-        load_material(s.shape, s.uv, dot(d, s.ns) > 0.0);
+        load_material(s, dot(d, s.ns) > 0.0);
         tr *= bsdf_null_transmission(dot(s.ns, d));
         if (max3(tr) <= 0.0) {
             return vec3<f32>(0.0);
@@ -439,7 +439,7 @@ fn vol_li(camera: Ray) -> vec3<f32> {
         }
         let s = surface_at(h, ray.o, ray.d);
         let from_behind = dot(ray.d, s.ns) > 0.0;
-        load_material(s.shape, s.uv, from_behind);
+        load_material(s, from_behind);
         if (s.light != NONE && dot(s.ng, ray.d) < 0.0 && !(depth == 0u && hide)) {
             var w = 1.0;
             if (!specular) {
@@ -481,7 +481,7 @@ fn vol_li(camera: Ray) -> vec3<f32> {
                         l += beta * fp.xyz * ls.le * tr * (abs(wo.z) * w / ls.pdf);
                     }
                     // The shadow ray loaded the materials it crossed.
-                    load_material(s.shape, s.uv, from_behind);
+                    load_material(s, from_behind);
                     set_tilt(wi, tilt[0], tilt[1], tilt[2]);
                 }
             }
