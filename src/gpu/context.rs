@@ -8,8 +8,9 @@
 //! A device is also renewed after [`RENEW_AFTER_DISPATCHES`] path
 //! dispatches: Mesa 22.3's lavapipe keeps about 7 MB per dispatch of the
 //! path kernel until its device is dropped (measured: a process's memory
-//! grew by that much per pass, and 35 scenes x 16 renders ran CI's 24 GiB
-//! out), so a long-lived device must not live forever.
+//! grew by that much per pass, and the GPU z-test's 36 scenes x 16 renders
+//! on one device ran a 24 GiB machine out), so a device must not live
+//! forever.
 
 use std::cell::Cell;
 use std::collections::HashMap;
