@@ -202,12 +202,20 @@ impl MicrofacetDistribution {
     /// Samples a microfacet normal; returns it with its density
     /// ([`Self::pdf`]). `wi` must lie in the upper hemisphere.
     pub fn sample(&self, wi: Vec3, u: Vec2) -> (Vec3, f32) {
-        let m = if self.sample_visible {
+        let m = self.sample_normal(wi, u);
+        (m, self.pdf(wi, m))
+    }
+
+    /// [`Self::sample`]'s normal without its density, for callers that
+    /// weigh the direction by a density of their own (the plastics' lobe
+    /// mixture): the density costs a `D` and a `G1`.
+    #[inline]
+    pub fn sample_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
+        if self.sample_visible {
             self.sample_visible_normal(wi, u)
         } else {
             self.sample_all_normals(u)
-        };
-        (m, self.pdf(wi, m))
+        }
     }
 
     fn sample_all_normals(&self, u: Vec2) -> Vec3 {

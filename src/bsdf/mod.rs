@@ -621,6 +621,22 @@ impl Bsdf {
         }
     }
 
+    /// `(eval, pdf)` at once: what next-event estimation under MIS needs.
+    /// The same values as the two calls; the models whose two share work
+    /// (rough conductors and plastics, textured ones' lookups) do it once.
+    pub fn eval_pdf(&self, at: impl Into<SurfacePoint>, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
+        let at = at.into();
+        match self {
+            Bsdf::RoughConductor(b) => b.eval_pdf(wi, wo),
+            Bsdf::RoughPlastic(b) => {
+                let (kd, ks) = (b.diffuse_reflectance, b.specular_reflectance);
+                b.eval_pdf_tinted(kd, ks, wi, wo)
+            }
+            Bsdf::Textured(b) => b.eval_pdf(at, wi, wo),
+            _ => (self.eval(at, wi, wo), self.pdf(at, wi, wo)),
+        }
+    }
+
     /// Samples `wo` given `wi`; `u` drives the direction, `u_lobe` the lobe choice.
     pub fn sample(
         &self,

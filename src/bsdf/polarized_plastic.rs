@@ -98,8 +98,7 @@ impl PolarizedPlastic {
             wi,
             u,
             u_lobe < self.specular_sampling_weight,
-            |wo| self.pdf(wi, wo),
-            |wo| self.eval(wi, wo),
+            |wo| (self.eval(wi, wo), self.pdf(wi, wo)),
         )
     }
 }

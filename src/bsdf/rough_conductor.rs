@@ -40,33 +40,39 @@ impl RoughConductor {
 
     /// f(wi, wo) = F(wi.h) D(h) G(wi, wo, h) / (4 cos_i cos_o).
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let h = (wi + wo).normalize();
-        let d = self.distr.d(h);
-        if d == 0.0 {
-            return Rgb::ZERO;
-        }
-        let g = self.distr.g(wi, wo, h);
-        let f = fresnel_conductor(wi.dot(h), self.eta, self.k);
-        self.specular_reflectance * f * (d * g / (4.0 * wi.z * wo.z))
+        self.eval_pdf(wi, wo).0
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        self.eval_pdf(wi, wo).1
+    }
+
+    /// `(eval, pdf)` at once: they share the half vector, `D` and one
+    /// `G1`.
+    #[inline]
+    pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
+            return (Rgb::ZERO, 0.0);
         }
-        let m = (wi + wo).normalize();
+        let h = (wi + wo).normalize();
         // Mirror the sidedness checks that G1 applies in eval and sample.
-        if wi.dot(m) <= 0.0 || wo.dot(m) <= 0.0 {
-            return 0.0;
+        if wi.dot(h) <= 0.0 || wo.dot(h) <= 0.0 {
+            return (Rgb::ZERO, 0.0);
         }
-        if self.distr.sample_visible {
-            self.distr.d(m) * self.distr.smith_g1(wi, m) / (4.0 * wi.z)
+        let d = self.distr.d(h);
+        if d == 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let g1_i = self.distr.smith_g1(wi, h);
+        let g = g1_i * self.distr.smith_g1(wo, h);
+        let f = fresnel_conductor(wi.dot(h), self.eta, self.k);
+        let value = self.specular_reflectance * f * (d * g / (4.0 * wi.z * wo.z));
+        let pdf = if self.distr.sample_visible {
+            d * g1_i / (4.0 * wi.z)
         } else {
-            self.distr.pdf(wi, m) / (4.0 * wo.dot(m))
-        }
+            self.distr.pdf(wi, h) / (4.0 * wo.dot(h))
+        };
+        (value, pdf)
     }
 
     pub fn sample(&self, wi: Vec3, u: Vec2) -> Option<BsdfSample> {

@@ -75,7 +75,7 @@ fn coating_integral(distr: &MicrofacetDistribution, wi: Vec3, eta: f32, transmit
     for &(ny, wy) in &nodes {
         for &(nx, wx) in &nodes {
             let u = Vec2::new((nx * 0.5 + 0.5) as f32, (ny * 0.5 + 0.5) as f32);
-            let (m, _) = distr.sample(wi, u);
+            let m = distr.sample_normal(wi, u);
             let dim = wi.dot(m);
             let (f, cos_t, eta_ti) = fresnel_dielectric(dim, eta);
             let value = if transmit {
@@ -188,33 +188,43 @@ impl RoughPlastic {
     /// `eval` with the two reflectances given (a texture's values at the
     /// hit); the tables and the lobe choice do not depend on them.
     pub fn eval_tinted(&self, kd: Rgb, ks: Rgb, wi: Vec3, wo: Vec3) -> Rgb {
+        self.eval_pdf_tinted(kd, ks, wi, wo).0
+    }
+
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let (kd, ks) = (self.diffuse_reflectance, self.specular_reflectance);
+        self.eval_pdf_tinted(kd, ks, wi, wo).1
+    }
+
+    /// `(eval_tinted, pdf)` at once: they share the half vector, `D`, one
+    /// `G1` and a transmittance, which next-event estimation under MIS and
+    /// sampling (which weighs by both) would otherwise compute twice.
+    #[inline]
+    pub fn eval_pdf_tinted(&self, kd: Rgb, ks: Rgb, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Rgb::ZERO;
+            return (Rgb::ZERO, 0.0);
         }
         let h = (wi + wo).normalize();
+        let d = self.distr.d(h);
+        let g1_i = self.distr.smith_g1(wi, h);
+        let t_i = self.transmittance(wi.z);
         let (f, _, _) = fresnel_dielectric(wi.dot(h), self.eta);
-        let spec = self.distr.d(h) * self.distr.g(wi, wo, h) * f / (4.0 * wi.z * wo.z);
+        let spec = d * (g1_i * self.distr.smith_g1(wo, h)) * f / (4.0 * wi.z * wo.z);
         let diff = if self.nonlinear {
             kd / (Rgb::ONE - kd * self.internal_reflectance)
         } else {
             kd / (1.0 - self.internal_reflectance)
         };
-        let t = self.transmittance(wi.z) * self.transmittance(wo.z);
-        ks * spec + diff * (INV_PI / (self.eta * self.eta) * t)
-    }
-
-    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let p_spec = self.prob_specular(self.transmittance(wi.z));
-        let h = (wi + wo).normalize();
-        let spec = if self.distr.sample_visible {
-            self.distr.d(h) * self.distr.smith_g1(wi, h) / (4.0 * wi.z)
+        let t = t_i * self.transmittance(wo.z);
+        let value = ks * spec + diff * (INV_PI / (self.eta * self.eta) * t);
+        let p_spec = self.prob_specular(t_i);
+        let spec_pdf = if self.distr.sample_visible {
+            d * g1_i / (4.0 * wi.z)
         } else {
             self.distr.pdf(wi, h) / (4.0 * wo.dot(h))
         };
-        p_spec * spec + (1.0 - p_spec) * warp::square_to_cosine_hemisphere_pdf(wo)
+        let pdf = p_spec * spec_pdf + (1.0 - p_spec) * warp::square_to_cosine_hemisphere_pdf(wo);
+        (value, pdf)
     }
 
     pub fn sample(&self, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
@@ -235,44 +245,38 @@ impl RoughPlastic {
             return None;
         }
         let p_spec = self.prob_specular(self.transmittance(wi.z));
-        sample_glossy_or_diffuse(
-            &self.distr,
-            wi,
-            u,
-            u_lobe < p_spec,
-            |wo| self.pdf(wi, wo),
-            |wo| self.eval_tinted(kd, ks, wi, wo),
-        )
+        sample_glossy_or_diffuse(&self.distr, wi, u, u_lobe < p_spec, |wo| {
+            self.eval_pdf_tinted(kd, ks, wi, wo)
+        })
     }
 }
 
 /// One-sample MIS over a plastic's two reflection lobes: `wo` from the
 /// microfacet normals (`glossy`) or the cosine-weighted hemisphere, then
-/// weighted by the model's `eval` over its combined `pdf`. `wi` is in the
-/// upper hemisphere.
+/// weighted by the model's value over its combined density (`eval_pdf`
+/// gives both). `wi` is in the upper hemisphere.
 pub(super) fn sample_glossy_or_diffuse(
     distr: &MicrofacetDistribution,
     wi: Vec3,
     u: Vec2,
     glossy: bool,
-    pdf: impl Fn(Vec3) -> f32,
-    eval: impl Fn(Vec3) -> Rgb,
+    eval_pdf: impl Fn(Vec3) -> (Rgb, f32),
 ) -> Option<BsdfSample> {
     let wo = if glossy {
-        reflect(wi, distr.sample(wi, u).0)
+        reflect(wi, distr.sample_normal(wi, u))
     } else {
         warp::square_to_cosine_hemisphere(u)
     };
     if wo.z <= 0.0 || !wo.is_finite() {
         return None;
     }
-    let pdf = pdf(wo);
+    let (value, pdf) = eval_pdf(wo);
     if pdf <= 0.0 {
         return None;
     }
     Some(BsdfSample {
         wo,
-        weight: eval(wo) * (wo.z / pdf),
+        weight: value * (wo.z / pdf),
         pdf,
         specular: false,
         eta: 1.0,

@@ -208,6 +208,23 @@ impl Textured {
         }
     }
 
+    /// `(eval, pdf)` with the textures read once (and the rough models'
+    /// shared terms computed once).
+    pub fn eval_pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
+        match self.at(at) {
+            Local::RoughPlastic(b, kd, ks) => b.eval_pdf_tinted(kd, ks, wi, wo),
+            Local::RoughConductor(b) => b.eval_pdf(wi, wo),
+            Local::Diffuse(b) => (b.eval(wi, wo), b.pdf(wi, wo)),
+            Local::Plastic(b) => (b.eval(wi, wo), b.pdf(wi, wo)),
+            Local::PolarizedPlastic(b) => (b.eval(wi, wo), b.pdf(wi, wo)),
+            Local::RoughDielectric(b) => (b.eval(wi, wo), b.pdf(wi, wo)),
+            Local::Microfacet(b) => (b.eval(wi, wo), b.pdf(wi, wo)),
+            Local::SchlickConductor(b) => (b.eval(wi, wo), b.pdf(wi, wo)),
+            Local::RoughSubstrate(b) => (b.eval(wi, wo), b.pdf(wi, wo)),
+            Local::Conductor(_) | Local::ThinDielectric(_) => (Rgb::ZERO, 0.0),
+        }
+    }
+
     pub fn pdf(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> f32 {
         match self.at(at) {
             Local::Diffuse(b) => b.pdf(wi, wo),

@@ -256,10 +256,17 @@ pub fn li(
             prev_at = scene.choice_point(its.p, frame.n).facing(facing);
             if let Some((ls, pchoice)) = sample_light_with(scene, its.p, &prev_at, numbers, which) {
                 let wo = frame.to_local(ls.wi);
-                let f = bsdf.eval(sp, wi, wo);
+                // The BSDF's density only where MIS weighs with it, and
+                // then with its value in one call (they share work).
+                let mis = strategy == Strategy::Mis && !ls.delta;
+                let (f, bsdf_pdf) = if mis {
+                    bsdf.eval_pdf(sp, wi, wo)
+                } else {
+                    (bsdf.eval(sp, wi, wo), 0.0)
+                };
                 if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {
-                    let w = if strategy == Strategy::Mis && !ls.delta {
-                        power_heuristic(ls.pdf * pchoice, bsdf.pdf(sp, wi, wo))
+                    let w = if mis {
+                        power_heuristic(ls.pdf * pchoice, bsdf_pdf)
                     } else {
                         1.0
                     };

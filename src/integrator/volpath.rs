@@ -141,7 +141,11 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
             prev_at = scene.choice_point(its.p, frame.n);
             if let Some((ls, pchoice)) = sample_light(scene, its.p, &prev_at, sampler, which) {
                 let wo = frame.to_local(ls.wi);
-                let f = bsdf.eval(sp, wi, wo);
+                let (f, bsdf_pdf) = if ls.delta {
+                    (bsdf.eval(sp, wi, wo), 0.0)
+                } else {
+                    bsdf.eval_pdf(sp, wi, wo)
+                };
                 if f != Rgb::ZERO && ls.weight != Rgb::ZERO {
                     let start = if interface.is_transition() {
                         interface.target(its.ng, ls.wi)
@@ -153,7 +157,7 @@ pub fn li(scene: &Scene, camera_ray: &Ray, sampler: &mut Sampler, params: &PathP
                         let w = if ls.delta {
                             1.0
                         } else {
-                            power_heuristic(ls.pdf * pchoice, bsdf.pdf(sp, wi, wo))
+                            power_heuristic(ls.pdf * pchoice, bsdf_pdf)
                         };
                         l += beta * f * ls.weight * tr * (wo.z.abs() * w / pchoice);
                     }
