@@ -143,6 +143,17 @@ pub const MAT_NORMAL_MAP: u32 = 0x10000;
 /// texture: C.x holds its record's index.
 pub const MAT_TEXTURED_C: u32 = 0x20000;
 
+/// A Disney BSDF's one-value parameter that is a texture without a flag
+/// of its own (anisotropic, clearcoat, clearcoat_gloss, sheen,
+/// sheen_tint, flatness, spec_tint, diff_trans) holds, in place of its
+/// value, this quiet NaN with its record's index in the low bits
+/// ([`DISNEY_RECORD_INDICES`] of them): the shader reads it there
+/// (`disney_param`). Constants are finite, so the two never mix.
+pub const DISNEY_RECORD: u32 = 0x7fc0_0000;
+
+/// Record indices a [`DISNEY_RECORD`] value can hold.
+pub const DISNEY_RECORD_INDICES: u32 = 1 << 22;
+
 /// A normal or bump map's flags (word D's fourth value, as bits): Mitsuba's
 /// `flip_invalid_normals` and `use_shadowing_function`, and a map inside
 /// a `twosided` material (tilted after the back's directions are
@@ -365,7 +376,7 @@ pub struct GpuScene {
 
 /// Something in the scene the GPU backend cannot render yet.
 #[derive(Debug, thiserror::Error)]
-#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, pplastic, null, polarizer, Nori's microfacet, the Zaragoza fork's roughconductor and roughsubstrate, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and the Disney BSDFs' base colour, metallic, spec_trans and eta), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination by MIS, BSDF sampling or emitter sampling, and volpath through homogeneous and heterogeneous media); render on the CPU (--device cpu)")]
+#[error("the GPU backend does not support {0} yet (it renders perspective, thin-lens and orthographic cameras, triangle meshes, rectangles, disks and spheres, shape groups and instances, diffuse, mirror, conductor, rough conductor, plastic, rough plastic, smooth, thin and rough dielectric, pplastic, null, polarizer, Nori's microfacet, the Zaragoza fork's roughconductor and roughsubstrate, principled and principledthin BSDFs (two-sided too, masked, blended, normal- and bump-mapped, anisotropic, textured reflectances, transmittances, conductors' eta and k, roughness and every Disney parameter), area, point, spot and directional lights (textured too) and projectors, a constant environment and environment maps, with the path tracer or direct illumination by MIS, BSDF sampling or emitter sampling, and volpath through homogeneous and heterogeneous media); render on the CPU (--device cpu)")]
 pub struct Unsupported(pub String);
 
 fn unsupported<T>(what: impl Into<String>) -> Result<T, Unsupported> {
@@ -957,8 +968,9 @@ fn fraction_word(
 
 /// Reads a Disney BSDF's parameters into material words: constants as
 /// values (absent ones zero, which turns off the same terms as the CPU's
-/// `None`), the textures the shader reads as records with their flag set
-/// in `kind`; another textured parameter is named unsupported.
+/// `None`), textures as records: with their flag set in `kind` (base
+/// colour, metallic, spec_trans, eta, roughness) or boxed in a NaN
+/// ([`DISNEY_RECORD`]: the rest).
 struct DisneyWords<'a> {
     bsdf: &'static str,
     kind: u32,
@@ -967,7 +979,8 @@ struct DisneyWords<'a> {
 }
 
 impl DisneyWords<'_> {
-    /// A one-value parameter: its constant, or (with `flag`) its record.
+    /// A one-value parameter: its constant, or its record: with `flag`
+    /// set in the kind, else boxed in a NaN ([`DISNEY_RECORD`]).
     fn value(
         &mut self,
         name: &str,
@@ -983,10 +996,17 @@ impl DisneyWords<'_> {
                 self.kind |= flag;
                 texture_record(texture, self.table_base, self.tables)
             }
-            (None, None) => unsupported(format!(
-                "a textured {name} parameter of the {} BSDF",
-                self.bsdf
-            )),
+            (None, None) => {
+                let record = texture_record(texture, self.table_base, self.tables)?.to_bits();
+                if record >= DISNEY_RECORD_INDICES {
+                    return unsupported(format!(
+                        "a textured {name} parameter of the {} BSDF this far into a \
+                         scene this large (its record at {record}, beyond {DISNEY_RECORD_INDICES})",
+                        self.bsdf
+                    ));
+                }
+                Ok(bits(DISNEY_RECORD | record))
+            }
         }
     }
 
@@ -1003,7 +1023,7 @@ impl DisneyWords<'_> {
     }
 
     /// The word both Disney BSDFs share: (sheen, sheen_tint, flatness,
-    /// spec_tint), constants only.
+    /// spec_tint), constants or boxed records.
     fn sheen_word(
         &mut self,
         sheen: Option<&Texture>,
@@ -1028,8 +1048,7 @@ impl DisneyWords<'_> {
 }
 
 /// A `principled` BSDF's three words (`MAT_PRINCIPLED`) and its two more
-/// in `tables`; its base colour, metallic, spec_trans and roughness may be
-/// textures.
+/// in `tables`; every parameter may be a texture.
 fn principled(
     p: &Principled,
     table_base: usize,
@@ -1063,8 +1082,7 @@ fn principled(
 }
 
 /// A `principledthin` BSDF's three words (`MAT_PRINCIPLED_THIN`) and its
-/// two more in `tables`; its base colour, spec_trans, eta and roughness
-/// may be textures.
+/// two more in `tables`; every parameter may be a texture.
 fn principled_thin(
     p: &PrincipledThin,
     table_base: usize,
@@ -2334,18 +2352,27 @@ mod tests {
         let Bsdf::Principled(p) = &mut scene.bsdfs[checker] else {
             unreachable!()
         };
+        // A textured parameter without a flag: its record boxed in a NaN.
         p.sheen = Some(p.base_color.clone());
-        assert_refused(
-            &scene,
-            &job,
-            "a textured sheen parameter of the principled BSDF",
-        );
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let i = flat.shapes[checker * SHAPE_WORDS + 2][3].to_bits() as usize;
+        assert_eq!(header_of_boxed(&flat, flat.shapes[i][0]), TEX_CHECKERBOARD);
+        assert_eq!(flat.shapes[i][1..], [0.0, 0.0, 0.5]);
+    }
+
+    /// The header word of the record a Disney parameter boxes
+    /// ([`DISNEY_RECORD`]); panics if the value is not a boxed record.
+    fn header_of_boxed(flat: &GpuScene, value: f32) -> u32 {
+        let b = value.to_bits();
+        assert_eq!(b & DISNEY_RECORD, DISNEY_RECORD, "{value} is not a record");
+        let record = (b & (DISNEY_RECORD_INDICES - 1)) as usize;
+        flat.shapes[record + 2][1].to_bits()
     }
 
     /// A principledthin BSDF is three words and two more: a textured base
     /// colour, spec_trans, eta and roughness are records in their slots;
-    /// diff_trans is kept as given (0 to 2); another textured parameter
-    /// is named.
+    /// the other textured parameters are records boxed in their values
+    /// (diff_trans kept as given, 0 to 2, by its texture).
     #[test]
     fn principled_thin_parameters_are_words_or_records() {
         let (mut scene, job) = load("tests/gpu/principled_thin.xml");
@@ -2367,19 +2394,26 @@ mod tests {
         assert_eq!(header(words(textured)[0][0])[1].to_bits(), TEX_BILINEAR);
         assert_eq!(kind(back), MAT_PRINCIPLED_THIN | MAT_TEXTURED_ALPHA);
         let near = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(a, b)| (a - b).abs() < 1e-6);
-        assert!(near(&words(back)[1][..3], &[0.4, 0.4, 1.2]));
+        assert!(near(&[words(back)[1][0]], &[0.4]));
+        // Anisotropic, diff_trans; sheen and its tint; spec_tint, flatness.
+        for value in [words(back)[1][1], words(back)[1][2]] {
+            assert_eq!(header_of_boxed(&flat, value), TEX_CHECKERBOARD);
+        }
         let i = words(back)[2][3].to_bits() as usize;
-        assert!(near(&flat.shapes[i], &[0.7, 0.0, 0.0, 0.0]));
-
+        assert_eq!(header_of_boxed(&flat, flat.shapes[i][0]), TEX_CHECKERBOARD);
+        assert_eq!(header_of_boxed(&flat, flat.shapes[i][1]), TEX_BILINEAR);
+        assert_eq!(flat.shapes[i][2..], [0.0, 0.0]);
+        let i = words(textured)[2][3].to_bits() as usize;
+        for value in &flat.shapes[i][2..] {
+            assert_eq!(header_of_boxed(&flat, *value), TEX_CHECKERBOARD);
+        }
+        // A constant stays a value (the control: boxing is told apart).
         let Bsdf::PrincipledThin(p) = &mut scene.bsdfs[back] else {
             unreachable!()
         };
-        p.diff_trans = Some(p.roughness.clone());
-        assert_refused(
-            &scene,
-            &job,
-            "a textured diff_trans parameter of the principledthin BSDF",
-        );
+        p.diff_trans = Some(Texture::Constant(Rgb::splat(1.2)));
+        let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        assert!(near(&[flat.shapes[back * SHAPE_WORDS + 1][2]], &[1.2]));
     }
 
     /// Every code the shaders share with this file has the same value on
@@ -2437,6 +2471,8 @@ mod tests {
             ("MAT_BACK", MAT_BACK),
             ("MAT_NORMAL_MAP", MAT_NORMAL_MAP),
             ("MAT_FACING", MAT_FACING),
+            ("DISNEY_RECORD", DISNEY_RECORD),
+            ("DISNEY_RECORD_INDICES", DISNEY_RECORD_INDICES),
             ("TILT_FLIP", TILT_FLIP),
             ("PHASE_ISOTROPIC", PHASE_ISOTROPIC),
             ("PHASE_HG", PHASE_HG),

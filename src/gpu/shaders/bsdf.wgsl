@@ -103,6 +103,8 @@ const MAT_TEXTURED_B: u32 = 0x400u;
 // Word C's colour (a conductor's k) is a texture: C.x is its record's
 // index.
 const MAT_TEXTURED_C: u32 = 0x20000u;
+const DISNEY_RECORD: u32 = 0x7fc00000u;
+const DISNEY_RECORD_INDICES: u32 = 0x400000u;
 // The roughness is a texture read as one value: B.w is its record's index.
 const MAT_TEXTURED_ALPHA: u32 = 0x800u;
 // A `mask` over the BSDF: D is its opacity, or its texture's record index
@@ -134,23 +136,28 @@ fn material_kind() -> u32 {
 // the specular reflectance or the plastics' diffuse term (the reflectance
 // over what the coating reflects back inside: flatten.rs's
 // `plastic_diffuse`); B, word B's colour; C, word C's colour (a
-// conductor's k); the roughness. The current layer's are in mat_base,
-// mat_a, mat_b, mat_c and mat_alpha. (Two structs rather than an array:
-// an array indexed per lane is slower on lavapipe.)
+// conductor's k); the roughness; a Disney BSDF's (sheen, sheen_tint,
+// flatness, spec_tint) (zero for other kinds). The current layer's are in
+// mat_base, mat_a, mat_b, mat_c, mat_alpha and mat_extra. (Two structs
+// rather than an array: an array indexed per lane is slower on lavapipe.)
 struct Layer {
     base: u32,
     a: vec3<f32>,
     b: vec3<f32>,
     c: vec3<f32>,
     alpha: f32,
+    extra: vec4<f32>,
 }
 
+// Where the hit's textures are read (`load_material`).
+var<private> mat_at: TexPoint;
 var<private> first_layer: Layer;
 var<private> second_layer: Layer;
 var<private> mat_a: vec3<f32>;
 var<private> mat_b: vec3<f32>;
 var<private> mat_c: vec3<f32>;
 var<private> mat_alpha: f32;
+var<private> mat_extra: vec4<f32>;
 // The chosen record's kind word (the layers' flags are their own), the
 // number of layers (2 for a blend), the blend's weight (its second
 // layer's share), whether every layer is purely specular, and a mask's
@@ -178,6 +185,7 @@ fn use_layer(l: u32) {
     mat_b = layer.b;
     mat_c = layer.c;
     mat_alpha = layer.alpha;
+    mat_extra = layer.extra;
 }
 
 // Layer `l`'s share of the material: 1 - w and w for a blend's first and
@@ -192,7 +200,7 @@ fn layer_share(l: u32) -> f32 {
 // The layer whose three words start at `base`, its textures not read.
 fn layer_at(base: u32) -> Layer {
     let b = shapes[base + 1u];
-    return Layer(base, shapes[base].xyz, b.xyz, shapes[base + 2u].xyz, b.w);
+    return Layer(base, shapes[base].xyz, b.xyz, shapes[base + 2u].xyz, b.w, vec4<f32>(0.0));
 }
 
 // Whether a Disney BSDF's B.x or C.x texture (principled.wgsl) is in
@@ -235,6 +243,7 @@ fn with_texel(layer_in: Layer, slot: u32, t: vec3<f32>, record: u32) -> Layer {
 
 fn load_material(s: Surface, from_behind: bool) {
     let at = TexPoint(s.uv, s.tri, s.bary);
+    mat_at = at;
     let top = SHAPE_WORDS * s.shape;
     // The mask's and the map's words stay the front record's.
     let w3 = shapes[top + 3u];
@@ -307,7 +316,45 @@ fn load_material(s: Surface, from_behind: bool) {
             second_layer = with_texel(second_layer, slot, t, record);
         }
     }
+    if (DISNEY) {
+        load_disney_params();
+    }
     use_layer(0u);
+}
+
+// The Disney layers' parameters whose words box a texture's record
+// (flatten.rs's DISNEY_RECORD: a quiet NaN holding its index): B.y, B.z,
+// C.z and the (sheen, sheen_tint, flatness, spec_tint) word, read as one
+// value each (`Texture::eval_1`) into the layer, once per hit and with
+// one lookup in the code for both layers.
+fn load_disney_params() {
+    for (var l = 0u; l < mat_layers; l++) {
+        var layer = first_layer;
+        if (l == 1u) {
+            layer = second_layer;
+        }
+        let kind = bitcast<u32>(shapes[layer.base].w) & ~MAT_FLAGS;
+        if (kind != MAT_PRINCIPLED && kind != MAT_PRINCIPLED_THIN) {
+            continue;
+        }
+        let extra = shapes[bitcast<u32>(shapes[layer.base + 2u].w)];
+        var v = array<f32, 7>(layer.b.y, layer.b.z, layer.c.z, extra.x, extra.y, extra.z, extra.w);
+        for (var k = 0u; k < 7u; k++) {
+            let b = bitcast<u32>(v[k]);
+            if ((b & DISNEY_RECORD) == DISNEY_RECORD) {
+                let record = b & (DISNEY_RECORD_INDICES - 1u);
+                v[k] = texture_value_1(record, texture_lookup(record, mat_at, true));
+            }
+        }
+        layer.b = vec3<f32>(layer.b.x, v[0], v[1]);
+        layer.c.z = v[2];
+        layer.extra = vec4<f32>(v[3], v[4], v[5], v[6]);
+        if (l == 1u) {
+            second_layer = layer;
+        } else {
+            first_layer = layer;
+        }
+    }
 }
 
 // Read before `load_material`: the shape's own record.

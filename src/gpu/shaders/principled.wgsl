@@ -14,6 +14,10 @@
 // C.w the index of (sheen, sheen_tint, flatness, spec_tint) and the
 // (diffuse, clearcoat, specular) sampling rates. Absent parameters are
 // zero, which turns their terms off as principled.rs's `None` does.
+// Textured parameters are read once per hit by `load_material`: base
+// colour, metallic, spec_trans, eta and roughness by their flags, the
+// others from the records their words box (`load_disney_params`); the
+// (sheen, sheen_tint, flatness, spec_tint) word is then in mat_extra.
 
 struct Disney {
     base: vec3<f32>,
@@ -33,7 +37,7 @@ fn disney() -> Disney {
     let more = bitcast<u32>(material_word(2u).w);
     return Disney(
         mat_a, mat_alpha, mat_b.x, mat_b.y, mat_b.z, mat_c.x, mat_c.y, mat_c.z,
-        shapes[more], shapes[more + 1u].xyz,
+        mat_extra, shapes[more + 1u].xyz,
     );
 }
 
@@ -340,7 +344,7 @@ fn thin_sheet() -> Sheet {
     let more = bitcast<u32>(material_word(2u).w);
     return Sheet(
         mat_a, mat_alpha, mat_b.x, mat_b.y, 0.5 * mat_b.z, mat_c.x,
-        shapes[more], shapes[more + 1u],
+        mat_extra, shapes[more + 1u],
     );
 }
 
