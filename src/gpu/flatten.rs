@@ -1368,10 +1368,6 @@ impl GpuScene {
                 Some(e) => match &scene.emitters[e as usize] {
                     Emitter::Area(a) => match &a.texture {
                         None => (a.radiance, bits(NONE)),
-                        // Light samples have no triangle index to read.
-                        Some(Texture::MeshAttribute(_)) => {
-                            return unsupported("an area light's mesh_attribute radiance")
-                        }
                         Some(t) => (a.radiance, texture_record(t, table_base, &mut tables)?),
                     },
                     _ => return unsupported("an emitter on a shape other than an area light"),

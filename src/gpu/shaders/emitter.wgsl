@@ -512,14 +512,14 @@ fn sample_delta_light(i: u32, choice: f32, p: vec3<f32>, uv: ptr<function, vec2<
     return LightSample(wi, dist, le, pdf, true, max(le.x, max(le.y, le.z)) > 0.0);
 }
 
-// Area light `i`'s radiance at surface coordinates `uv` (area.rs's
+// Area light `i`'s radiance at the surface point `at` (area.rs's
 // radiance_at): its texture's value there, or its constant radiance.
-fn light_radiance(i: u32, uv: vec2<f32>) -> vec3<f32> {
+fn light_radiance(i: u32, at: TexPoint) -> vec3<f32> {
     let record = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].w);
     if (record == NONE) {
         return lights[LIGHT_WORDS * i + 3u].xyz;
     }
-    return texture_lookup(record, tex_at_uv(uv), false);
+    return texture_lookup(record, at, false);
 }
 
 // The (u, v) of a textured sphere light's point along unit `n` from its
@@ -546,9 +546,10 @@ fn sample_light(p: vec3<f32>, n: vec3<f32>, total: f32, u_choice: f32, u: vec2<f
     let i = c.light;
     let kind = bitcast<u32>(lights[LIGHT_WORDS * i].w);
     // One texture read for every kind (shaders inline each call): an area
-    // light's radiance (its record in word 4) or a spot's or projector's
-    // projected tint (word 3), at `uv`.
+    // light's radiance (its record in word 4) at the sampled point `at`,
+    // or a spot's or projector's projected tint (word 3) at `uv`.
     var uv = vec2<f32>(0.0);
+    var at = tex_at_uv(uv);
     var record = NONE;
     var ls: LightSample;
     let projects = kind == LIGHT_SPOT || kind == LIGHT_PROJECTOR;
@@ -560,12 +561,13 @@ fn sample_light(p: vec3<f32>, n: vec3<f32>, total: f32, u_choice: f32, u: vec2<f
         if (kind == LIGHT_SPOT) {
             uv = spot_uv(i, -ls.wi);
         }
+        at = tex_at_uv(uv);
     } else {
-        ls = sample_area_light(i, c.prob, p, u, &uv);
+        ls = sample_area_light(i, c.prob, p, u, &at);
         record = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].w);
     }
     if (record != NONE && ls.ok) {
-        let t = texture_lookup(record, tex_at_uv(uv), false);
+        let t = texture_lookup(record, at, false);
         // A spot's or projector's texture tints its intensity; an area
         // light's is its radiance.
         ls.le = select(t, ls.le * t, projects);
@@ -574,8 +576,10 @@ fn sample_light(p: vec3<f32>, n: vec3<f32>, total: f32, u_choice: f32, u: vec2<f
 }
 
 // Area light `i` sampled from `p`: its constant radiance (the mean of a
-// textured one, which the caller reads at `*uv`).
-fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, uv: ptr<function, vec2<f32>>) -> LightSample {
+// textured one, which the caller reads at `*at`: the sampled point's uv,
+// and on a slotted triangle its index in the mesh and barycentrics in the
+// mesh's corner order, as surface_at gives them).
+fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, at: ptr<function, TexPoint>) -> LightSample {
     let r0 = lights[LIGHT_WORDS * i];
     let r1 = lights[LIGHT_WORDS * i + 1u];
     let kind = bitcast<u32>(r0.w);
@@ -611,12 +615,12 @@ fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, uv: ptr<fu
             n = square_to_uniform_sphere(u);
             q = r0.xyz + r1.x * n;
         }
-        *uv = light_sphere_uv(i, n);
+        *at = tex_at_uv(light_sphere_uv(i, n));
     } else if (kind == LIGHT_DISK) {
         let l = square_to_uniform_disk(u);
         q = r0.xyz + l.x * r1.xyz + l.y * lights[LIGHT_WORDS * i + 2u].xyz;
         n = lights[LIGHT_WORDS * i + 4u].xyz;
-        *uv = disk_uv(l);
+        *at = tex_at_uv(disk_uv(l));
     } else {
         let p2 = lights[LIGHT_WORDS * i + 2u].xyz;
         var b = square_to_uniform_triangle(u);
@@ -634,12 +638,15 @@ fn sample_area_light(i: u32, choice: f32, p: vec3<f32>, u: vec2<f32>, uv: ptr<fu
         }
         q = (1.0 - b.x - b.y) * r0.xyz + b.x * r1.xyz + b.y * p2;
         n = normalize(cross(r1.xyz - r0.xyz, p2 - r0.xyz));
-        // The triangle's vertex uvs, as surface_at interpolates them.
+        // The triangle's vertex uvs, index and corner order, as
+        // surface_at reads them.
         let slot = bitcast<u32>(lights[LIGHT_WORDS * i + 4u].x);
         if (slot != NONE) {
             let k = SLOT_WORDS * slot;
             let t01 = normals[k + 3u];
-            *uv = (1.0 - b.x - b.y) * t01.xy + b.x * t01.zw + b.y * normals[k + 4u].xy;
+            let w4 = normals[k + 4u];
+            let uv = (1.0 - b.x - b.y) * t01.xy + b.x * t01.zw + b.y * w4.xy;
+            *at = TexPoint(uv, bitcast<u32>(w4.z), select(b, b.yx, w4.w != 0.0));
         }
     }
     let le = lights[LIGHT_WORDS * i + 3u].xyz;

@@ -170,7 +170,7 @@ fn li(camera: Ray) -> vec3<f32> {
                 let choice = light_choice_pdf(s.light, prev_p, prev_n, prev_total);
                 w = power_heuristic(prev_pdf, area_pdf(s.light, choice, prev_p, s.p, s.ng));
             }
-            l += beta * light_radiance(s.light, s.uv) * w;
+            l += beta * light_radiance(s.light, TexPoint(s.uv, s.tri, s.bary)) * w;
         }
         depth++;
         if (depth >= P.max_depth) {
