@@ -2724,22 +2724,45 @@ mod tests {
     /// Triangles of a mesh with a mesh_attribute texture know their index
     /// in the mesh, and whether a mirroring instance swapped their corners
     /// 1 and 2 (the barycentrics then swap back): each of the grid's 48
-    /// triangles appears once per copy (two instances and the plain
-    /// mesh), swapped in the mirrored instance only.
+    /// triangles appears once per copy (two instances, the plain mesh and
+    /// the emitting one), swapped in the mirrored instance only; the
+    /// emitting mesh's light records point at slots that know them too
+    /// (light samples read its mesh_attribute radiance there).
     #[test]
     fn triangles_know_their_index_in_the_mesh() {
         let (scene, job) = load("tests/gpu/mesh_attribute.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();
+        let index = |slot: u32| {
+            let w = flat.normals[slot as usize * SLOT_WORDS + 4];
+            (w[2].to_bits() as usize, usize::from(w[3] != 0.0))
+        };
         let mut seen = vec![[0usize; 2]; 48];
         for p in flat.prims.chunks(3) {
             let slot = p[1][3].to_bits();
             if matches!(slot, SPHERE | DISK | DISK_FLIPPED) || slot == NONE {
                 continue;
             }
-            let w = flat.normals[slot as usize * SLOT_WORDS + 4];
-            seen[w[2].to_bits() as usize][usize::from(w[3] != 0.0)] += 1;
+            let (tri, swapped) = index(slot);
+            seen[tri][swapped] += 1;
         }
-        assert!(seen.iter().all(|&s| s == [2, 1]), "{seen:?}");
+        assert!(seen.iter().all(|&s| s == [3, 1]), "{seen:?}");
+        // The light records (the choice tables follow them): the emitting
+        // mesh's triangles, textured.
+        let emitting = scene
+            .shape_emitter
+            .iter()
+            .position(Option::is_some)
+            .unwrap() as u32;
+        let mut lit = vec![0usize; 48];
+        for rec in flat.lights.chunks(LIGHT_WORDS) {
+            let of_mesh = rec[0][3].to_bits() == LIGHT_TRIANGLE && rec[3][3].to_bits() == emitting;
+            if of_mesh && rec[4][3].to_bits() != NONE {
+                let (tri, swapped) = index(rec[4][0].to_bits());
+                assert_eq!(swapped, 0);
+                lit[tri] += 1;
+            }
+        }
+        assert!(lit.iter().all(|&n| n == 1), "{lit:?}");
     }
 
     /// Instances place copies of their group's primitives; too many
