@@ -7,7 +7,7 @@
 //! over the visible-normal sampling domain). Sampling picks the glossy or
 //! the diffuse lobe and reports the combined density (one-sample MIS).
 
-use super::distribution::{MicrofacetDistribution, Roughness};
+use super::distribution::{MicrofacetDistribution, MicrofacetType, Roughness};
 use super::params::BsdfError;
 use super::Plastic;
 use super::{fresnel_dielectric, BsdfSample};
@@ -15,6 +15,7 @@ use crate::color::Rgb;
 use crate::math::{reflect, Vec2, Vec3, INV_PI};
 use crate::sampling::warp;
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// Entries of the transmittance table over cos theta in [0, 1].
 pub const TRANSMITTANCE_RES: usize = 64;
@@ -101,6 +102,81 @@ fn coating_integral(distr: &MicrofacetDistribution, wi: Vec3, eta: f32, transmit
     acc as f32
 }
 
+/// The coating's tables: what [`RoughPlastic::new`] spends its time on,
+/// and all that depends only on the distribution and the relative IOR.
+#[derive(Clone, Debug, PartialEq)]
+struct CoatingTables {
+    internal_reflectance: f32,
+    external_transmittance: Box<[f32; TRANSMITTANCE_RES]>,
+}
+
+/// Which tables an entry of the cache holds: the distribution's type and
+/// roughness and the relative IOR, bit for bit.
+type CoatingKey = (MicrofacetType, u32, u32, u32);
+
+/// Tables kept for reuse: scenes give many materials the same roughness
+/// and IOR and differ only in colour (one Beckmann table costs about
+/// 0.2 s of CPU). Bounded, oldest out first, so a process that loads
+/// scene after scene (the Python package) does not grow without end.
+const COATING_CACHE: usize = 32;
+static COATING_TABLES: Mutex<Vec<(CoatingKey, CoatingTables)>> = Mutex::new(Vec::new());
+
+impl CoatingTables {
+    /// The tables for `distr` and `eta`, from the cache when an earlier
+    /// material had the same (they are the same bits either way).
+    fn cached(distr: &MicrofacetDistribution, eta: f32) -> CoatingTables {
+        let key = (
+            distr.kind,
+            distr.alpha_u.to_bits(),
+            distr.alpha_v.to_bits(),
+            eta.to_bits(),
+        );
+        let lock = || COATING_TABLES.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, t)) = lock().iter().find(|(k, _)| *k == key) {
+            return t.clone();
+        }
+        // Built outside the lock: other loads go on meanwhile.
+        let tables = CoatingTables::new(distr, eta);
+        let mut cache = lock();
+        if !cache.iter().any(|(k, _)| *k == key) {
+            if cache.len() == COATING_CACHE {
+                cache.remove(0);
+            }
+            cache.push((key, tables.clone()));
+        }
+        tables
+    }
+
+    /// Computes the tables: (transmittance, mu x internal reflectance) per
+    /// entry, on all cores, about a million normal samples in all.
+    fn new(distr: &MicrofacetDistribution, eta: f32) -> CoatingTables {
+        // The tables always use visible-normal sampling, as Mitsuba's.
+        let table_distr = MicrofacetDistribution {
+            sample_visible: true,
+            ..*distr
+        };
+        let rows: Vec<(f32, f64)> = (0..TRANSMITTANCE_RES)
+            .into_par_iter()
+            .map(|i| {
+                let mu = (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
+                let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+                let t = coating_integral(&table_distr, wi, eta, true);
+                let r = coating_integral(&table_distr, wi, 1.0 / eta, false);
+                (t, (r * mu) as f64)
+            })
+            .collect();
+        let mut ext = Box::new([0.0f32; TRANSMITTANCE_RES]);
+        for (e, r) in ext.iter_mut().zip(&rows) {
+            *e = r.0;
+        }
+        let internal: f64 = rows.iter().map(|r| r.1).sum();
+        CoatingTables {
+            internal_reflectance: (2.0 * internal / TRANSMITTANCE_RES as f64) as f32,
+            external_transmittance: ext,
+        }
+    }
+}
+
 impl RoughPlastic {
     /// Builds the tables (about a million normal samples, ~0.1 s for GGX,
     /// ~0.5 s of CPU for Beckmann, spread over the cores: do it once per
@@ -129,28 +205,7 @@ impl RoughPlastic {
         )?;
         let distr = roughness.distribution()?;
         let eta = smooth.eta;
-        // The tables always use visible-normal sampling, as Mitsuba's.
-        let table_distr = MicrofacetDistribution {
-            sample_visible: true,
-            ..distr
-        };
-        // (transmittance, mu * internal reflectance) per table entry, on
-        // all cores: about a million normal samples in all.
-        let rows: Vec<(f32, f64)> = (0..TRANSMITTANCE_RES)
-            .into_par_iter()
-            .map(|i| {
-                let mu = (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
-                let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-                let t = coating_integral(&table_distr, wi, eta, true);
-                let r = coating_integral(&table_distr, wi, 1.0 / eta, false);
-                (t, (r * mu) as f64)
-            })
-            .collect();
-        let mut ext = Box::new([0.0f32; TRANSMITTANCE_RES]);
-        for (e, r) in ext.iter_mut().zip(&rows) {
-            *e = r.0;
-        }
-        let internal: f64 = rows.iter().map(|r| r.1).sum();
+        let tables = CoatingTables::cached(&distr, eta);
         Ok(RoughPlastic {
             distr,
             eta,
@@ -158,8 +213,8 @@ impl RoughPlastic {
             specular_reflectance,
             nonlinear,
             specular_sampling_weight: smooth.specular_sampling_weight,
-            internal_reflectance: (2.0 * internal / TRANSMITTANCE_RES as f64) as f32,
-            external_transmittance: ext,
+            internal_reflectance: tables.internal_reflectance,
+            external_transmittance: tables.external_transmittance,
         })
     }
 
@@ -287,6 +342,26 @@ pub(super) fn sample_glossy_or_diffuse(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cached_tables_are_the_computed_ones_and_the_cache_stays_bounded() {
+        let ggx = |alpha| MicrofacetDistribution::new(MicrofacetType::Ggx, alpha, alpha, true);
+        // Keys no other test uses (alphas 0.3xx, eta 1.7).
+        let first = CoatingTables::cached(&ggx(0.301), 1.7);
+        assert_eq!(first, CoatingTables::new(&ggx(0.301), 1.7));
+        assert_eq!(CoatingTables::cached(&ggx(0.301), 1.7), first);
+        // Another roughness or IOR gets its own tables.
+        assert_ne!(CoatingTables::cached(&ggx(0.302), 1.7), first);
+        assert_ne!(CoatingTables::cached(&ggx(0.301), 1.8), first);
+        // sample_visible does not change them (the tables always sample
+        // visible normals).
+        let all = MicrofacetDistribution::new(MicrofacetType::Ggx, 0.301, 0.301, false);
+        assert_eq!(CoatingTables::cached(&all, 1.7), first);
+        for k in 0..COATING_CACHE + 3 {
+            CoatingTables::cached(&ggx(0.31 + 0.001 * k as f32), 1.7);
+        }
+        assert!(COATING_TABLES.lock().unwrap().len() <= COATING_CACHE);
+    }
 
     #[test]
     fn gauss_legendre_integrates_polynomials() {
