@@ -376,14 +376,17 @@ impl Bvh {
     /// Closest hit along the ray within its range.
     pub fn intersect(&self, ray: &Ray) -> Option<BvhHit> {
         let bvh = self.bvh.as_ref()?;
-        let shear = RayShear::new(ray.o, ray.d);
+        // The triangle test's shear, set up at the first triangle the ray
+        // meets (rays that meet only analytic shapes never need it).
+        let mut shear: Option<RayShear> = None;
         let mut best = BvhHit::none(ray.tmax);
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
         let found = bvh.closest(ray, |id, tmax| {
             let prim = &self.prims[id];
             let found = match prim.kind() {
                 PrimKind::Triangle => {
-                    intersect_triangle(&shear, &prim.packed_triangle(), tmin, tmax).map(
+                    let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
+                    intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).map(
                         |(t, b1, b2)| BvhHit {
                             t,
                             shape: self.refs[id].shape,
@@ -448,13 +451,14 @@ impl Bvh {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
-        let shear = RayShear::new(ray.o, ray.d);
+        let mut shear: Option<RayShear> = None;
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
         bvh.any(ray, |id, tmax| {
             let prim = &self.prims[id];
             match prim.kind() {
                 PrimKind::Triangle => {
-                    intersect_triangle(&shear, &prim.packed_triangle(), tmin, tmax).is_some()
+                    let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
+                    intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).is_some()
                 }
                 PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
                 PrimKind::Disk(di) => self.disks[di].intersect(o, d, tmin, tmax).is_some(),
