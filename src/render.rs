@@ -29,7 +29,7 @@ use crate::image::{Bitmap, Film, FilmBlock, Filter};
 use crate::integrator::Integrator;
 use crate::math::Vec2;
 use crate::progress::{Progress, ProgressMode};
-use crate::sampling::{Sampler, SamplerKind};
+use crate::sampling::{PixelStreams, Sampler, SamplerKind};
 use crate::scene::Scene;
 use crate::unit_queue::{Take, UnitQueue};
 
@@ -252,8 +252,9 @@ fn trace_tile(
             return None;
         }
         for x in tile.x..tile.x + tile.w {
+            let streams = PixelStreams::new(job.sampler, seed, x, y);
             for s in s0..s1 {
-                let mut sampler = Sampler::for_pixel_sample_of(job.sampler, seed, x, y, s);
+                let mut sampler = streams.sampler(s);
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let aperture = sampler.next_2d();
                 let ray = scene.camera.generate_ray(film, aperture);

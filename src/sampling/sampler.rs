@@ -74,10 +74,7 @@ impl Sampler {
     /// The generator for one pixel sample: independent of thread count and
     /// tile order, and of other seeds.
     pub fn for_pixel_sample(seed: u64, pixel_x: u32, pixel_y: u32, sample: u32) -> Sampler {
-        let pixel = ((pixel_y as u64) << 32) | pixel_x as u64;
-        let a = mix64(seed ^ mix64(pixel));
-        let b = mix64(a ^ mix64(sample as u64 ^ 0xA5A5_5A5A_0000_0000));
-        Sampler::new(a, b)
+        PixelStreams::new(SamplerKind::Independent, seed, pixel_x, pixel_y).sampler(sample)
     }
 
     /// The generator for one pixel sample of a `kind` sampler: the
@@ -90,14 +87,7 @@ impl Sampler {
         pixel_y: u32,
         sample: u32,
     ) -> Sampler {
-        let mut s = Sampler::for_pixel_sample(seed, pixel_x, pixel_y, sample);
-        if kind == SamplerKind::Stratified {
-            let pixel = ((pixel_y as u64) << 32) | pixel_x as u64;
-            s.pixel_seed = mix64(mix64(seed ^ 0x57a7_1f1e_d5ee_d000) ^ mix64(pixel));
-            s.reversed_index = sample.reverse_bits();
-            s.scrambled = STRATIFIED_DIMENSIONS;
-        }
-        s
+        PixelStreams::new(kind, seed, pixel_x, pixel_y).sampler(sample)
     }
 
     /// The seed of the scrambled sequence of the current dimension.
@@ -106,6 +96,7 @@ impl Sampler {
         mix64(self.pixel_seed ^ (self.dim as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15))
     }
 
+    #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
         self.state = old.wrapping_mul(MULT).wrapping_add(self.inc);
@@ -114,18 +105,41 @@ impl Sampler {
         xorshifted.rotate_right(rot)
     }
 
-    /// Uniform in [0, 1).
+    /// Uniform in [0, 1). Inlined: the independent sampler's path is a
+    /// few instructions (a call cost as much), the stratified dimensions
+    /// are out of line.
+    #[inline]
     pub fn next_1d(&mut self) -> f32 {
         if self.dim < self.scrambled {
-            let seed = self.dimension_seed();
-            self.dim += 1;
-            return to_unit(point_1d(self.reversed_index, seed));
+            return self.scrambled_1d();
         }
         // 24 random mantissa bits: exactly representable, strictly below 1.
         to_unit(self.next_u32())
     }
 
+    /// Two uniform numbers in [0, 1) (see [`Sampler::next_1d`]).
+    #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
+        if self.dim < self.scrambled {
+            return self.scrambled_2d();
+        }
+        let x = to_unit(self.next_u32());
+        Vec2::new(x, to_unit(self.next_u32()))
+    }
+
+    /// [`Sampler::next_1d`] in a stratified dimension.
+    #[inline(never)]
+    fn scrambled_1d(&mut self) -> f32 {
+        let seed = self.dimension_seed();
+        self.dim += 1;
+        to_unit(point_1d(self.reversed_index, seed))
+    }
+
+    /// [`Sampler::next_2d`] from a stratified dimension: a 2D point of the
+    /// sequence, or, from the last stratified dimension, its 1D point and
+    /// an independent number.
+    #[inline(never)]
+    fn scrambled_2d(&mut self) -> Vec2 {
         if self.dim + 1 < self.scrambled {
             let seed = self.dimension_seed();
             self.dim += 2;
@@ -137,9 +151,105 @@ impl Sampler {
     }
 }
 
+/// The part of a pixel's samplers that depends on the pixel only, made
+/// once for all of its samples (two to five fewer hashes per sample).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelStreams {
+    /// The state seed of every sample's generator.
+    seed: u64,
+    /// Stratified only: the pixel's seed of its scrambled sequences.
+    pixel_seed: Option<u64>,
+}
+
+impl PixelStreams {
+    /// Pixel (`pixel_x`, `pixel_y`)'s streams of a `kind` sampler under `seed`.
+    pub fn new(kind: SamplerKind, seed: u64, pixel_x: u32, pixel_y: u32) -> PixelStreams {
+        let pixel = ((pixel_y as u64) << 32) | pixel_x as u64;
+        let pixel_hash = mix64(pixel);
+        PixelStreams {
+            seed: mix64(seed ^ pixel_hash),
+            pixel_seed: (kind == SamplerKind::Stratified)
+                .then(|| mix64(mix64(seed ^ 0x57a7_1f1e_d5ee_d000) ^ pixel_hash)),
+        }
+    }
+
+    /// The generator of sample `sample` of the pixel: what
+    /// [`Sampler::for_pixel_sample_of`] returns.
+    #[inline]
+    pub fn sampler(&self, sample: u32) -> Sampler {
+        let stream = mix64(self.seed ^ mix64(sample as u64 ^ 0xA5A5_5A5A_0000_0000));
+        let mut s = Sampler::new(self.seed, stream);
+        if let Some(pixel_seed) = self.pixel_seed {
+            s.pixel_seed = pixel_seed;
+            s.reversed_index = sample.reverse_bits();
+            s.scrambled = STRATIFIED_DIMENSIONS;
+        }
+        s
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The streams as they were defined before `PixelStreams` split them:
+    /// renders of a seed must not change.
+    fn reference(kind: SamplerKind, seed: u64, x: u32, y: u32, sample: u32) -> Sampler {
+        let pixel = ((y as u64) << 32) | x as u64;
+        let a = mix64(seed ^ mix64(pixel));
+        let b = mix64(a ^ mix64(sample as u64 ^ 0xA5A5_5A5A_0000_0000));
+        let mut s = Sampler::new(a, b);
+        if kind == SamplerKind::Stratified {
+            s.pixel_seed = mix64(mix64(seed ^ 0x57a7_1f1e_d5ee_d000) ^ mix64(pixel));
+            s.reversed_index = sample.reverse_bits();
+            s.scrambled = STRATIFIED_DIMENSIONS;
+        }
+        s
+    }
+
+    /// `next_1d` and `next_2d` as they were defined before the stratified
+    /// dimensions went out of line.
+    fn reference_1d(s: &mut Sampler) -> f32 {
+        if s.dim < s.scrambled {
+            let seed = s.dimension_seed();
+            s.dim += 1;
+            return to_unit(point_1d(s.reversed_index, seed));
+        }
+        to_unit(s.next_u32())
+    }
+
+    fn reference_2d(s: &mut Sampler) -> Vec2 {
+        if s.dim + 1 < s.scrambled {
+            let seed = s.dimension_seed();
+            s.dim += 2;
+            let (x, y) = point_2d(s.reversed_index, seed);
+            return Vec2::new(to_unit(x), to_unit(y));
+        }
+        let x = reference_1d(s);
+        Vec2::new(x, reference_1d(s))
+    }
+
+    #[test]
+    fn pixel_streams_give_the_defined_numbers() {
+        for kind in [SamplerKind::Independent, SamplerKind::Stratified] {
+            for (seed, x, y) in [(0u64, 0u32, 0u32), (7, 3, 4), (u64::MAX, 4095, 17)] {
+                let streams = PixelStreams::new(kind, seed, x, y);
+                for sample in [0u32, 1, 5, 1000] {
+                    let mut got = streams.sampler(sample);
+                    let mut want = reference(kind, seed, x, y, sample);
+                    // 1D and 2D draws across the stratified dimensions'
+                    // end (an odd one first, so a 2D draw straddles it).
+                    for k in 0..40 {
+                        if k % 3 == 0 {
+                            assert_eq!(got.next_1d(), reference_1d(&mut want), "{kind:?} {k}");
+                        } else {
+                            assert_eq!(got.next_2d(), reference_2d(&mut want), "{kind:?} {k}");
+                        }
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn uniform_in_unit_interval_and_deterministic() {
