@@ -189,11 +189,16 @@ impl AliasRows {
 
 /// The cell of `n` that `u` draws before its entry is read, and `u`
 /// scaled to [0, n]. NaN and negative input count as 0.
+///
+/// In u32 (tables are far shorter than 2^32 entries: an entry is 8 bytes):
+/// a float to and from u32 is one instruction each way, to and from usize
+/// a branch or a fix-up, and this runs a few times per path vertex.
 #[inline]
 fn drawn_cell(n: usize, u: f32) -> (usize, f32) {
+    debug_assert!(n <= u32::MAX as usize);
     let u = if u >= 0.0 { u.min(1.0) } else { 0.0 };
-    let x = u * n as f32;
-    ((x as usize).min(n - 1), x)
+    let x = u * n as u32 as f32;
+    ((x as u32 as usize).min(n - 1), x)
 }
 
 #[inline]
