@@ -29,7 +29,7 @@ use crate::image::{Bitmap, Film, FilmBlock, Filter};
 use crate::integrator::Integrator;
 use crate::math::Vec2;
 use crate::progress::{Progress, ProgressMode};
-use crate::sampling::{PixelStreams, Sampler, SamplerKind};
+use crate::sampling::{PixelStreams, SamplerKind};
 use crate::scene::Scene;
 use crate::unit_queue::{Take, UnitQueue};
 
@@ -253,6 +253,8 @@ fn trace_tile(
         }
         for x in tile.x..tile.x + tile.w {
             let streams = PixelStreams::new(job.sampler, seed, x, y);
+            let aov_streams = (!aovs.is_empty())
+                .then(|| PixelStreams::new(SamplerKind::Independent, seed ^ AOV_SEED_SALT, x, y));
             for s in s0..s1 {
                 let mut sampler = streams.sampler(s);
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
@@ -264,8 +266,8 @@ fn trace_tile(
                     Rgb::ZERO
                 };
                 block.put(film, l);
-                if !aovs.is_empty() {
-                    let mut aov_sampler = Sampler::for_pixel_sample(seed ^ AOV_SEED_SALT, x, y, s);
+                if let Some(aov_streams) = &aov_streams {
+                    let mut aov_sampler = aov_streams.sampler(s);
                     aovs.evaluate(scene, &ray, &mut aov_sampler, &mut aov_values);
                     block.put_aovs(film, &aov_values);
                 }
