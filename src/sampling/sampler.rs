@@ -234,18 +234,24 @@ mod tests {
         for kind in [SamplerKind::Independent, SamplerKind::Stratified] {
             for (seed, x, y) in [(0u64, 0u32, 0u32), (7, 3, 4), (u64::MAX, 4095, 17)] {
                 let streams = PixelStreams::new(kind, seed, x, y);
-                for sample in [0u32, 1, 5, 1000] {
+                for (sample, one_d) in [0u32, 1, 5, 1000].into_iter().zip([0, 1, 2, 1]) {
                     let mut got = streams.sampler(sample);
                     let mut want = reference(kind, seed, x, y, sample);
                     // 1D and 2D draws across the stratified dimensions'
-                    // end (an odd one first, so a 2D draw straddles it).
+                    // end: every third draw 1D, at offset `one_d`; offsets
+                    // 1 and 2 put a 2D draw across it, offset 0 a 1D one
+                    // (checked below).
+                    let mut straddled = false;
                     for k in 0..40 {
-                        if k % 3 == 0 {
+                        if k % 3 == one_d {
                             assert_eq!(got.next_1d(), reference_1d(&mut want), "{kind:?} {k}");
                         } else {
+                            straddled |= got.dim + 1 == got.scrambled;
                             assert_eq!(got.next_2d(), reference_2d(&mut want), "{kind:?} {k}");
                         }
                     }
+                    let expected = kind == SamplerKind::Stratified && one_d != 0;
+                    assert_eq!(straddled, expected, "{kind:?} offset {one_d}");
                 }
             }
         }
