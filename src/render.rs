@@ -26,10 +26,11 @@ use std::time::{Duration, Instant};
 use crate::aov::{AovList, MAX_AOV_CHANNELS};
 use crate::color::Rgb;
 use crate::image::{Bitmap, Film, FilmBlock, Filter};
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, PathBatch, PathConfig, BATCH_PATHS};
+use crate::math::Ray;
 use crate::math::Vec2;
 use crate::progress::{Progress, ProgressMode};
-use crate::sampling::{PixelStreams, SamplerKind};
+use crate::sampling::{PixelStreams, Sampler, SamplerKind};
 use crate::scene::Scene;
 use crate::unit_queue::{Take, UnitQueue};
 
@@ -247,6 +248,12 @@ fn trace_tile(
     let mut block =
         FilmBlock::new(tile.x, tile.y, tile.w, tile.h, job.filter).with_aovs(aovs.channel_count());
     let mut aov_values = [0.0f32; MAX_AOV_CHANNELS];
+    // The path tracer's samples are traced a batch at a time, in the
+    // order they are drawn, and splatted in that order.
+    let mut batch = image
+        .then(|| job.integrator.path_config())
+        .flatten()
+        .map(|cfg| (cfg, SampleBatch::default()));
     for y in tile.y..tile.y + tile.h {
         if abandon.load(Ordering::Relaxed) {
             return None;
@@ -260,21 +267,95 @@ fn trace_tile(
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let aperture = sampler.next_2d();
                 let ray = scene.camera.generate_ray(film, aperture);
+                if let Some(aov_streams) = &aov_streams {
+                    let mut aov_sampler = aov_streams.sampler(s);
+                    aovs.evaluate(scene, &ray, &mut aov_sampler, &mut aov_values);
+                }
+                if let Some((cfg, batch)) = &mut batch {
+                    batch.push(
+                        film,
+                        ray,
+                        sampler,
+                        aov_streams.is_some().then_some(&aov_values),
+                    );
+                    if batch.is_full() {
+                        batch.trace_and_splat(scene, cfg, &mut block);
+                    }
+                    continue;
+                }
                 let l = if image {
                     job.integrator.li(scene, &ray, &mut sampler)
                 } else {
                     Rgb::ZERO
                 };
                 block.put(film, l);
-                if let Some(aov_streams) = &aov_streams {
-                    let mut aov_sampler = aov_streams.sampler(s);
-                    aovs.evaluate(scene, &ray, &mut aov_sampler, &mut aov_values);
+                if aov_streams.is_some() {
                     block.put_aovs(film, &aov_values);
                 }
             }
         }
     }
+    if let Some((cfg, batch)) = &mut batch {
+        batch.trace_and_splat(scene, cfg, &mut block);
+    }
     Some(block)
+}
+
+/// Camera samples of a render unit waiting to be traced together
+/// ([`PathBatch`]): kept in the order they were drawn, in which they are
+/// splatted, so that the block is the same bit for bit as when each
+/// sample is traced as it is drawn. The buffers live as long as the unit.
+#[derive(Default)]
+struct SampleBatch {
+    films: Vec<Vec2>,
+    rays: Vec<Ray>,
+    samplers: Vec<Sampler>,
+    /// Each sample's AOV values (when the block has AOVs).
+    aovs: Vec<[f32; MAX_AOV_CHANNELS]>,
+    radiance: Vec<Rgb>,
+    paths: PathBatch,
+}
+
+impl SampleBatch {
+    fn push(
+        &mut self,
+        film: Vec2,
+        ray: Ray,
+        sampler: Sampler,
+        aovs: Option<&[f32; MAX_AOV_CHANNELS]>,
+    ) {
+        self.films.push(film);
+        self.rays.push(ray);
+        self.samplers.push(sampler);
+        self.aovs.extend(aovs);
+    }
+
+    fn is_full(&self) -> bool {
+        self.rays.len() >= BATCH_PATHS
+    }
+
+    /// Traces the waiting samples' paths and splats them into `block`.
+    fn trace_and_splat(&mut self, scene: &Scene, cfg: &PathConfig, block: &mut FilmBlock) {
+        self.radiance.clear();
+        self.radiance.resize(self.rays.len(), Rgb::ZERO);
+        (self.paths).radiance(
+            scene,
+            cfg,
+            &self.rays,
+            &mut self.samplers,
+            &mut self.radiance,
+        );
+        for (k, (&film, &l)) in self.films.iter().zip(&self.radiance).enumerate() {
+            block.put(film, l);
+            if let Some(aovs) = self.aovs.get(k) {
+                block.put_aovs(film, aovs);
+            }
+        }
+        self.films.clear();
+        self.rays.clear();
+        self.samplers.clear();
+        self.aovs.clear();
+    }
 }
 
 /// The AOVs of samples `s0..s1` of every pixel, as a CPU render draws

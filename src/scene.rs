@@ -267,6 +267,36 @@ impl Scene {
             .find_map(|&i| Some((i, self.emitters[i as usize].locate_escape(d, which)?)))
     }
 
+    /// [`Scene::locate_escape`] of four directions, their angles on the
+    /// map in SIMD lanes ([`EnvMap::locate_lanes`](crate::emitter::EnvMap::locate_lanes)):
+    /// the same points.
+    #[inline]
+    pub fn locate_escape_lanes(
+        &self,
+        d: &[Vec3; 4],
+        which: LightPdf,
+    ) -> [Option<(u32, EnvPoint)>; 4] {
+        let first_map = self
+            .infinite
+            .iter()
+            .find_map(|&i| match &self.emitters[i as usize] {
+                Emitter::Environment(e) => Some((i, e)),
+                _ => None,
+            });
+        let Some((i, map)) = first_map else {
+            return [None; 4];
+        };
+        let at = map.locate_lanes(d);
+        std::array::from_fn(|k| match at[k] {
+            Some(at) => {
+                map.prefetch_point(at, which);
+                Some((i, at))
+            }
+            // Bad input: whatever the scalar search makes of it.
+            None => self.locate_escape(d[k], which),
+        })
+    }
+
     /// Radiance from emitters at infinity along an escaping direction.
     pub fn eval_infinite(&self, d: Vec3) -> Rgb {
         self.infinite

@@ -6,7 +6,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use lente::image::FilmBlock;
-use lente::integrator::{Integrator, PathParams, Strategy};
+use lente::integrator::{Integrator, PathBatch, PathParams, Strategy, BATCH_PATHS};
 use lente::load::load_scene;
 use lente::math::{Vec2, Vec3};
 use lente::sampling::Sampler;
@@ -100,6 +100,37 @@ fn rendering_samples_allocates_nothing() {
             }
             let n = ALLOCATIONS.load(Ordering::SeqCst) - before;
             assert_eq!(n, 0, "{file} with {}: {n} allocations", integrator.name());
+
+            // The path tracer's batches: their buffers grow in the first
+            // batch of a render unit and are reused after it.
+            let Some(cfg) = integrator.path_config() else {
+                continue;
+            };
+            let mut batch = PathBatch::new();
+            let mut rays = Vec::with_capacity(BATCH_PATHS);
+            let mut samplers = Vec::with_capacity(BATCH_PATHS);
+            let mut out = vec![Vec3::ZERO; BATCH_PATHS];
+            for round in 0..20u32 {
+                let before = ALLOCATIONS.load(Ordering::SeqCst);
+                rays.clear();
+                samplers.clear();
+                for i in 0..BATCH_PATHS as u32 {
+                    let mut s = Sampler::for_pixel_sample(2, i % 16, i / 16 % 16, round);
+                    let film = Vec2::new((i % 16) as f32, (i / 16 % 16) as f32) + s.next_2d();
+                    rays.push(scene.camera.generate_ray(film, s.next_2d()));
+                    samplers.push(s);
+                }
+                batch.radiance(&scene, &cfg, &rays, &mut samplers, &mut out);
+                let n = ALLOCATIONS.load(Ordering::SeqCst) - before;
+                if round > 0 {
+                    assert_eq!(
+                        n,
+                        0,
+                        "{file} with {}, batch {round}: {n} allocations",
+                        integrator.name()
+                    );
+                }
+            }
         }
     }
 }

@@ -1,9 +1,13 @@
 //! Integrators: estimate the radiance arriving along a camera ray.
 
 mod path;
+mod path_batch;
 mod simple;
 mod volpath;
 mod whitted;
+
+pub use path::PathConfig;
+pub use path_batch::{PathBatch, BATCH_PATHS};
 
 use crate::color::Rgb;
 use crate::emitter::{ChoicePoint, LightPdf, LightSample};
@@ -99,6 +103,13 @@ impl Default for PathParams {
     }
 }
 
+/// The path tracer's parameters for `direct`: paths of two segments.
+const DIRECT_PARAMS: PathParams = PathParams {
+    max_depth: Some(2),
+    rr_depth: u32::MAX,
+    hide_emitters: false,
+};
+
 /// How the emitted light of the scene is gathered along paths.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Strategy {
@@ -168,13 +179,19 @@ impl Integrator {
             }
             Integrator::VolPath { params } => volpath::li(scene, ray, sampler, params),
             Integrator::Direct { strategy } => {
-                let params = PathParams {
-                    max_depth: Some(2),
-                    rr_depth: u32::MAX,
-                    hide_emitters: false,
-                };
-                path::li(scene, ray, sampler, *strategy, &params)
+                path::li(scene, ray, sampler, *strategy, &DIRECT_PARAMS)
             }
+        }
+    }
+
+    /// The path tracer's configuration, for the integrators that are the
+    /// path tracer (`path`, `direct`): their samples can be traced as a
+    /// batch ([`PathBatch`]).
+    pub fn path_config(&self) -> Option<PathConfig> {
+        match self {
+            Integrator::Path { strategy, params } => Some(PathConfig::new(*strategy, params)),
+            Integrator::Direct { strategy } => Some(PathConfig::new(*strategy, &DIRECT_PARAMS)),
+            _ => None,
         }
     }
 

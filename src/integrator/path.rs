@@ -165,79 +165,201 @@ pub(super) fn roulette(
     true
 }
 
-pub fn li(
-    scene: &Scene,
-    camera_ray: &Ray,
-    sampler: &mut Sampler,
+/// What every path of one render shares: the strategy and its parameters,
+/// worked out once.
+#[derive(Clone, Copy, Debug)]
+pub struct PathConfig {
     strategy: Strategy,
-    params: &PathParams,
-) -> Rgb {
-    let which = strategy.light_pdf();
-    let max_depth = params.max_depth.unwrap_or(u32::MAX);
-    let mut l = Rgb::ZERO;
-    let mut beta = Rgb::ONE;
-    let mut ray = *camera_ray;
-    // Whether the last bounce was specular (or this is the camera ray).
-    let mut specular = true;
-    // Solid-angle pdf of the BSDF sample that produced `ray`, and its origin.
-    let mut prev_pdf = 0.0f32;
-    let mut prev_p = ray.o;
-    // The light choice at the vertex that sampled `ray` (for MIS weights).
-    let mut prev_at = ChoicePoint::default();
-    let mut eta_scale = 1.0f32;
-    let mut depth = 0u32;
-    // The next vertex's light-sample numbers, drawn ahead (LightNumbers).
-    let nee = strategy != Strategy::Mats;
-    let mut light_numbers = nee.then(|| LightNumbers::draw_ahead(scene, sampler, which));
-    // Where `ray` meets the environment map, found (and its texels
-    // prefetched) before it is traced: bounce rays escape to random parts
-    // of the map, whose texels are rarely in the cache.
-    let mut escape = None;
+    pub which: LightPdf,
+    max_depth: u32,
+    /// Next-event estimation (not under `path_mats`).
+    nee: bool,
+    params: PathParams,
+}
 
-    loop {
-        let mut hit = scene.intersect(&ray);
-        if depth == 0 && params.hide_emitters {
-            hit = skip_area_emitters(scene, &ray, hit);
+impl PathConfig {
+    pub fn new(strategy: Strategy, params: &PathParams) -> PathConfig {
+        PathConfig {
+            strategy,
+            which: strategy.light_pdf(),
+            max_depth: params.max_depth.unwrap_or(u32::MAX),
+            nee: strategy != Strategy::Mats,
+            params: *params,
         }
-        // Emission found by following the path.
-        let count_emission = |specular: bool| -> bool {
-            match strategy {
-                Strategy::Mats | Strategy::Mis => true,
-                Strategy::Ems => specular,
-            }
-        };
-        let mis = (strategy == Strategy::Mis && !specular).then_some(PrevVertex {
-            pdf: prev_pdf,
-            p: prev_p,
-            at: &prev_at,
-        });
-        let Some(its) = hit else {
-            if depth == 0 && params.hide_emitters {
-                break;
-            }
-            if count_emission(specular) {
-                add_infinite_emission(scene, ray.d, escape, depth == 0, beta, mis, which, &mut l);
-            }
-            break;
-        };
+    }
 
-        let wi_world = -ray.d;
-        if count_emission(specular) && !(depth == 0 && params.hide_emitters) {
-            add_area_emission(scene, &its, ray.d, beta, mis, which, &mut l);
+    /// Whether emission a path finds by following it counts, after a
+    /// bounce that was `specular` (or from the camera).
+    #[inline]
+    fn count_emission(&self, specular: bool) -> bool {
+        match self.strategy {
+            Strategy::Mats | Strategy::Mis => true,
+            Strategy::Ems => specular,
+        }
+    }
+}
+
+/// One path between its vertices: what the loop of [`li`] carries from
+/// one ray to the next. The steps are methods so that the same code runs
+/// one path at a time ([`li`]) and as stages over a batch of paths
+/// (`path_batch.rs`): both draw the same numbers in the same order and
+/// give the same radiance, bit for bit.
+#[derive(Clone)]
+pub(super) struct PathState {
+    /// The ray to trace next.
+    pub ray: Ray,
+    /// Radiance gathered so far.
+    pub l: Rgb,
+    beta: Rgb,
+    /// Whether the last bounce was specular (or this is the camera ray).
+    specular: bool,
+    /// Solid-angle pdf of the BSDF sample that produced `ray`, and its origin.
+    prev_pdf: f32,
+    prev_p: Vec3,
+    /// The light choice at the vertex that sampled `ray` (for MIS weights).
+    prev_at: ChoicePoint,
+    eta_scale: f32,
+    /// Vertices so far (0 while the camera ray is traced).
+    depth: u32,
+    /// The next vertex's light-sample numbers, drawn ahead (LightNumbers).
+    light_numbers: Option<LightNumbers>,
+    /// Where `ray` meets the environment map, found (and its texels
+    /// prefetched) before it is traced: bounce rays escape to random parts
+    /// of the map, whose texels are rarely in the cache. Set by the caller
+    /// after each bounce.
+    escape: Option<(u32, EnvPoint)>,
+}
+
+impl PathState {
+    /// A path starting with `camera_ray`; draws the first vertex's
+    /// light-sample numbers.
+    #[inline]
+    pub fn new(
+        scene: &Scene,
+        cfg: &PathConfig,
+        camera_ray: &Ray,
+        sampler: &mut Sampler,
+    ) -> PathState {
+        PathState {
+            ray: *camera_ray,
+            l: Rgb::ZERO,
+            beta: Rgb::ONE,
+            specular: true,
+            prev_pdf: 0.0,
+            prev_p: camera_ray.o,
+            prev_at: ChoicePoint::default(),
+            eta_scale: 1.0,
+            depth: 0,
+            light_numbers: cfg
+                .nee
+                .then(|| LightNumbers::draw_ahead(scene, sampler, cfg.which)),
+            escape: None,
+        }
+    }
+
+    /// The surface `ray` reaches first (area emitters passed through for
+    /// a camera ray under `hide_emitters`), if any.
+    #[inline]
+    pub fn trace(&self, scene: &Scene, cfg: &PathConfig) -> Option<Intersection> {
+        let hit = scene.intersect(&self.ray);
+        if self.depth == 0 && cfg.params.hide_emitters {
+            skip_area_emitters(scene, &self.ray, hit)
+        } else {
+            hit
+        }
+    }
+
+    /// The vertex whose density emission found along `ray` is weighed
+    /// against, under MIS after a non-specular bounce.
+    #[inline]
+    fn mis_vertex(&self, cfg: &PathConfig) -> Option<PrevVertex<'_>> {
+        (cfg.strategy == Strategy::Mis && !self.specular).then_some(PrevVertex {
+            pdf: self.prev_pdf,
+            p: self.prev_p,
+            at: &self.prev_at,
+        })
+    }
+
+    /// `ray` reached no surface: adds what it sees at infinity. The path
+    /// ends.
+    #[inline]
+    pub fn escape(&mut self, scene: &Scene, cfg: &PathConfig) {
+        if self.depth == 0 && cfg.params.hide_emitters {
+            return;
+        }
+        if cfg.count_emission(self.specular) {
+            let mut l = self.l;
+            let mis = self.mis_vertex(cfg);
+            let d = self.ray.d;
+            add_infinite_emission(
+                scene,
+                d,
+                self.escape,
+                self.depth == 0,
+                self.beta,
+                mis,
+                cfg.which,
+                &mut l,
+            );
+            self.l = l;
+        }
+    }
+
+    /// Whether the new `ray` should be located on the environment map
+    /// before it is traced ([`Scene::locate_escape`], then
+    /// [`PathState::set_escape`]): only where the path would count what it
+    /// finds there (not behind a diffuse bounce under `path_ems`).
+    #[inline]
+    pub fn wants_escape_located(&self, cfg: &PathConfig) -> bool {
+        cfg.count_emission(self.specular)
+    }
+
+    /// Where the new `ray` meets the environment map.
+    #[inline]
+    pub fn set_escape(&mut self, escape: Option<(u32, EnvPoint)>) {
+        self.escape = escape;
+    }
+
+    /// `ray` reached `its`: adds its emission and a light sample's
+    /// contribution, and samples the BSDF for the next ray. False if the
+    /// path ends there.
+    #[inline]
+    pub fn bounce(
+        &mut self,
+        scene: &Scene,
+        cfg: &PathConfig,
+        its: &Intersection,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let wi_world = -self.ray.d;
+        if cfg.count_emission(self.specular) && !(self.depth == 0 && cfg.params.hide_emitters) {
+            let mut l = self.l;
+            add_area_emission(
+                scene,
+                its,
+                self.ray.d,
+                self.beta,
+                self.mis_vertex(cfg),
+                cfg.which,
+                &mut l,
+            );
+            self.l = l;
         }
 
-        depth += 1;
-        if depth >= max_depth {
-            break;
+        self.depth += 1;
+        if self.depth >= cfg.max_depth {
+            return false;
         }
 
+        let which = cfg.which;
+        let strategy = cfg.strategy;
         let bsdf = &scene.bsdfs[its.shape as usize];
-        let sp = scene.surface_point(&its);
+        let sp = scene.surface_point(its);
         let frame = its.shading;
         let wi = frame.to_local(wi_world);
 
         // Next-event estimation.
-        if let (Some(numbers), false) = (light_numbers, bsdf.is_specular()) {
+        if let (Some(numbers), false) = (self.light_numbers, bsdf.is_specular()) {
             // A surface that only reflects receives light from the side of
             // its shading normal that `wi` is on (the BSDF is zero across):
             // an environment map then samples for that side (`facing.rs`).
@@ -246,15 +368,17 @@ pub fn li(
             // MSE 0.52x with it there, 0.49x at every vertex), while each
             // facing sample costs about a fifth more than the map's own
             // (maps where it would not pay have no facing density at all).
-            let facing = (depth == 1 && bsdf.favours_facing_light()).then(|| {
+            let facing = (self.depth == 1 && bsdf.favours_facing_light()).then(|| {
                 if wi.z < 0.0 {
                     -frame.n
                 } else {
                     frame.n
                 }
             });
-            prev_at = scene.choice_point(its.p, frame.n).facing(facing);
-            if let Some((ls, pchoice)) = sample_light_with(scene, its.p, &prev_at, numbers, which) {
+            self.prev_at = scene.choice_point(its.p, frame.n).facing(facing);
+            if let Some((ls, pchoice)) =
+                sample_light_with(scene, its.p, &self.prev_at, numbers, which)
+            {
                 let wo = frame.to_local(ls.wi);
                 // The BSDF's density only where MIS weighs with it, and
                 // then with its value in one call (they share work).
@@ -264,13 +388,13 @@ pub fn li(
                 } else {
                     (bsdf.eval(sp, wi, wo), 0.0)
                 };
-                if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(&its, &ls) {
+                if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(its, &ls) {
                     let w = if mis {
                         power_heuristic(ls.pdf * pchoice, bsdf_pdf)
                     } else {
                         1.0
                     };
-                    l += beta * f * wo.z.abs() * ls.weight * (w / pchoice);
+                    self.l += self.beta * f * wo.z.abs() * ls.weight * (w / pchoice);
                 }
             }
         }
@@ -279,39 +403,69 @@ pub fn li(
         let u = sampler.next_2d();
         let u_lobe = sampler.next_1d();
         let Some(bs) = bsdf.sample(sp, wi, u, u_lobe) else {
-            break;
+            return false;
         };
         let wo_world = frame.to_world(bs.wo);
         // Reject samples that cross the geometric surface against the
         // shading normal's verdict (light leaks through shading normals).
         if wo_world.dot(its.ng) * bs.wo.z <= 0.0 && wi_world.dot(its.ng) * wi.z > 0.0 {
-            break;
+            return false;
         }
-        beta *= bs.weight;
-        eta_scale *= bs.eta * bs.eta;
-        specular = bs.specular;
-        prev_pdf = if bs.specular { 0.0 } else { bs.pdf };
-        prev_p = its.p;
-        if beta == Rgb::ZERO {
-            break;
+        self.beta *= bs.weight;
+        self.eta_scale *= bs.eta * bs.eta;
+        self.specular = bs.specular;
+        self.prev_pdf = if bs.specular { 0.0 } else { bs.pdf };
+        self.prev_p = its.p;
+        if self.beta == Rgb::ZERO {
+            return false;
         }
 
-        if !roulette(&mut beta, eta_scale, depth, params, sampler) {
-            break;
+        if !roulette(
+            &mut self.beta,
+            self.eta_scale,
+            self.depth,
+            &cfg.params,
+            sampler,
+        ) {
+            return false;
         }
 
         let o = its.spawn(wo_world);
-        ray = Ray::new(o, wo_world);
-        // Only where the path would count what it finds there (not
-        // behind a diffuse bounce under `path_ems`).
-        escape = if count_emission(specular) {
-            scene.locate_escape(wo_world, which)
-        } else {
-            None
-        };
-        if nee {
-            light_numbers = Some(LightNumbers::draw_ahead(scene, sampler, which));
+        self.ray = Ray::new(o, wo_world);
+        // Located by the caller (`wants_escape_located`).
+        self.escape = None;
+        if cfg.nee {
+            self.light_numbers = Some(LightNumbers::draw_ahead(scene, sampler, which));
+        }
+        true
+    }
+}
+
+/// One sample of the radiance arriving along `camera_ray`.
+pub fn li(
+    scene: &Scene,
+    camera_ray: &Ray,
+    sampler: &mut Sampler,
+    strategy: Strategy,
+    params: &PathParams,
+) -> Rgb {
+    let cfg = PathConfig::new(strategy, params);
+    let mut path = PathState::new(scene, &cfg, camera_ray, sampler);
+    loop {
+        match path.trace(scene, &cfg) {
+            None => {
+                path.escape(scene, &cfg);
+                break;
+            }
+            Some(its) => {
+                if !path.bounce(scene, &cfg, &its, sampler) {
+                    break;
+                }
+                if path.wants_escape_located(&cfg) {
+                    path.set_escape(scene.locate_escape(path.ray.d, cfg.which));
+                }
+            }
         }
     }
-    l
+    path.l
 }

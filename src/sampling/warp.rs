@@ -1,7 +1,7 @@
 //! Warps from the unit square to other domains, each with its pdf.
 //! Names follow Nori's warp tester.
 
-use crate::math::{sin_cos_turns, Vec2, Vec3, INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
+use crate::math::{select_bits, sin_cos_turns, Vec2, Vec3, INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
 
 pub fn square_to_uniform_square(s: Vec2) -> Vec2 {
     s
@@ -40,12 +40,12 @@ pub fn square_to_uniform_disk(s: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    // The angle in turns: pi/4 (y/x), or pi/2 - pi/4 (x/y).
-    let (r, turns) = if o.x.abs() > o.y.abs() {
-        (o.x, 0.125 * (o.y / o.x))
-    } else {
-        (o.y, 0.25 - 0.125 * (o.x / o.y))
-    };
+    // The angle in turns: pi/4 (y/x), or pi/2 - pi/4 (x/y). Chosen by
+    // masks, not jumps: the choice is random (`select_bits`).
+    let flat = o.x.abs() > o.y.abs();
+    let r = select_bits(flat, o.x, o.y);
+    let q = select_bits(flat, o.y, o.x) / r;
+    let turns = select_bits(flat, 0.125 * q, 0.25 - 0.125 * q);
     let (sin, cos) = sin_cos_turns(turns);
     r * Vec2::new(cos, sin)
 }

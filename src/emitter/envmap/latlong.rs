@@ -1,7 +1,9 @@
 //! Directions to lat-long (u, v) and back (the convention is in the
 //! module docs of `envmap`).
 
-use crate::math::{fast_atan2, sin_cos_turns, Vec2, Vec3, INV_PI, INV_TWO_PI};
+use crate::math::{
+    fast_atan2, fast_atan2_lanes, sin_cos_turns, Vec2, Vec3, Vec4, INV_PI, INV_TWO_PI,
+};
 
 /// (u, v) to the local unit direction.
 #[inline]
@@ -50,6 +52,23 @@ pub fn unit_dir_to_uv_sin(d: Vec3) -> (Vec2, f32) {
     }
     let v = (theta * INV_PI).clamp(0.0, 1.0);
     (Vec2::new(u, v), sin_theta)
+}
+
+/// [`unit_dir_to_uv_sin`] of four unit directions (components in lanes),
+/// each lane bit for bit the scalar routine's (tested): (u, v, sin theta).
+#[inline]
+pub fn unit_dir_to_uv_sin_lanes(x: Vec4, y: Vec4, z: Vec4) -> (Vec4, Vec4, Vec4) {
+    let sin_theta = (x * x + z * z).sqrt();
+    let theta = fast_atan2_lanes(sin_theta, y);
+    let phi = fast_atan2_lanes(x, -z);
+    let mut u = phi * INV_TWO_PI;
+    u = Vec4::select(u.cmplt(Vec4::ZERO), u + Vec4::ONE, u);
+    u = Vec4::select(u.cmpge(Vec4::ONE), Vec4::ZERO, u);
+    // f32::clamp's comparisons, which leave NaN alone.
+    let mut v = theta * INV_PI;
+    v = Vec4::select(v.cmplt(Vec4::ZERO), Vec4::ZERO, v);
+    v = Vec4::select(v.cmpgt(Vec4::ONE), Vec4::ONE, v);
+    (u, v, sin_theta)
 }
 
 /// Unit vector in the direction of `v`, robust to tiny and huge lengths.

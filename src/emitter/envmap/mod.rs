@@ -78,10 +78,12 @@ pub use grid::TexelRows;
 
 use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
-use crate::math::{Transform, Vec2, Vec3, PI};
+use crate::math::{Transform, Vec2, Vec3, Vec4, PI};
 use facing::{FacingBounds, FacingWarp};
 use grid::{CellPoint, TexelGrid};
-use latlong::{dir_to_uv_sin, normalize_robust, unit_dir_to_uv_sin, uv_to_dir_sin};
+use latlong::{
+    dir_to_uv_sin, normalize_robust, unit_dir_to_uv_sin, unit_dir_to_uv_sin_lanes, uv_to_dir_sin,
+};
 use warp::EnvWarp;
 
 /// 2 pi^2: the Jacobian |d omega / (du dv)| = 2 pi^2 sin(theta).
@@ -425,6 +427,23 @@ impl EnvMap {
         Some(EnvPoint {
             p: self.grid.locate(uv),
             sin_theta,
+        })
+    }
+
+    /// [`EnvMap::locate`] of four directions, the angles of their (u, v)
+    /// in SIMD lanes: the same points bit for bit (tested).
+    #[inline]
+    pub fn locate_lanes(&self, d: &[Vec3; 4]) -> [Option<EnvPoint>; 4] {
+        let local = d.map(|d| self.to_local(d));
+        let lane =
+            |f: fn(Vec3) -> f32| Vec4::from_array(std::array::from_fn(|k| local[k].map_or(1.0, f)));
+        let (u, v, sin_theta) =
+            unit_dir_to_uv_sin_lanes(lane(|l| l.x), lane(|l| l.y), lane(|l| l.z));
+        std::array::from_fn(|k| {
+            local[k].map(|_| EnvPoint {
+                p: self.grid.locate(Vec2::new(u[k], v[k])),
+                sin_theta: sin_theta[k],
+            })
         })
     }
 

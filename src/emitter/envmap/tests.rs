@@ -1196,3 +1196,59 @@ fn gpu_tables_give_the_cpus_density() {
         }
     }
 }
+
+/// `locate_lanes` finds the points `locate` finds, bit for bit: random
+/// directions, the axes and poles (signed zeros), directions a rounding
+/// away from the seam at u = 0, and bad input (zero, NaN, infinite), for
+/// both filters, both row conventions and a turned, mirrored map.
+#[test]
+fn locating_four_at_once_is_locating_one_at_a_time() {
+    let mut dirs = vec![
+        Vec3::X,
+        -Vec3::X,
+        Vec3::Y,
+        -Vec3::Y,
+        Vec3::Z,
+        -Vec3::Z,
+        Vec3::new(-0.0, 1.0, -0.0),
+        Vec3::new(-1e-9, 0.0, -1.0),
+        Vec3::new(1e-9, 0.0, -1.0),
+        Vec3::new(-1e-30, 0.3, -1.0),
+        Vec3::ZERO,
+        Vec3::new(f32::NAN, 0.0, 1.0),
+        Vec3::new(0.0, f32::INFINITY, 1.0),
+        Vec3::new(3e-25, 1e-24, -2e-25),
+        Vec3::new(1e25, -3e24, 2e25),
+    ];
+    let mut s = Sampler::new(11, 5);
+    for _ in 0..40_000 {
+        let u = s.next_2d();
+        dirs.push(crate::sampling::warp::square_to_uniform_sphere(u));
+    }
+    for rows in [TexelRows::CellCentres, TexelRows::PoleToPole] {
+        for filter in [EnvFilter::Bilinear, EnvFilter::Nearest] {
+            for to_world in [Transform::IDENTITY, rot_mirror()] {
+                let env = EnvMap::new(gradient(37, 19), 1.0, to_world, filter, rows).unwrap();
+                for four in dirs.chunks(4) {
+                    let d: [Vec3; 4] = std::array::from_fn(|k| four[k % four.len()]);
+                    let lanes = env.locate_lanes(&d);
+                    for k in 0..4 {
+                        let one = env.locate(d[k]);
+                        let key = |p: Option<EnvPoint>| {
+                            p.map(|p| {
+                                (
+                                    p.p.col,
+                                    p.p.band,
+                                    p.p.fx.to_bits(),
+                                    p.p.fy.to_bits(),
+                                    p.sin_theta.to_bits(),
+                                )
+                            })
+                        };
+                        assert_eq!(key(lanes[k]), key(one), "{:?} ({rows:?}, {filter:?})", d[k]);
+                    }
+                }
+            }
+        }
+    }
+}
