@@ -153,27 +153,19 @@ mod tests {
             rr_depth: 1,
             hide_emitters: true,
         };
-        let integrators = [
+        let mut integrators = vec![
             Integrator::Direct {
                 strategy: Strategy::Mis,
-            },
-            Integrator::Path {
-                strategy: Strategy::Mats,
-                params: PathParams::default(),
-            },
-            Integrator::Path {
-                strategy: Strategy::Ems,
-                params: PathParams::default(),
-            },
-            Integrator::Path {
-                strategy: Strategy::Mis,
-                params: PathParams::default(),
             },
             Integrator::Path {
                 strategy: Strategy::Mis,
                 params: hidden,
             },
         ];
+        for strategy in [Strategy::Mats, Strategy::Ems, Strategy::Mis] {
+            let params = PathParams::default();
+            integrators.push(Integrator::Path { strategy, params });
+        }
         let mut batch = PathBatch::new();
         let mut compared = 0;
         for file in [
@@ -184,7 +176,7 @@ mod tests {
             let (loaded, _) = load_scene(&root.join(file)).unwrap();
             let scene = Scene::new(loaded.scene).unwrap();
             let (w, h) = (scene.camera.width(), scene.camera.height());
-            for integrator in integrators {
+            for &integrator in &integrators {
                 let cfg = integrator.path_config().unwrap();
                 for n in [1usize, 7, BATCH_PATHS - 3] {
                     let mut rays = Vec::new();
