@@ -430,18 +430,31 @@ impl EnvMap {
         })
     }
 
-    /// [`EnvMap::locate`] of four directions, the angles of their (u, v)
-    /// in SIMD lanes: the same points bit for bit (tested).
+    /// [`EnvMap::locate`] of four directions in SIMD lanes: the same
+    /// points bit for bit (tested).
     #[inline]
     pub fn locate_lanes(&self, d: &[Vec3; 4]) -> [Option<EnvPoint>; 4] {
-        let local = d.map(|d| self.to_local(d));
-        let lane =
-            |f: fn(Vec3) -> f32| Vec4::from_array(std::array::from_fn(|k| local[k].map_or(1.0, f)));
-        let (u, v, sin_theta) =
-            unit_dir_to_uv_sin_lanes(lane(|l| l.x), lane(|l| l.y), lane(|l| l.z));
+        let (dx, dy, dz) = (
+            Vec4::from_array(d.map(|d| d.x)),
+            Vec4::from_array(d.map(|d| d.y)),
+            Vec4::from_array(d.map(|d| d.z)),
+        );
+        // `to_local`: `Mat4::transform_vector3`'s operations in its order,
+        // then its common case; any lane outside it takes the scalar path.
+        let m = &self.to_world.inv;
+        let row = |k: usize| m.z_axis[k] * dz + (m.y_axis[k] * dy + m.x_axis[k] * dx);
+        let (lx, ly, lz) = (row(0), row(1), row(2));
+        let len2 = lx * lx + ly * ly + lz * lz;
+        let common = len2.cmpgt(Vec4::splat(1e-20)) & len2.cmplt(Vec4::splat(1e20));
+        if !common.all() {
+            return d.map(|d| self.locate(d));
+        }
+        let len = len2.sqrt();
+        let (u, v, sin_theta) = unit_dir_to_uv_sin_lanes(lx / len, ly / len, lz / len);
+        let cells = self.grid.locate_lanes(u, v);
         std::array::from_fn(|k| {
-            local[k].map(|_| EnvPoint {
-                p: self.grid.locate(Vec2::new(u[k], v[k])),
+            Some(EnvPoint {
+                p: cells[k],
                 sin_theta: sin_theta[k],
             })
         })

@@ -651,6 +651,9 @@ fn poles_and_degenerate_inputs_are_finite() {
         Vec3::new(1e-30, 1.0, 0.0),
         Vec3::new(0.0, -1.0, -1e-38),
         Vec3::new(-0.0, 1.0, -0.0),
+        // u = -0.0 (the seam, from a negative zero).
+        Vec3::new(-0.0, 0.5, -1.0),
+        Vec3::new(-0.0, -0.5, -1.0),
         Vec3::new(1e30, 1e30, 0.0),
         Vec3::new(1e-40, 0.0, 0.0),
         Vec3::ZERO,
