@@ -74,6 +74,14 @@ pub fn fast_atan2_lanes(y: Vec4, x: Vec4) -> Vec4 {
     Vec4::select(x.is_nan_mask(), Vec4::NAN, r)
 }
 
+/// `f32::clamp(x, 0.0, 1.0)` in lanes, with its comparisons (NaN stays
+/// NaN), so lane code that clamps is bit for bit its scalar twin.
+#[inline]
+pub fn clamp_unit_lanes(x: Vec4) -> Vec4 {
+    let x = Vec4::select(x.cmplt(Vec4::ZERO), Vec4::ZERO, x);
+    Vec4::select(x.cmpgt(Vec4::ONE), Vec4::ONE, x)
+}
+
 /// `if cond { a } else { b }` by bit masks, for choices that depend on
 /// random numbers: LLVM compiles an `if` between two floats into a jump
 /// (x86 has no conditional move for SSE registers), which such data

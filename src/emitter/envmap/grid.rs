@@ -18,7 +18,7 @@
 
 use super::EnvFilter;
 use crate::color::Rgb;
-use crate::math::{floor_i32, prefetch, Vec2, Vec4};
+use crate::math::{clamp_unit_lanes, floor_i32, prefetch, Vec2, Vec4};
 
 /// Where texel rows sit along v.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -150,14 +150,14 @@ impl TexelGrid {
         let xf = x.floor().as_ivec4();
         // Back from the integer, as the scalar routine: a -0.0 floor
         // would keep its sign.
-        let fx = clamp_unit(x - xf.as_vec4());
+        let fx = clamp_unit_lanes(x - xf.as_vec4());
         let cols = xf.to_array();
         let band_of = (v * self.band_scale + self.band_offset).floor().as_ivec4();
         let last = self.bands() as i32 - 1;
         let band: [usize; 4] = std::array::from_fn(|k| band_of[k].clamp(0, last) as usize);
         let edge = Vec4::from_array(band.map(|b| self.edges[b]));
         let inv_height = Vec4::from_array(band.map(|b| self.inv_heights[b]));
-        let fy = clamp_unit((v - edge) * inv_height);
+        let fy = clamp_unit_lanes((v - edge) * inv_height);
         std::array::from_fn(|k| CellPoint {
             col: match cols[k] {
                 c if c < 0 => w - 1,
@@ -265,13 +265,6 @@ impl TexelGrid {
         // (1 / 4 pi) int L d omega = (1 / 4 pi) int L 2 pi^2 sin du dv.
         0.5 * pi * total / w as f64
     }
-}
-
-/// `f32::clamp(0, 1)` in lanes, with its comparisons (NaN stays NaN).
-#[inline]
-fn clamp_unit(x: Vec4) -> Vec4 {
-    let x = Vec4::select(x.cmplt(Vec4::ZERO), Vec4::ZERO, x);
-    Vec4::select(x.cmpgt(Vec4::ONE), Vec4::ONE, x)
 }
 
 #[cfg(test)]

@@ -2,7 +2,8 @@
 //! module docs of `envmap`).
 
 use crate::math::{
-    fast_atan2, fast_atan2_lanes, sin_cos_turns, Vec2, Vec3, Vec4, INV_PI, INV_TWO_PI,
+    clamp_unit_lanes, fast_atan2, fast_atan2_lanes, sin_cos_turns, Vec2, Vec3, Vec4, INV_PI,
+    INV_TWO_PI,
 };
 
 /// (u, v) to the local unit direction.
@@ -64,11 +65,7 @@ pub fn unit_dir_to_uv_sin_lanes(x: Vec4, y: Vec4, z: Vec4) -> (Vec4, Vec4, Vec4)
     let mut u = phi * INV_TWO_PI;
     u = Vec4::select(u.cmplt(Vec4::ZERO), u + Vec4::ONE, u);
     u = Vec4::select(u.cmpge(Vec4::ONE), Vec4::ZERO, u);
-    // f32::clamp's comparisons, which leave NaN alone.
-    let mut v = theta * INV_PI;
-    v = Vec4::select(v.cmplt(Vec4::ZERO), Vec4::ZERO, v);
-    v = Vec4::select(v.cmpgt(Vec4::ONE), Vec4::ONE, v);
-    (u, v, sin_theta)
+    (u, clamp_unit_lanes(theta * INV_PI), sin_theta)
 }
 
 /// Unit vector in the direction of `v`, robust to tiny and huge lengths.
