@@ -1,14 +1,16 @@
 //! The path tracer run as stages over a batch of paths (a wavefront):
 //! every live path's ray is traced, then the paths that escaped gather
-//! what they see at infinity, then the paths that hit a surface bounce;
-//! the ones that go on are kept, in order, for the next round.
+//! what they see at infinity, then the paths that hit a surface bounce
+//! (the ones that go on are kept, in order), then their new rays are
+//! located on the environment map; the next round starts.
 //!
 //! Each path keeps its own [`Sampler`] and runs the steps of
 //! [`PathState`], so it draws the same numbers in the same order as
 //! [`super::path::li`] and returns the same radiance bit for bit (tested):
 //! the batch changes the order of the work, not the image. It is the
 //! frame for stages that work on many paths at once (SIMD lanes across
-//! paths, issue 15); today its stages still take one path at a time.
+//! paths, issue 15); so far only the last stage does (four lanes), the
+//! others take one path at a time.
 
 use super::path::{PathConfig, PathState};
 use crate::color::Rgb;
@@ -87,6 +89,23 @@ impl PathBatch {
         }
     }
 
+    /// Stage 3: the paths that reached a surface bounce there; those that
+    /// go on stay live, in order.
+    fn bounce(&mut self, scene: &Scene, cfg: &PathConfig, samplers: &mut [Sampler]) {
+        let mut kept = 0;
+        for j in 0..self.live.len() {
+            let i = self.live[j] as usize;
+            let Some(its) = &self.hits[j] else {
+                continue;
+            };
+            if self.paths[i].bounce(scene, cfg, its, &mut samplers[i]) {
+                self.live[kept] = i as u32;
+                kept += 1;
+            }
+        }
+        self.live.truncate(kept);
+    }
+
     /// Stage 4: the new rays that may escape are located on the
     /// environment map (and its texels prefetched), four at a time in
     /// SIMD lanes.
@@ -113,23 +132,6 @@ impl PathBatch {
         if n > 0 {
             flush(&mut self.paths, &chunk, n);
         }
-    }
-
-    /// Stage 3: the paths that reached a surface bounce there; those that
-    /// go on stay live, in order.
-    fn bounce(&mut self, scene: &Scene, cfg: &PathConfig, samplers: &mut [Sampler]) {
-        let mut kept = 0;
-        for j in 0..self.live.len() {
-            let i = self.live[j] as usize;
-            let Some(its) = &self.hits[j] else {
-                continue;
-            };
-            if self.paths[i].bounce(scene, cfg, its, &mut samplers[i]) {
-                self.live[kept] = i as u32;
-                kept += 1;
-            }
-        }
-        self.live.truncate(kept);
     }
 }
 
