@@ -229,6 +229,25 @@ pub struct Intersection {
 }
 
 impl Intersection {
+    /// All zeros: what a buffer of hits holds in slots not yet written
+    /// (never read as a surface).
+    pub const UNSET: Intersection = Intersection {
+        t: 0.0,
+        p: Vec3::ZERO,
+        err: Vec3::ZERO,
+        ng: Vec3::ZERO,
+        shading: crate::math::Frame {
+            s: Vec3::ZERO,
+            t: Vec3::ZERO,
+            n: Vec3::ZERO,
+        },
+        uv: Vec2::ZERO,
+        bary: Vec2::ZERO,
+        shape: 0,
+        instance: 0,
+        prim: 0,
+    };
+
     /// Where textures and BSDFs are read.
     #[inline]
     pub fn surface_point(&self) -> crate::texture::SurfacePoint {

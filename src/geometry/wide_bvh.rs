@@ -74,8 +74,12 @@ struct SlabRay {
 impl SlabRay {
     fn new(ray: &Ray) -> SlabRay {
         let inv = ray.d.recip();
-        let near =
-            |a: usize| 2 * a + usize::from(ray.d[a] < 0.0 || (ray.d[a] == 0.0 && inv[a] < 0.0));
+        // The far plane comes first where the direction is negative, -0
+        // included (its reciprocal is -inf): the sign bit, read without a
+        // branch (random directions made those branches mispredict). A NaN
+        // component makes both planes' distances NaN, which the test
+        // ignores, whichever plane is "near".
+        let near = |a: usize| 2 * a + (ray.d[a].to_bits() >> 31) as usize;
         SlabRay {
             o: ray.o.to_array(),
             inv: inv.to_array(),

@@ -269,6 +269,22 @@ impl PathState {
         }
     }
 
+    /// [`PathState::trace`] writing the surface into `out` (left as it
+    /// was if there is none); true if there is one.
+    #[inline]
+    pub fn trace_into(&self, scene: &Scene, cfg: &PathConfig, out: &mut Intersection) -> bool {
+        if self.depth == 0 && cfg.params.hide_emitters {
+            return match self.trace(scene, cfg) {
+                Some(its) => {
+                    *out = its;
+                    true
+                }
+                None => false,
+            };
+        }
+        scene.intersect_into(&self.ray, out)
+    }
+
     /// The vertex whose density emission found along `ray` is weighed
     /// against, under MIS after a non-specular bounce.
     #[inline]

@@ -29,8 +29,11 @@ pub const BATCH_PATHS: usize = 256;
 #[derive(Default)]
 pub struct PathBatch {
     paths: Vec<PathState>,
-    /// The surface each live path's ray reached, by position in `live`.
-    hits: Vec<Option<Intersection>>,
+    /// The surface each live path's ray reached, by position in `live`,
+    /// where `found` says it reached one (kept apart, and written in place
+    /// by the trace, so hits are not copied about as `Option`s).
+    hits: Vec<Intersection>,
+    found: Vec<bool>,
     /// Indices of the paths still going, in order.
     live: Vec<u32>,
 }
@@ -70,20 +73,21 @@ impl PathBatch {
 
     /// Stage 1: the surface every live path's ray reaches first.
     fn trace(&mut self, scene: &Scene, cfg: &PathConfig) {
-        self.hits.clear();
-        let paths = &self.paths;
-        (self.hits).extend(
-            self.live
-                .iter()
-                .map(|&i| paths[i as usize].trace(scene, cfg)),
-        );
+        let n = self.live.len();
+        if self.hits.len() < n {
+            self.hits.resize(n, Intersection::UNSET);
+        }
+        self.found.clear();
+        for (&i, its) in self.live.iter().zip(&mut self.hits) {
+            (self.found).push(self.paths[i as usize].trace_into(scene, cfg, its));
+        }
     }
 
     /// Stage 2: the paths whose rays escaped add what they see at
     /// infinity (they end in stage 3).
     fn escape(&mut self, scene: &Scene, cfg: &PathConfig) {
-        for (&i, hit) in self.live.iter().zip(&self.hits) {
-            if hit.is_none() {
+        for (&i, &found) in self.live.iter().zip(&self.found) {
+            if !found {
                 self.paths[i as usize].escape(scene, cfg);
             }
         }
@@ -95,10 +99,10 @@ impl PathBatch {
         let mut kept = 0;
         for j in 0..self.live.len() {
             let i = self.live[j] as usize;
-            let Some(its) = &self.hits[j] else {
+            if !self.found[j] {
                 continue;
-            };
-            if self.paths[i].bounce(scene, cfg, its, &mut samplers[i]) {
+            }
+            if self.paths[i].bounce(scene, cfg, &self.hits[j], &mut samplers[i]) {
                 self.live[kept] = i as u32;
                 kept += 1;
             }
