@@ -29,11 +29,17 @@ pub const BATCH_PATHS: usize = 256;
 #[derive(Default)]
 pub struct PathBatch {
     paths: Vec<PathState>,
-    /// The surface each live path's ray reached, by position in `live`,
-    /// where `found` says it reached one (kept apart, and written in place
-    /// by the trace, so hits are not copied about as `Option`s).
+    /// The surfaces the live paths' rays reached, written in place by the
+    /// trace (not copied about as `Option`s): `hits[k]` is path
+    /// `hit_paths[k]`'s, for the first `reached` of them.
     hits: Vec<Intersection>,
-    found: Vec<bool>,
+    hit_paths: Vec<u32>,
+    reached: usize,
+    /// The paths whose rays escaped, the first `escaped` of them. Both
+    /// lists are filled without branches (which path escapes is random),
+    /// so the stages after the trace loop only over their own paths.
+    escaped_paths: Vec<u32>,
+    escaped: usize,
     /// Indices of the paths still going, in order.
     live: Vec<u32>,
 }
@@ -71,25 +77,32 @@ impl PathBatch {
         }
     }
 
-    /// Stage 1: the surface every live path's ray reaches first.
+    /// Stage 1: the surface every live path's ray reaches first; the
+    /// paths sorted into those that reached one and those that escaped.
     fn trace(&mut self, scene: &Scene, cfg: &PathConfig) {
         let n = self.live.len();
         if self.hits.len() < n {
             self.hits.resize(n, Intersection::UNSET);
+            self.hit_paths.resize(n, 0);
+            self.escaped_paths.resize(n, 0);
         }
-        self.found.clear();
-        for (&i, its) in self.live.iter().zip(&mut self.hits) {
-            (self.found).push(self.paths[i as usize].trace_into(scene, cfg, its));
+        let (mut reached, mut escaped) = (0, 0);
+        for &i in &self.live {
+            // A miss leaves the slot as it was: the next path writes it.
+            let found = self.paths[i as usize].trace_into(scene, cfg, &mut self.hits[reached]);
+            self.hit_paths[reached] = i;
+            self.escaped_paths[escaped] = i;
+            reached += usize::from(found);
+            escaped += usize::from(!found);
         }
+        (self.reached, self.escaped) = (reached, escaped);
     }
 
     /// Stage 2: the paths whose rays escaped add what they see at
-    /// infinity (they end in stage 3).
+    /// infinity (they end there).
     fn escape(&mut self, scene: &Scene, cfg: &PathConfig) {
-        for (&i, &found) in self.live.iter().zip(&self.found) {
-            if !found {
-                self.paths[i as usize].escape(scene, cfg);
-            }
+        for &i in &self.escaped_paths[..self.escaped] {
+            self.paths[i as usize].escape(scene, cfg);
         }
     }
 
@@ -97,15 +110,12 @@ impl PathBatch {
     /// go on stay live, in order.
     fn bounce(&mut self, scene: &Scene, cfg: &PathConfig, samplers: &mut [Sampler]) {
         let mut kept = 0;
-        for j in 0..self.live.len() {
-            let i = self.live[j] as usize;
-            if !self.found[j] {
-                continue;
-            }
-            if self.paths[i].bounce(scene, cfg, &self.hits[j], &mut samplers[i]) {
-                self.live[kept] = i as u32;
-                kept += 1;
-            }
+        self.live.resize(self.reached, 0);
+        for (its, &i) in self.hits.iter().zip(&self.hit_paths[..self.reached]) {
+            let i = i as usize;
+            let going = self.paths[i].bounce(scene, cfg, its, &mut samplers[i]);
+            self.live[kept] = i as u32;
+            kept += usize::from(going);
         }
         self.live.truncate(kept);
     }
