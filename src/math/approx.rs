@@ -147,19 +147,44 @@ pub fn exp4(x: glam::Vec4) -> glam::Vec4 {
     const LN2_LO: f32 = -2.121_944_4e-4;
     let below = x.cmplt(Vec4::splat(-87.0));
     let x = x.clamp(Vec4::splat(-87.0), Vec4::splat(88.0));
-    let n = (x * std::f32::consts::LOG2_E + 0.5).floor();
+    let (n, two_to_n) = floor_and_pow2(x * std::f32::consts::LOG2_E + 0.5);
     let r = x - n * LN2_HI - n * LN2_LO;
     let p = ((((1.987_569_1e-4 * r + 1.398_199_9e-3) * r + 8.333_452e-3) * r + 4.166_579_6e-2) * r
         + 0.166_666_65)
         * r
         + 0.5;
     let y = p * (r * r) + r + 1.0;
-    // 2^n from its exponent bits: n is a whole number in [-126, 127].
-    let scale = Vec4::from_array(
-        n.to_array()
-            .map(|n| f32::from_bits(((n as i32 + 127) as u32) << 23)),
-    );
-    Vec4::select(below, Vec4::ZERO, y * scale)
+    Vec4::select(below, Vec4::ZERO, y * two_to_n)
+}
+
+/// floor(v) and 2^floor(v) for v in [-126, 128) (what `exp4`'s clamp
+/// leaves), from the exponent bits. On x86_64 the floor and the exponent
+/// come from one conversion of the four lanes, where glam's floor (SSE2
+/// has no rounding instruction) and `as i32` lane by lane with its
+/// saturation checks were a fifth of the film's Gaussian splat; the same
+/// bits (tested).
+#[inline(always)]
+fn floor_and_pow2(v: glam::Vec4) -> (glam::Vec4, glam::Vec4) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: SSE2 is part of the x86_64 baseline.
+    unsafe {
+        use std::arch::x86_64::*;
+        let v: __m128 = v.into();
+        // Truncation, then one less where it rounded up (negative v).
+        let t = _mm_cvttps_epi32(v);
+        let rounded_up = _mm_castps_si128(_mm_cmpgt_ps(_mm_cvtepi32_ps(t), v));
+        let i = _mm_add_epi32(t, rounded_up);
+        let bits = _mm_slli_epi32::<23>(_mm_add_epi32(i, _mm_set1_epi32(127)));
+        (_mm_cvtepi32_ps(i).into(), _mm_castsi128_ps(bits).into())
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let n = v.floor();
+        let pow2 = n
+            .to_array()
+            .map(|n| f32::from_bits(((n as i32 + 127) as u32) << 23));
+        (n, glam::Vec4::from_array(pow2))
+    }
 }
 
 #[cfg(test)]
@@ -266,6 +291,30 @@ mod tests {
     /// exp4 against f64 exp: relative error within its bound on [-87, 88]
     /// (a million points, and the ends), 0 below -87, and the four lanes
     /// of one call equal to four one-lane calls.
+    /// The four-lane floor and 2^floor are glam's floor and the
+    /// lane-by-lane exponent bit for bit, over [-126, 128) in steps of
+    /// 1/64 (whole numbers, halves and their neighbours included).
+    #[test]
+    fn floor_and_pow2_are_floor_and_the_lane_by_lane_exponent() {
+        let mut values = Vec::new();
+        for k in -126 * 64..128 * 64 {
+            let v = k as f32 / 64.0;
+            values.extend([v, v.next_up(), v.next_down()]);
+        }
+        values.retain(|v| (-126.0..128.0).contains(v));
+        for chunk in values.chunks(4) {
+            let mut a = [0.5f32; 4];
+            a[..chunk.len()].copy_from_slice(chunk);
+            let (n, p) = super::floor_and_pow2(glam::Vec4::from_array(a));
+            for k in 0..4 {
+                let want = a[k].floor();
+                let pow = f32::from_bits(((want as i32 + 127) as u32) << 23);
+                assert_eq!(n[k].to_bits(), want.to_bits(), "floor({})", a[k]);
+                assert_eq!(p[k].to_bits(), pow.to_bits(), "2^floor({})", a[k]);
+            }
+        }
+    }
+
     #[test]
     fn exp4_is_within_its_bound() {
         let mut worst = 0.0f64;
