@@ -257,12 +257,19 @@ impl PathState {
         }
     }
 
+    /// Whether `ray` is a camera ray under `hide_emitters`: it passes
+    /// through area emitters and counts no emission.
+    #[inline]
+    fn hides_emitters(&self, cfg: &PathConfig) -> bool {
+        self.depth == 0 && cfg.params.hide_emitters
+    }
+
     /// The surface `ray` reaches first (area emitters passed through for
     /// a camera ray under `hide_emitters`), if any.
     #[inline]
     pub fn trace(&self, scene: &Scene, cfg: &PathConfig) -> Option<Intersection> {
         let hit = scene.intersect(&self.ray);
-        if self.depth == 0 && cfg.params.hide_emitters {
+        if self.hides_emitters(cfg) {
             skip_area_emitters(scene, &self.ray, hit)
         } else {
             hit
@@ -273,7 +280,7 @@ impl PathState {
     /// was if there is none); true if there is one.
     #[inline]
     pub fn trace_into(&self, scene: &Scene, cfg: &PathConfig, out: &mut Intersection) -> bool {
-        if self.depth == 0 && cfg.params.hide_emitters {
+        if self.hides_emitters(cfg) {
             return match self.trace(scene, cfg) {
                 Some(its) => {
                     *out = its;
@@ -300,7 +307,7 @@ impl PathState {
     /// ends.
     #[inline]
     pub fn escape(&mut self, scene: &Scene, cfg: &PathConfig) {
-        if self.depth == 0 && cfg.params.hide_emitters {
+        if self.hides_emitters(cfg) {
             return;
         }
         if cfg.count_emission(self.specular) {
@@ -348,7 +355,7 @@ impl PathState {
         sampler: &mut Sampler,
     ) -> bool {
         let wi_world = -self.ray.d;
-        if cfg.count_emission(self.specular) && !(self.depth == 0 && cfg.params.hide_emitters) {
+        if cfg.count_emission(self.specular) && !self.hides_emitters(cfg) {
             let mut l = self.l;
             add_area_emission(
                 scene,

@@ -288,10 +288,7 @@ mod tests {
         assert!(s.is_nan() && c.is_nan());
     }
 
-    /// exp4 against f64 exp: relative error within its bound on [-87, 88]
-    /// (a million points, and the ends), 0 below -87, and the four lanes
-    /// of one call equal to four one-lane calls.
-    /// The four-lane floor and 2^floor are glam's floor and the
+    /// The four-lane floor and 2^floor are `f32::floor` and the
     /// lane-by-lane exponent bit for bit, over [-126, 128) in steps of
     /// 1/64 (whole numbers, halves and their neighbours included).
     #[test]
@@ -315,6 +312,9 @@ mod tests {
         }
     }
 
+    /// exp4 against f64 exp: relative error within its bound on [-87, 88]
+    /// (a million points, and the ends), 0 below -87, and the four lanes
+    /// of one call equal to four one-lane calls.
     #[test]
     fn exp4_is_within_its_bound() {
         let mut worst = 0.0f64;
