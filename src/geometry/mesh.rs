@@ -267,25 +267,31 @@ impl TriangleMesh {
     /// [`TriangleMesh::shading`] given the triangle's geometric normal `ng`
     /// (callers that have it already).
     fn shading_with(&self, tri: usize, ng: Vec3, b1: f32, b2: f32) -> (Vec3, Vec2) {
-        let [i0, i1, i2] = self.indices[tri].map(|i| i as usize);
-        let b0 = 1.0 - b1 - b2;
-        let n = if self.normals.is_empty() {
-            ng
-        } else {
-            let n = (b0 * self.normals[i0] + b1 * self.normals[i1] + b2 * self.normals[i2])
-                .normalize_or_zero();
-            if n == Vec3::ZERO {
-                ng
-            } else {
-                n
-            }
-        };
+        let n = self.shading_normal(tri, ng, b1, b2);
         let uv = if self.uvs.is_empty() {
             Vec2::new(b1, b2)
         } else {
-            b0 * self.uvs[i0] + b1 * self.uvs[i1] + b2 * self.uvs[i2]
+            let [i0, i1, i2] = self.indices[tri].map(|i| i as usize);
+            (1.0 - b1 - b2) * self.uvs[i0] + b1 * self.uvs[i1] + b2 * self.uvs[i2]
         };
         (n, uv)
+    }
+
+    /// The shading normal alone (what a light sample needs: no uv).
+    #[inline]
+    fn shading_normal(&self, tri: usize, ng: Vec3, b1: f32, b2: f32) -> Vec3 {
+        if self.normals.is_empty() {
+            return ng;
+        }
+        let [i0, i1, i2] = self.indices[tri].map(|i| i as usize);
+        let b0 = 1.0 - b1 - b2;
+        let n = (b0 * self.normals[i0] + b1 * self.normals[i1] + b2 * self.normals[i2])
+            .normalize_or_zero();
+        if n == Vec3::ZERO {
+            ng
+        } else {
+            n
+        }
     }
 
     /// dp/du of a triangle: the direction the surface moves as u grows,
@@ -378,10 +384,15 @@ impl TriangleMesh {
         let b0 = 1.0 - b1 - b2;
         let p = a * b0 + bb * b1 + c * b2;
         let err = crate::math::barycentric_error(b0, b1, b2, a, bb, c);
-        let (n, _) = self.shading(tri, b1, b2);
         let ng = self.geometric_normal(tri);
-        // Emission is defined on the geometric side the shading normal agrees with.
-        let n = if n.dot(ng) < 0.0 { -ng } else { ng };
+        // Emission is defined on the geometric side the shading normal
+        // agrees with (ng computed once, no uv: this runs for every light
+        // sample on a mesh).
+        let n = if self.shading_normal(tri, ng, b1, b2).dot(ng) < 0.0 {
+            -ng
+        } else {
+            ng
+        };
         SurfaceSample {
             p,
             err,
