@@ -48,7 +48,27 @@ pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     if w.dot(n) < 0.0 {
         offset = -offset;
     }
-    let po = p + offset;
+    step_away(p + offset, offset)
+}
+
+/// Each component of `v` one ulp further in the direction of the sign of
+/// the same component of `o` (unchanged where it is zero): `next_up` /
+/// `next_down`, lane by lane. Every spawned ray runs it, twice a bounce.
+#[inline]
+fn step_away(v: Vec3, o: Vec3) -> Vec3 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: SSE2 is part of x86-64.
+        unsafe { step_away_sse2(v, o) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    step_away_scalar(v, o)
+}
+
+/// [`step_away`] one component at a time, with std's `next_up` and
+/// `next_down` (the reference the SIMD version is tested against).
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn step_away_scalar(v: Vec3, o: Vec3) -> Vec3 {
     let away = |v: f32, o: f32| {
         if o > 0.0 {
             v.next_up()
@@ -58,14 +78,104 @@ pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
             v
         }
     };
-    Vec3::new(
-        away(po.x, offset.x),
-        away(po.y, offset.y),
-        away(po.z, offset.z),
-    )
+    Vec3::new(away(v.x, o.x), away(v.y, o.y), away(v.z, o.z))
+}
+
+/// [`step_away`] in four SSE2 lanes, without branches (which way each
+/// axis steps is random): `next_down(v) = -next_up(-v)`, and `next_up`
+/// of a finite or -inf `w` is its bit pattern plus one (w >= 0, -0 taken
+/// as +0) or minus one (w < 0). +inf and NaN stay as they are, as in std.
+/// Bit for bit std's result (tested), at a third of the instructions of
+/// three scalar `next_up`/`next_down` calls with their branches.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+unsafe fn step_away_sse2(v: Vec3, o: Vec3) -> Vec3 {
+    use std::arch::x86_64::*;
+    let v4 = _mm_set_ps(0.0, v.z, v.y, v.x);
+    let o4 = _mm_set_ps(0.0, o.z, o.y, o.x);
+    let zero = _mm_setzero_ps();
+    let down = _mm_cmplt_ps(o4, zero);
+    let still = _mm_cmpeq_ps(o4, zero);
+    // Negated where stepping down; -0 + 0 is +0 (round to nearest).
+    let flip = _mm_and_ps(down, _mm_set1_ps(-0.0));
+    let w = _mm_add_ps(_mm_xor_ps(v4, flip), zero);
+    let negative = _mm_castps_si128(_mm_cmplt_ps(w, zero));
+    let step = _mm_or_si128(negative, _mm_set1_epi32(1));
+    let stepped = _mm_xor_ps(
+        _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(w), step)),
+        flip,
+    );
+    // Lanes that keep v: no step (o is 0 or NaN: neither above nor below
+    // zero), or w is +inf or NaN.
+    let unordered_o = _mm_cmpunord_ps(o4, o4);
+    let top = _mm_or_ps(
+        _mm_cmpeq_ps(w, _mm_set1_ps(f32::INFINITY)),
+        _mm_cmpunord_ps(w, w),
+    );
+    let keep = _mm_or_ps(_mm_or_ps(still, unordered_o), top);
+    let r = _mm_or_ps(_mm_and_ps(keep, v4), _mm_andnot_ps(keep, stepped));
+    let mut out = [0.0f32; 4];
+    _mm_storeu_ps(out.as_mut_ptr(), r);
+    Vec3::new(out[0], out[1], out[2])
 }
 
 /// Error bound of a point computed as b0 p0 + b1 p1 + b2 p2.
 pub fn barycentric_error(b0: f32, b1: f32, b2: f32, p0: Vec3, p1: Vec3, p2: Vec3) -> Vec3 {
     ((b0 * p0).abs() + (b1 * p1).abs() + (b2 * p2).abs()) * gamma(7)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The SIMD step equals std's `next_up`/`next_down` bit for bit on
+    /// zeros of both signs, subnormals, the largest finite values,
+    /// infinities, NaN and a spread of ordinary values, for every sign of
+    /// the step (NaN steps included).
+    #[test]
+    fn step_away_is_next_up_and_next_down() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f32::from_bits(1),
+            -f32::from_bits(1),
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            1.0,
+            -1.0,
+        ];
+        let mut x = 0x1234_5678u32;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            values.push(f32::from_bits(x));
+        }
+        let steps = [1.0, -1.0, 0.0, -0.0, 1e-30, -1e-30, f32::NAN];
+        let mut compared = 0;
+        for chunk in values.chunks(3) {
+            if chunk.len() < 3 {
+                continue;
+            }
+            let v = Vec3::new(chunk[0], chunk[1], chunk[2]);
+            for (i, &a) in steps.iter().enumerate() {
+                let b = steps[(i + 3) % steps.len()];
+                let c = steps[(i + 5) % steps.len()];
+                let o = Vec3::new(a, b, c);
+                let (got, want) = (step_away(v, o), step_away_scalar(v, o));
+                assert_eq!(
+                    got.to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "{v:?} stepped by {o:?}"
+                );
+                compared += 1;
+            }
+        }
+        assert!(compared > 40_000);
+    }
 }
