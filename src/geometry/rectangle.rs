@@ -16,6 +16,9 @@ use super::{BvhHit, Intersection, SurfaceSample};
 pub struct Rectangle {
     pub frame: PlaneFrame,
     bounds: Aabb,
+    /// The shading frame every hit gets (normal, and the x axis made
+    /// orthogonal to it), worked out once rather than per hit.
+    shading: Frame,
 }
 
 impl Rectangle {
@@ -27,7 +30,15 @@ impl Rectangle {
     fn on(frame: PlaneFrame) -> Result<Rectangle, PlaneError> {
         // The corners' box: centre +- (|ex_i| + |ey_i|).
         let bounds = frame.checked_bounds(frame.ex.abs() + frame.ey.abs())?;
-        Ok(Rectangle { frame, bounds })
+        Ok(Rectangle {
+            frame,
+            bounds,
+            shading: Rectangle::shading_of(&frame),
+        })
+    }
+
+    fn shading_of(frame: &PlaneFrame) -> Frame {
+        Frame::from_normal_tangent(frame.n, frame.ex)
     }
 
     /// This rectangle carried by `t`.
@@ -39,6 +50,7 @@ impl Rectangle {
     /// Turns the front side to the other face.
     pub fn flip_normals(&mut self) {
         self.frame.flip_normals();
+        self.shading = Rectangle::shading_of(&self.frame);
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -84,7 +96,7 @@ impl Rectangle {
             p,
             err,
             ng: n,
-            shading: Frame::from_normal_tangent(n, self.frame.ex),
+            shading: self.shading,
             uv: Rectangle::uv(l),
             bary: Vec2::ZERO,
             shape: 0,

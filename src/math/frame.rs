@@ -3,7 +3,7 @@
 use super::Vec3;
 
 /// An orthonormal frame whose local z axis is `n`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
     pub s: Vec3,
     pub t: Vec3,
