@@ -381,7 +381,7 @@ impl Bvh {
         let mut shear: Option<RayShear> = None;
         let mut best = BvhHit::none(ray.tmax);
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
-        let found = bvh.closest(ray, |id, tmax| {
+        let found = bvh.closest(ray, #[inline(always)] |id, tmax| {
             let prim = &self.prims[id];
             let found = match prim.kind() {
                 PrimKind::Triangle => {
@@ -453,7 +453,7 @@ impl Bvh {
         };
         let mut shear: Option<RayShear> = None;
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
-        bvh.any(ray, |id, tmax| {
+        bvh.any(ray, #[inline(always)] |id, tmax| {
             let prim = &self.prims[id];
             match prim.kind() {
                 PrimKind::Triangle => {
