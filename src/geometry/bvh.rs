@@ -381,64 +381,68 @@ impl Bvh {
         let mut shear: Option<RayShear> = None;
         let mut best = BvhHit::none(ray.tmax);
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
-        let found = bvh.closest(ray, #[inline(always)] |id, tmax| {
-            let prim = &self.prims[id];
-            let found = match prim.kind() {
-                PrimKind::Triangle => {
-                    let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
-                    intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).map(
-                        |(t, b1, b2)| BvhHit {
-                            t,
-                            shape: self.refs[id].shape,
-                            index: self.refs[id].index,
-                            b1,
-                            b2,
-                            instance: BvhHit::NO_INSTANCE,
-                        },
-                    )
-                }
-                PrimKind::Sphere(si) => {
-                    self.spheres[si]
+        let found = bvh.closest(
+            ray,
+            #[inline(always)]
+            |id, tmax| {
+                let prim = &self.prims[id];
+                let found = match prim.kind() {
+                    PrimKind::Triangle => {
+                        let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
+                        intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).map(
+                            |(t, b1, b2)| BvhHit {
+                                t,
+                                shape: self.refs[id].shape,
+                                index: self.refs[id].index,
+                                b1,
+                                b2,
+                                instance: BvhHit::NO_INSTANCE,
+                            },
+                        )
+                    }
+                    PrimKind::Sphere(si) => {
+                        self.spheres[si]
+                            .intersect(o, d, tmin, tmax)
+                            .map(|t| BvhHit {
+                                t,
+                                shape: self.refs[id].shape,
+                                ..BvhHit::none(t)
+                            })
+                    }
+                    PrimKind::Disk(di) => self.disks[di]
                         .intersect(o, d, tmin, tmax)
-                        .map(|t| BvhHit {
-                            t,
-                            shape: self.refs[id].shape,
-                            ..BvhHit::none(t)
-                        })
-                }
-                PrimKind::Disk(di) => self.disks[di]
-                    .intersect(o, d, tmin, tmax)
-                    .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
-                PrimKind::Rectangle(ri) => self.rectangles[ri]
-                    .intersect(o, d, tmin, tmax)
-                    .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
-                PrimKind::Curve(ci) => {
-                    self.curves[ci]
+                        .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
+                    PrimKind::Rectangle(ri) => self.rectangles[ri]
                         .intersect(o, d, tmin, tmax)
-                        .map(|(t, v)| BvhHit {
-                            t,
-                            shape: self.refs[id].shape,
-                            index: self.refs[id].index,
-                            b1: v,
-                            ..BvhHit::none(t)
-                        })
-                }
-                PrimKind::Instance(ii) => {
-                    let inst = &self.instances[ii];
-                    let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
-                    self.groups[inst.group as usize]
-                        .intersect(&local)
-                        .map(|h| BvhHit {
-                            instance: ii as u32,
-                            ..h
-                        })
-                }
-            };
-            found.map(|h| {
-                best = h;
-                h.t
-            })
-        });
+                        .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
+                    PrimKind::Curve(ci) => {
+                        self.curves[ci]
+                            .intersect(o, d, tmin, tmax)
+                            .map(|(t, v)| BvhHit {
+                                t,
+                                shape: self.refs[id].shape,
+                                index: self.refs[id].index,
+                                b1: v,
+                                ..BvhHit::none(t)
+                            })
+                    }
+                    PrimKind::Instance(ii) => {
+                        let inst = &self.instances[ii];
+                        let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
+                        self.groups[inst.group as usize]
+                            .intersect(&local)
+                            .map(|h| BvhHit {
+                                instance: ii as u32,
+                                ..h
+                            })
+                    }
+                };
+                found.map(|h| {
+                    best = h;
+                    h.t
+                })
+            },
+        );
         if found {
             Some(best)
         } else {
@@ -453,26 +457,30 @@ impl Bvh {
         };
         let mut shear: Option<RayShear> = None;
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
-        bvh.any(ray, #[inline(always)] |id, tmax| {
-            let prim = &self.prims[id];
-            match prim.kind() {
-                PrimKind::Triangle => {
-                    let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
-                    intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).is_some()
+        bvh.any(
+            ray,
+            #[inline(always)]
+            |id, tmax| {
+                let prim = &self.prims[id];
+                match prim.kind() {
+                    PrimKind::Triangle => {
+                        let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
+                        intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).is_some()
+                    }
+                    PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
+                    PrimKind::Disk(di) => self.disks[di].intersect(o, d, tmin, tmax).is_some(),
+                    PrimKind::Rectangle(ri) => {
+                        self.rectangles[ri].intersect(o, d, tmin, tmax).is_some()
+                    }
+                    PrimKind::Curve(ci) => self.curves[ci].intersect(o, d, tmin, tmax).is_some(),
+                    PrimKind::Instance(ii) => {
+                        let inst = &self.instances[ii];
+                        let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
+                        self.groups[inst.group as usize].occluded(&local)
+                    }
                 }
-                PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
-                PrimKind::Disk(di) => self.disks[di].intersect(o, d, tmin, tmax).is_some(),
-                PrimKind::Rectangle(ri) => {
-                    self.rectangles[ri].intersect(o, d, tmin, tmax).is_some()
-                }
-                PrimKind::Curve(ci) => self.curves[ci].intersect(o, d, tmin, tmax).is_some(),
-                PrimKind::Instance(ii) => {
-                    let inst = &self.instances[ii];
-                    let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
-                    self.groups[inst.group as usize].occluded(&local)
-                }
-            }
-        })
+            },
+        )
     }
 }
 
