@@ -253,7 +253,7 @@ fn trace_tile(
     let mut batch = image
         .then(|| job.integrator.path_config())
         .flatten()
-        .map(|cfg| (cfg, SampleBatch::default()));
+        .map(|cfg| (cfg, SPARE_BATCH.take()));
     for y in tile.y..tile.y + tile.h {
         if abandon.load(Ordering::Relaxed) {
             return None;
@@ -295,10 +295,19 @@ fn trace_tile(
             }
         }
     }
-    if let Some((cfg, batch)) = &mut batch {
-        batch.trace_and_splat(scene, cfg, &mut block);
+    if let Some((cfg, mut batch)) = batch {
+        batch.trace_and_splat(scene, &cfg, &mut block);
+        SPARE_BATCH.set(batch);
     }
     Some(block)
+}
+
+thread_local! {
+    /// The thread's [`SampleBatch`] between render units: its buffers
+    /// (about 130 KB for 256 paths) are allocated, grown and zeroed once
+    /// per thread rather than once per unit. It is emptied after every
+    /// batch, so what a unit traces does not depend on the units before.
+    static SPARE_BATCH: std::cell::Cell<SampleBatch> = std::cell::Cell::new(SampleBatch::default());
 }
 
 /// Camera samples of a render unit waiting to be traced together
