@@ -313,7 +313,8 @@ thread_local! {
 /// Camera samples of a render unit waiting to be traced together
 /// ([`PathBatch`]): kept in the order they were drawn, in which they are
 /// splatted, so that the block is the same bit for bit as when each
-/// sample is traced as it is drawn. The buffers live as long as the unit.
+/// sample is traced as it is drawn. The buffers outlive the unit: each
+/// thread keeps one batch (`SPARE_BATCH`).
 #[derive(Default)]
 struct SampleBatch {
     films: Vec<Vec2>,

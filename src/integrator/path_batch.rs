@@ -25,7 +25,7 @@ use crate::scene::Scene;
 pub const BATCH_PATHS: usize = 256;
 
 /// The state of a batch of paths, its buffers kept from batch to batch
-/// (a render unit allocates them once).
+/// (each rendering thread allocates them once).
 #[derive(Default)]
 pub struct PathBatch {
     paths: Vec<PathState>,
