@@ -149,13 +149,8 @@ mod tests {
             1.0,
             -1.0,
         ];
-        let mut x = 0x1234_5678u32;
-        for _ in 0..20_000 {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            values.push(f32::from_bits(x));
-        }
+        // Random bit patterns (every exponent, both signs, NaNs among them).
+        values.extend((0..20_000u64).map(|i| f32::from_bits(crate::sampling::mix64(i) as u32)));
         let steps = [1.0, -1.0, 0.0, -0.0, 1e-30, -1e-30, f32::NAN];
         let mut compared = 0;
         for chunk in values.chunks(3) {
