@@ -144,7 +144,13 @@ impl LightSample {
 
     /// A sample of a light at infinity in direction `wi` (the point is put
     /// beyond the scene's bounding sphere, for shadow rays).
-    fn at_infinity(ctx: &EmitterContext, p_ref: Vec3, wi: Vec3, weight: Rgb, pdf: f32) -> Self {
+    pub(crate) fn at_infinity(
+        ctx: &EmitterContext,
+        p_ref: Vec3,
+        wi: Vec3,
+        weight: Rgb,
+        pdf: f32,
+    ) -> Self {
         LightSample {
             wi,
             p: p_ref + wi * (2.0 * ctx.scene_radius),

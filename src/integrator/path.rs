@@ -3,7 +3,7 @@
 
 use super::{sample_light_with, LightNumbers, PathParams, Strategy};
 use crate::color::{max_component, Rgb};
-use crate::emitter::{ChoicePoint, Emitter, EnvPoint, LightHit, LightPdf};
+use crate::emitter::{ChoicePoint, Emitter, EnvPoint, LightHit, LightPdf, LightSample};
 use crate::geometry::Intersection;
 use crate::math::{Ray, Vec3};
 use crate::sampling::Sampler;
@@ -345,7 +345,9 @@ impl PathState {
 
     /// `ray` reached `its`: adds its emission and a light sample's
     /// contribution, and samples the BSDF for the next ray. False if the
-    /// path ends there.
+    /// path ends there. The three steps of [`PathState::arrive`],
+    /// [`PathState::next_event`] (with its light sample) and
+    /// [`PathState::scatter`], which a batch runs as stages.
     #[inline]
     pub fn bounce(
         &mut self,
@@ -354,7 +356,20 @@ impl PathState {
         its: &Intersection,
         sampler: &mut Sampler,
     ) -> bool {
-        let wi_world = -self.ray.d;
+        if !self.arrive(scene, cfg, its) {
+            return false;
+        }
+        let light = self
+            .next_event(scene, its)
+            .and_then(|numbers| sample_light_with(scene, its.p, &self.prev_at, numbers, cfg.which));
+        self.scatter(scene, cfg, its, light, sampler)
+    }
+
+    /// A bounce's first step: adds the emission of the surface `ray`
+    /// reached at `its` and counts the vertex. False if the path ends
+    /// there (its longest length).
+    #[inline]
+    pub fn arrive(&mut self, scene: &Scene, cfg: &PathConfig, its: &Intersection) -> bool {
         if cfg.count_emission(self.specular) && !self.hides_emitters(cfg) {
             let mut l = self.l;
             add_area_emission(
@@ -368,12 +383,64 @@ impl PathState {
             );
             self.l = l;
         }
-
         self.depth += 1;
-        if self.depth >= cfg.max_depth {
-            return false;
-        }
+        self.depth < cfg.max_depth
+    }
 
+    /// A bounce's second step: if the vertex at `its` takes a light sample
+    /// (next-event estimation, not on a specular surface), sets the light
+    /// choice it is taken and weighed with and returns its numbers; the
+    /// caller samples ([`sample_light_with`] with `its.p` and
+    /// [`PathState::choice_point`]) and hands the result to
+    /// [`PathState::scatter`].
+    #[inline]
+    pub fn next_event(&mut self, scene: &Scene, its: &Intersection) -> Option<LightNumbers> {
+        let numbers = self.light_numbers?;
+        let bsdf = &scene.bsdfs[its.shape as usize];
+        if bsdf.is_specular() {
+            return None;
+        }
+        let frame = its.shading;
+        // A surface that only reflects receives light from the side of
+        // its shading normal that `wi` is on (the BSDF is zero across):
+        // an environment map then samples for that side (`facing.rs`).
+        // Only at the first vertex: its light reaches the pixel
+        // unattenuated and brings most of the variance (studio probe:
+        // MSE 0.52x with it there, 0.49x at every vertex), while each
+        // facing sample costs about a fifth more than the map's own
+        // (maps where it would not pay have no facing density at all).
+        let facing = (self.depth == 1 && bsdf.favours_facing_light()).then(|| {
+            if frame.to_local(-self.ray.d).z < 0.0 {
+                -frame.n
+            } else {
+                frame.n
+            }
+        });
+        self.prev_at = scene.choice_point(its.p, frame.n).facing(facing);
+        Some(numbers)
+    }
+
+    /// The light choice of this vertex's light sample (set by
+    /// [`PathState::next_event`]).
+    #[inline]
+    pub fn choice_point(&self) -> &ChoicePoint {
+        &self.prev_at
+    }
+
+    /// A bounce's last step: adds the contribution of the light sample
+    /// `light` (with the probability of its emitter's choice) taken at
+    /// `its`, if any, and samples the BSDF for the next ray. False if the
+    /// path ends there.
+    #[inline]
+    pub fn scatter(
+        &mut self,
+        scene: &Scene,
+        cfg: &PathConfig,
+        its: &Intersection,
+        light: Option<(LightSample, f32)>,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let wi_world = -self.ray.d;
         let which = cfg.which;
         let strategy = cfg.strategy;
         let bsdf = &scene.bsdfs[its.shape as usize];
@@ -382,43 +449,23 @@ impl PathState {
         let wi = frame.to_local(wi_world);
 
         // Next-event estimation.
-        if let (Some(numbers), false) = (self.light_numbers, bsdf.is_specular()) {
-            // A surface that only reflects receives light from the side of
-            // its shading normal that `wi` is on (the BSDF is zero across):
-            // an environment map then samples for that side (`facing.rs`).
-            // Only at the first vertex: its light reaches the pixel
-            // unattenuated and brings most of the variance (studio probe:
-            // MSE 0.52x with it there, 0.49x at every vertex), while each
-            // facing sample costs about a fifth more than the map's own
-            // (maps where it would not pay have no facing density at all).
-            let facing = (self.depth == 1 && bsdf.favours_facing_light()).then(|| {
-                if wi.z < 0.0 {
-                    -frame.n
+        if let Some((ls, pchoice)) = light {
+            let wo = frame.to_local(ls.wi);
+            // The BSDF's density only where MIS weighs with it, and then
+            // with its value in one call (they share work).
+            let mis = strategy == Strategy::Mis && !ls.delta;
+            let (f, bsdf_pdf) = if mis {
+                bsdf.eval_pdf(sp, wi, wo)
+            } else {
+                (bsdf.eval(sp, wi, wo), 0.0)
+            };
+            if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(its, &ls) {
+                let w = if mis {
+                    power_heuristic(ls.pdf * pchoice, bsdf_pdf)
                 } else {
-                    frame.n
-                }
-            });
-            self.prev_at = scene.choice_point(its.p, frame.n).facing(facing);
-            if let Some((ls, pchoice)) =
-                sample_light_with(scene, its.p, &self.prev_at, numbers, which)
-            {
-                let wo = frame.to_local(ls.wi);
-                // The BSDF's density only where MIS weighs with it, and
-                // then with its value in one call (they share work).
-                let mis = strategy == Strategy::Mis && !ls.delta;
-                let (f, bsdf_pdf) = if mis {
-                    bsdf.eval_pdf(sp, wi, wo)
-                } else {
-                    (bsdf.eval(sp, wi, wo), 0.0)
+                    1.0
                 };
-                if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(its, &ls) {
-                    let w = if mis {
-                        power_heuristic(ls.pdf * pchoice, bsdf_pdf)
-                    } else {
-                        1.0
-                    };
-                    self.l += self.beta * f * wo.z.abs() * ls.weight * (w / pchoice);
-                }
+                self.l += self.beta * f * wo.z.abs() * ls.weight * (w / pchoice);
             }
         }
 

@@ -1,7 +1,8 @@
 //! The path tracer run as stages over a batch of paths (a wavefront):
 //! every live path's ray is traced, then the paths that escaped gather
 //! what they see at infinity, then the paths that hit a surface bounce
-//! (the ones that go on are kept, in order), then their new rays are
+//! (emission, light samples, BSDF samples, each step over all of them;
+//! the ones that go on are kept, in order), then their new rays are
 //! located on the environment map; the next round starts.
 //!
 //! Each path keeps its own [`Sampler`] and runs the steps of
@@ -9,13 +10,16 @@
 //! [`super::path::li`] and returns the same radiance bit for bit (tested):
 //! the batch changes the order of the work, not the image. It is the
 //! frame for stages that work on many paths at once (SIMD lanes across
-//! paths, issue 15); so far only the last stage does (four lanes), the
-//! others take one path at a time.
+//! paths, issue 15): the environment map's light samples (within the
+//! bounce stage) and the location of new rays on the map (the last stage)
+//! run four paths at a time; the rest takes one path at a time.
 
 use super::path::{PathConfig, PathState};
+use super::LightNumbers;
 use crate::color::Rgb;
+use crate::emitter::{Emitter, EmitterContext, EnvMap, LightPdf, LightSample};
 use crate::geometry::Intersection;
-use crate::math::Ray;
+use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -42,6 +46,12 @@ pub struct PathBatch {
     escaped: usize,
     /// Indices of the paths still going, in order.
     live: Vec<u32>,
+    /// The bounce stage's paths that arrived and go on (indices into
+    /// `hits`), each with its light sample's numbers (if it takes one),
+    /// then the light sample taken and its emitter's choice probability.
+    arrived: Vec<u32>,
+    requests: Vec<Option<LightNumbers>>,
+    lights: Vec<Option<(LightSample, f32)>>,
 }
 
 impl PathBatch {
@@ -62,6 +72,15 @@ impl PathBatch {
         assert!(rays.len() == samplers.len() && rays.len() == out.len());
         self.paths.clear();
         self.live.clear();
+        // At most every path arrives in the bounce stage: room for all of
+        // them now, so that no later round of a batch this size allocates.
+        let n = rays.len();
+        self.arrived.clear();
+        self.requests.clear();
+        self.lights.clear();
+        self.arrived.reserve(n);
+        self.requests.reserve(n);
+        self.lights.reserve(n);
         for (k, (ray, sampler)) in rays.iter().zip(samplers.iter_mut()).enumerate() {
             self.paths.push(PathState::new(scene, cfg, ray, sampler));
             self.live.push(k as u32);
@@ -106,18 +125,84 @@ impl PathBatch {
         }
     }
 
-    /// Stage 3: the paths that reached a surface bounce there; those that
-    /// go on stay live, in order.
+    /// Stage 3: the paths that reached a surface bounce there, in three
+    /// steps over all of them (see [`PathState::bounce`]): emission and
+    /// depth, the light samples (an environment map's four at a time, in
+    /// SIMD lanes), then the light samples' contributions and the BSDF
+    /// samples. Those that go on stay live, in order.
     fn bounce(&mut self, scene: &Scene, cfg: &PathConfig, samplers: &mut [Sampler]) {
+        self.arrived.clear();
+        self.requests.clear();
+        for (k, (its, &i)) in self
+            .hits
+            .iter()
+            .zip(&self.hit_paths[..self.reached])
+            .enumerate()
+        {
+            let path = &mut self.paths[i as usize];
+            if path.arrive(scene, cfg, its) {
+                self.arrived.push(k as u32);
+                self.requests.push(path.next_event(scene, its));
+            }
+        }
+        self.sample_lights(scene, cfg.which);
         let mut kept = 0;
-        self.live.resize(self.reached, 0);
-        for (its, &i) in self.hits.iter().zip(&self.hit_paths[..self.reached]) {
-            let i = i as usize;
-            let going = self.paths[i].bounce(scene, cfg, its, &mut samplers[i]);
+        self.live.resize(self.arrived.len(), 0);
+        for (&k, light) in self.arrived.iter().zip(&self.lights) {
+            let (k, i) = (k as usize, self.hit_paths[k as usize] as usize);
+            let going = self.paths[i].scatter(scene, cfg, &self.hits[k], *light, &mut samplers[i]);
             self.live[kept] = i as u32;
             kept += usize::from(going);
         }
         self.live.truncate(kept);
+    }
+
+    /// Stage 3's light samples: `lights[j]` is what `sample_light_with`
+    /// gives for `requests[j]` at its path's hit, bit for bit. Samples of
+    /// one environment map are gathered four at a time and drawn in lanes
+    /// ([`EnvMap::sample_lanes`]); other emitters sample one at a time.
+    fn sample_lights(&mut self, scene: &Scene, which: LightPdf) {
+        self.lights.clear();
+        self.lights.resize(self.arrived.len(), None);
+        let Some(choice) = scene.light_choice.as_ref() else {
+            return;
+        };
+        let ctx = scene.emitter_context();
+        let mut group = EnvGroup::default();
+        for (j, (&k, numbers)) in self.arrived.iter().zip(&self.requests).enumerate() {
+            let Some(numbers) = numbers else {
+                continue;
+            };
+            let its = &self.hits[k as usize];
+            let at = self.paths[self.hit_paths[k as usize] as usize].choice_point();
+            let Some((e, pchoice, u1)) = choice.sample(at, numbers.choice) else {
+                continue;
+            };
+            match &scene.emitters[e] {
+                Emitter::Environment(env) if group.n == 0 || group.emitter == e => {
+                    let m = group.n;
+                    group.emitter = e;
+                    group.slot[m] = j;
+                    group.p[m] = its.p;
+                    group.u[m] = numbers.u;
+                    group.facing[m] = at.facing;
+                    group.pchoice[m] = pchoice;
+                    group.n += 1;
+                    if group.n == 4 {
+                        group.flush(env, &ctx, which, &mut self.lights);
+                    }
+                }
+                emitter => {
+                    let ls = emitter.sample(&ctx, its.p, numbers.u, u1, which, at.facing);
+                    self.lights[j] = ls.map(|ls| (ls, pchoice));
+                }
+            }
+        }
+        if group.n > 0 {
+            if let Emitter::Environment(env) = &scene.emitters[group.emitter] {
+                group.flush(env, &ctx, which, &mut self.lights);
+            }
+        }
     }
 
     /// Stage 4: the new rays that may escape are located on the
@@ -146,6 +231,48 @@ impl PathBatch {
         if n > 0 {
             flush(&mut self.paths, &chunk, n);
         }
+    }
+}
+
+/// Up to four light samples of one environment map waiting to be drawn
+/// together: where each goes in `lights`, its shading point, numbers,
+/// facing normal and choice probability.
+#[derive(Default)]
+struct EnvGroup {
+    n: usize,
+    emitter: usize,
+    slot: [usize; 4],
+    p: [Vec3; 4],
+    u: [Vec2; 4],
+    facing: [Option<Vec3>; 4],
+    pchoice: [f32; 4],
+}
+
+impl EnvGroup {
+    /// Draws the waiting samples from `env` into their slots of `lights`
+    /// (unused lanes repeat the last one and are dropped), and empties
+    /// the group.
+    fn flush(
+        &mut self,
+        env: &EnvMap,
+        ctx: &EmitterContext,
+        which: LightPdf,
+        lights: &mut [Option<(LightSample, f32)>],
+    ) {
+        let n = self.n;
+        let lane = |k: usize| k.min(n - 1);
+        let u = std::array::from_fn(|k| self.u[lane(k)]);
+        let facing = std::array::from_fn(|k| self.facing[lane(k)]);
+        let drawn = env.sample_lanes(&u, which, &facing);
+        for (m, d) in drawn.iter().enumerate().take(n) {
+            lights[self.slot[m]] = d.map(|(wi, weight, pdf)| {
+                (
+                    LightSample::at_infinity(ctx, self.p[m], wi, weight, pdf),
+                    self.pchoice[m],
+                )
+            });
+        }
+        self.n = 0;
     }
 }
 

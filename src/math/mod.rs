@@ -8,7 +8,7 @@ mod transform;
 
 pub use approx::{
     clamp_unit_lanes, exp4, fast_atan2, fast_atan2_lanes, select_bits, sin_cos_turns,
-    EXP4_MAX_RELATIVE_ERROR, FAST_ATAN2_MAX_ERROR, SIN_COS_TURNS_MAX_ERROR,
+    sin_cos_turns_lanes, EXP4_MAX_RELATIVE_ERROR, FAST_ATAN2_MAX_ERROR, SIN_COS_TURNS_MAX_ERROR,
 };
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};

@@ -11,7 +11,7 @@ pub mod warp;
 
 pub use alias::{AliasRows, AliasTable};
 pub use distribution::Distribution1D;
-pub use linear::{linear_pdf, sample_linear};
+pub use linear::{linear_pdf, sample_linear, sample_linear_lanes};
 pub use sampler::{mix64, PixelStreams, Sampler, SamplerKind, STRATIFIED_DIMENSIONS};
 
 /// The largest f32 below 1: where a sample in [0, 1) is clamped.

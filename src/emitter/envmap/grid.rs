@@ -41,6 +41,16 @@ pub(super) struct CellPoint {
     pub fy: f32,
 }
 
+/// Four [`CellPoint`]s: their cells per lane, their positions in SIMD
+/// lanes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CellLanes {
+    pub col: [usize; 4],
+    pub band: [usize; 4],
+    pub fx: Vec4,
+    pub fy: Vec4,
+}
+
 /// The cells of a W x H map for one filter and row convention.
 #[derive(Clone, Debug)]
 pub(super) struct TexelGrid {
@@ -179,6 +189,45 @@ impl TexelGrid {
         }
         let (v0, v1) = self.band_range(p.band);
         Vec2::new(u.clamp(0.0, 1.0), v0 + p.fy * (v1 - v0))
+    }
+
+    /// [`TexelGrid::to_uv`] of four points: (u, v) in lanes, each bit for
+    /// bit the scalar routine's.
+    #[inline]
+    pub fn to_uv_lanes(&self, p: &CellLanes) -> (Vec4, Vec4) {
+        let col = Vec4::from_array(p.col.map(|c| c as f32));
+        let u = (col + p.fx + self.col_offset()) / self.width as f32;
+        let u = Vec4::select(u.cmpge(Vec4::ONE), u - Vec4::ONE, u);
+        let v0 = Vec4::from_array(p.band.map(|b| self.edges[b]));
+        let v1 = Vec4::from_array(p.band.map(|b| self.edges[b + 1]));
+        (clamp_unit_lanes(u), v0 + p.fy * (v1 - v0))
+    }
+
+    /// [`TexelGrid::lookup`] of four points with the bilinear filter:
+    /// red, green and blue in lanes, each bit for bit the scalar lookup's
+    /// (glam's `lerp`, channel by channel).
+    #[inline]
+    pub fn lookup_lanes_bilinear(&self, pixels: &[Rgb], p: &CellLanes) -> [Vec4; 3] {
+        debug_assert!(self.filter == EnvFilter::Bilinear);
+        let w = self.width;
+        let texels: [[Rgb; 4]; 4] = std::array::from_fn(|k| {
+            let (col, band) = (p.col[k], p.band[k]);
+            let c1 = if col + 1 == w { 0 } else { col + 1 };
+            let (r0, r1) = (self.rows[band] * w, self.rows[band + 1] * w);
+            [
+                pixels[r0 + col],
+                pixels[r0 + c1],
+                pixels[r1 + col],
+                pixels[r1 + c1],
+            ]
+        });
+        let (gx, gy) = (Vec4::ONE - p.fx, Vec4::ONE - p.fy);
+        std::array::from_fn(|c| {
+            let t = |corner: usize| Vec4::from_array(texels.map(|t| t[corner][c]));
+            let top = t(0) * gx + t(1) * p.fx;
+            let bottom = t(2) * gx + t(3) * p.fx;
+            top * gy + bottom * p.fy
+        })
     }
 
     /// The filtered texel value at a point.

@@ -2,8 +2,8 @@
 //! module docs of `envmap`).
 
 use crate::math::{
-    clamp_unit_lanes, fast_atan2, fast_atan2_lanes, sin_cos_turns, Vec2, Vec3, Vec4, INV_PI,
-    INV_TWO_PI,
+    clamp_unit_lanes, fast_atan2, fast_atan2_lanes, sin_cos_turns, sin_cos_turns_lanes, Vec2, Vec3,
+    Vec4, INV_PI, INV_TWO_PI,
 };
 
 /// (u, v) to the local unit direction.
@@ -19,6 +19,18 @@ pub fn uv_to_dir_sin(uv: Vec2) -> (Vec3, f32) {
     let (sin_theta, cos_theta) = sin_cos_turns(0.5 * uv.y);
     let d = Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
     (d, sin_theta)
+}
+
+/// [`uv_to_dir_sin`] of four points in lanes: the direction's x, y and z,
+/// and sin(theta), each lane bit for bit the scalar routine's.
+#[inline]
+pub fn uv_to_dir_sin_lanes(u: Vec4, v: Vec4) -> ([Vec4; 3], Vec4) {
+    let (sin_phi, cos_phi) = sin_cos_turns_lanes(u);
+    let (sin_theta, cos_theta) = sin_cos_turns_lanes(v * 0.5);
+    (
+        [sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi],
+        sin_theta,
+    )
 }
 
 /// (u, v) and sin(theta) of a local direction (normalised or not; zero and

@@ -80,9 +80,10 @@ use crate::color::{luminance, Rgb};
 use crate::image::Bitmap;
 use crate::math::{Transform, Vec2, Vec3, Vec4, PI};
 use facing::{FacingBounds, FacingWarp};
-use grid::{CellPoint, TexelGrid};
+use grid::{CellLanes, CellPoint, TexelGrid};
 use latlong::{
     dir_to_uv_sin, normalize_robust, unit_dir_to_uv_sin, unit_dir_to_uv_sin_lanes, uv_to_dir_sin,
+    uv_to_dir_sin_lanes,
 };
 use warp::EnvWarp;
 
@@ -395,6 +396,69 @@ impl EnvMap {
             }
         }
         None
+    }
+
+    /// [`EnvMap::sample`] of four uniform pairs, each with its `facing`,
+    /// every lane bit for bit the scalar routine's (tested): the position
+    /// in the cell, the direction, the density and the lookup run in SIMD
+    /// lanes (the scalar routine's operations in its order), where four
+    /// dependent chains of square roots and divisions would otherwise run
+    /// one after another. Lanes that the lane code does not cover (a
+    /// facing density, the nearest filter, a first try that lands where
+    /// the density vanishes) take the scalar routine.
+    #[inline]
+    pub fn sample_lanes(
+        &self,
+        u: &[Vec2; 4],
+        which: LightPdf,
+        facing: &[Option<Vec3>; 4],
+    ) -> [Option<(Vec3, Rgb, f32)>; 4] {
+        let scalar = |k: usize| self.sample(u[k], which, facing[k]);
+        let Some(density) = self.warp(which) else {
+            return [None; 4];
+        };
+        let warp = &density.map;
+        if !warp.is_bilinear() || facing.iter().any(|&f| self.side(density, f).is_some()) {
+            return std::array::from_fn(scalar);
+        }
+        let (p, corners) = warp.place_lanes(&u.map(|u| warp.pick(u)));
+        // The scalar loop's first try (a shrink of 1).
+        let half = Vec4::splat(0.5);
+        let p = CellLanes {
+            fx: half + (p.fx - half) * 1.0,
+            fy: half + (p.fy - half) * 1.0,
+            ..p
+        };
+        let (pu, pv) = self.grid.to_uv_lanes(&p);
+        let ([lx, ly, lz], sin_theta) = uv_to_dir_sin_lanes(pu, pv);
+        // `Transform::vector` (glam's `transform_vector3`, in its order),
+        // then `normalize_or_zero`.
+        let m = &self.to_world.m;
+        let row = |k: usize| m.z_axis[k] * lz + (m.y_axis[k] * ly + m.x_axis[k] * lx);
+        let (wx, wy, wz) = (row(0), row(1), row(2));
+        let rcp = Vec4::ONE / (wx * wx + wy * wy + wz * wz).sqrt();
+        let unit = rcp.cmplt(Vec4::splat(f32::INFINITY)) & rcp.cmpgt(Vec4::ZERO);
+        let [wx, wy, wz] = [wx, wy, wz].map(|c| Vec4::select(unit, c * rcp, Vec4::ZERO));
+        let nonzero = wx.cmpne(Vec4::ZERO) | wy.cmpne(Vec4::ZERO) | wz.cmpne(Vec4::ZERO);
+        // `pdf_at` without a facing density (its ratio is 1).
+        let pdf = warp.pdf_lanes(&p, &corners) * 1.0 / (sin_theta * TWO_PI_SQ);
+        let valid = sin_theta.cmpgt(Vec4::ZERO) & pdf.abs().cmplt(Vec4::splat(f32::INFINITY));
+        let pdf = Vec4::select(valid, pdf, Vec4::ZERO);
+        let found = (pdf.cmpgt(Vec4::ZERO) & nonzero).bitmask();
+        let [r, g, b] = self
+            .grid
+            .lookup_lanes_bilinear(&self.image.pixels, &p)
+            .map(|c| c * self.scale / pdf);
+        std::array::from_fn(|k| {
+            if found & (1 << k) == 0 {
+                return scalar(k);
+            }
+            Some((
+                Vec3::new(wx[k], wy[k], wz[k]),
+                Rgb::new(r[k], g[k], b[k]),
+                pdf[k],
+            ))
+        })
     }
 
     /// Prefetches the tables and texels that `sample(u, which, None)`

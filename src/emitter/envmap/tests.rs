@@ -1255,3 +1255,65 @@ fn locating_four_at_once_is_locating_one_at_a_time() {
         }
     }
 }
+
+/// `sample_lanes` returns what `sample` returns, bit for bit: both
+/// densities (the compensated one has edges where it vanishes, which send
+/// lanes to the scalar retry), both filters and row conventions, turned
+/// and mirrored maps, with and without facing densities and normals, and
+/// u at its ends.
+#[test]
+fn sampling_four_at_once_is_sampling_one_at_a_time() {
+    let mut us = vec![
+        Vec2::ZERO,
+        Vec2::new(0.999_999_94, 0.999_999_94),
+        Vec2::new(0.0, 0.999_999_94),
+        Vec2::new(0.5, 0.0),
+    ];
+    let mut s = Sampler::new(5, 9);
+    for _ in 0..20_000 {
+        us.push(s.next_2d());
+    }
+    let normals = [None, Some(Vec3::Y), Some(Vec3::new(0.3, -0.2, 0.9))];
+    let key = |x: Option<(Vec3, Rgb, f32)>| {
+        x.map(|(d, w, p)| {
+            (
+                d.to_array().map(f32::to_bits),
+                w.to_array().map(f32::to_bits),
+                p.to_bits(),
+            )
+        })
+    };
+    let (mut compared, mut retried) = (0, 0);
+    for rows in [TexelRows::CellCentres, TexelRows::PoleToPole] {
+        for filter in [EnvFilter::Bilinear, EnvFilter::Nearest] {
+            for (image, to_world, worth_it) in [
+                (sun_map(64, 32), Transform::IDENTITY, facing::WORTH_IT),
+                (gradient(37, 19), rot_mirror(), f64::INFINITY),
+                (sun_map(40, 21), rot_a(), f64::INFINITY),
+            ] {
+                let env = EnvMap::build(image, 2.5, to_world, filter, rows, worth_it).unwrap();
+                for which in [LightPdf::Complete, LightPdf::MisCompensated] {
+                    for (c, four) in us.chunks(4).enumerate() {
+                        let u: [Vec2; 4] = std::array::from_fn(|k| four[k % four.len()]);
+                        let facing: [Option<Vec3>; 4] =
+                            std::array::from_fn(|k| normals[(c + k) % 7 / 3 % 3]);
+                        let lanes = env.sample_lanes(&u, which, &facing);
+                        for k in 0..4 {
+                            let one = env.sample(u[k], which, facing[k]);
+                            assert_eq!(
+                                key(lanes[k]),
+                                key(one),
+                                "u {:?} ({rows:?}, {filter:?}, {which:?})",
+                                u[k]
+                            );
+                            compared += one.is_some() as usize;
+                            retried += one.is_none() as usize;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(compared > 400_000, "{compared} samples compared");
+    eprintln!("{compared} samples compared, {retried} without a sample");
+}

@@ -9,10 +9,10 @@
 //! and then the linear conditional in v ([`sample_linear`]). The density
 //! at a point is one cell lookup and a bilinear blend.
 
-use super::grid::{CellPoint, TexelGrid};
+use super::grid::{CellLanes, CellPoint, TexelGrid};
 use super::EnvFilter;
-use crate::math::{prefetch, Vec2};
-use crate::sampling::{sample_linear, AliasRows, AliasTable};
+use crate::math::{prefetch, Vec2, Vec4};
+use crate::sampling::{sample_linear, sample_linear_lanes, AliasRows, AliasTable};
 
 /// A cell picked by [`EnvWarp::pick`], with uniform numbers in [0, 1)
 /// left for the position inside it.
@@ -22,6 +22,16 @@ pub(super) struct CellPick {
     band: usize,
     ux: f32,
     uy: f32,
+}
+
+/// The corner values of four bilinear cells, corner by corner in lanes
+/// (top-left, top-right, bottom-left, bottom-right).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CornerLanes {
+    v00: Vec4,
+    v10: Vec4,
+    v01: Vec4,
+    v11: Vec4,
 }
 
 /// A normalised density over (u, v) in [0, 1]^2.
@@ -207,6 +217,48 @@ impl EnvWarp {
         let bottom = v01 + (v11 - v01) * fx;
         let fy = sample_linear(top, bottom, uy);
         CellPoint { col, band, fx, fy }
+    }
+
+    /// Whether the density is bilinear inside cells (else constant).
+    pub fn is_bilinear(&self) -> bool {
+        self.bilinear
+    }
+
+    /// [`EnvWarp::place`] of four picks of a bilinear density, each lane
+    /// bit for bit the scalar routine's, with the cells' corner values
+    /// (for [`EnvWarp::pdf_lanes`]).
+    #[inline]
+    pub fn place_lanes(&self, picks: &[CellPick; 4]) -> (CellLanes, CornerLanes) {
+        debug_assert!(self.bilinear);
+        let c = picks.map(|p| self.corners(p.col, p.band));
+        let corners = CornerLanes {
+            v00: Vec4::from_array(c.map(|c| c.0)),
+            v10: Vec4::from_array(c.map(|c| c.1)),
+            v01: Vec4::from_array(c.map(|c| c.2)),
+            v11: Vec4::from_array(c.map(|c| c.3)),
+        };
+        let CornerLanes { v00, v10, v01, v11 } = corners;
+        let fx = sample_linear_lanes(v00 + v01, v10 + v11, Vec4::from_array(picks.map(|p| p.ux)));
+        let top = v00 + (v10 - v00) * fx;
+        let bottom = v01 + (v11 - v01) * fx;
+        let fy = sample_linear_lanes(top, bottom, Vec4::from_array(picks.map(|p| p.uy)));
+        let cells = CellLanes {
+            col: picks.map(|p| p.col),
+            band: picks.map(|p| p.band),
+            fx,
+            fy,
+        };
+        (cells, corners)
+    }
+
+    /// [`EnvWarp::pdf`] of four points of a bilinear density whose cells'
+    /// corners are `corners`, bit for bit.
+    #[inline]
+    pub fn pdf_lanes(&self, p: &CellLanes, corners: &CornerLanes) -> Vec4 {
+        let CornerLanes { v00, v10, v01, v11 } = *corners;
+        let top = v00 + (v10 - v00) * p.fx;
+        let bottom = v01 + (v11 - v01) * p.fx;
+        (top + (bottom - top) * p.fy) * self.inv_integral
     }
 
     /// Density w.r.t. area in (u, v) at a point.
