@@ -328,6 +328,40 @@ impl PathState {
         }
     }
 
+    /// Where the escaped `ray` met the environment map that is emitter
+    /// `i`, and the facing normal its MIS weight takes, if the path counts
+    /// what it sees there and found it before the trace: then
+    /// [`PathState::escape_located`] with that map's `eval_pdf_at` there
+    /// is [`PathState::escape`] for a scene whose only emitter at
+    /// infinity is `i`.
+    #[inline]
+    pub fn escape_point(&self, cfg: &PathConfig, i: u32) -> Option<(EnvPoint, Option<Vec3>)> {
+        if self.hides_emitters(cfg) || !cfg.count_emission(self.specular) {
+            return None;
+        }
+        let (j, at) = self.escape?;
+        (j == i).then(|| (at, self.mis_vertex(cfg).and_then(|prev| prev.at.facing)))
+    }
+
+    /// [`PathState::escape`] of a path that [`PathState::escape_point`]
+    /// located on the map that is emitter `i`, the scene's only emitter at
+    /// infinity (with a density for `cfg.which`), given the map's
+    /// `eval_pdf_at` there: the same bits.
+    #[inline]
+    pub fn escape_located(&mut self, scene: &Scene, cfg: &PathConfig, i: u32, le_pdf: (Rgb, f32)) {
+        if self.depth == 0 && !scene.emitters[i as usize].visible_to_camera() {
+            return;
+        }
+        let (le, w) = match self.mis_vertex(cfg) {
+            Some(prev) => {
+                let pl = choice_pdf(scene, i as usize, prev.at) * le_pdf.1;
+                (le_pdf.0, power_heuristic(prev.pdf, pl))
+            }
+            None => (le_pdf.0, 1.0),
+        };
+        self.l += self.beta * le * w;
+    }
+
     /// Whether the new `ray` should be located on the environment map
     /// before it is traced ([`Scene::locate_escape`], then
     /// [`PathState::set_escape`]): only where the path would count what it

@@ -10,14 +10,15 @@
 //! [`super::path::li`] and returns the same radiance bit for bit (tested):
 //! the batch changes the order of the work, not the image. It is the
 //! frame for stages that work on many paths at once (SIMD lanes across
-//! paths, issue 15): the environment map's light samples (within the
-//! bounce stage) and the location of new rays on the map (the last stage)
-//! run four paths at a time; the rest takes one path at a time.
+//! paths, issue 15): the environment map's lookups of escaped paths, its
+//! light samples (within the bounce stage) and the location of new rays
+//! on the map (the last stage) run four paths at a time; the rest takes
+//! one path at a time.
 
 use super::path::{PathConfig, PathState};
 use super::LightNumbers;
 use crate::color::Rgb;
-use crate::emitter::{Emitter, EmitterContext, EnvMap, LightPdf, LightSample};
+use crate::emitter::{Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample};
 use crate::geometry::Intersection;
 use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::Sampler;
@@ -118,10 +119,41 @@ impl PathBatch {
     }
 
     /// Stage 2: the paths whose rays escaped add what they see at
-    /// infinity (they end there).
+    /// infinity (they end there). Where the scene's one emitter at
+    /// infinity is an environment map, the paths located on it before the
+    /// trace look it up four at a time in SIMD lanes
+    /// ([`EnvMap::eval_pdf_at_lanes`]).
     fn escape(&mut self, scene: &Scene, cfg: &PathConfig) {
+        let env = match scene.infinite[..] {
+            [i] => match &scene.emitters[i as usize] {
+                Emitter::Environment(env) if env.has_density(cfg.which) => Some((i, env)),
+                _ => None,
+            },
+            _ => None,
+        };
+        let Some((e, env)) = env else {
+            for &i in &self.escaped_paths[..self.escaped] {
+                self.paths[i as usize].escape(scene, cfg);
+            }
+            return;
+        };
+        let mut group = EscapeGroup::default();
         for &i in &self.escaped_paths[..self.escaped] {
-            self.paths[i as usize].escape(scene, cfg);
+            let path = &mut self.paths[i as usize];
+            match path.escape_point(cfg, e) {
+                Some((at, facing)) => {
+                    let n = group.n;
+                    (group.path[n], group.at[n], group.facing[n]) = (i as usize, at, facing);
+                    group.n += 1;
+                    if group.n == 4 {
+                        group.flush(scene, cfg, e, env, &mut self.paths);
+                    }
+                }
+                None => path.escape(scene, cfg),
+            }
+        }
+        if group.n > 0 {
+            group.flush(scene, cfg, e, env, &mut self.paths);
         }
     }
 
@@ -271,6 +303,38 @@ impl EnvGroup {
                     self.pchoice[m],
                 )
             });
+        }
+        self.n = 0;
+    }
+}
+
+/// Up to four escaped paths located on the environment map that is
+/// emitter `e`, waiting to look it up together: the paths, their points
+/// and their MIS weights' facing normals.
+#[derive(Default)]
+struct EscapeGroup {
+    n: usize,
+    path: [usize; 4],
+    at: [EnvPoint; 4],
+    facing: [Option<Vec3>; 4],
+}
+
+impl EscapeGroup {
+    /// Looks the waiting points up (unused lanes repeat the last one),
+    /// adds what each path sees there, and empties the group.
+    fn flush(
+        &mut self,
+        scene: &Scene,
+        cfg: &PathConfig,
+        e: u32,
+        env: &EnvMap,
+        paths: &mut [PathState],
+    ) {
+        let n = self.n;
+        let at = std::array::from_fn(|k| self.at[k.min(n - 1)]);
+        let le_pdf = env.eval_pdf_at_lanes(&at, cfg.which, &self.facing);
+        for m in 0..n {
+            paths[self.path[m]].escape_located(scene, cfg, e, le_pdf[m]);
         }
         self.n = 0;
     }

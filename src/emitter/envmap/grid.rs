@@ -32,7 +32,7 @@ pub enum TexelRows {
 }
 
 /// A point of the map as a cell and a position inside it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct CellPoint {
     pub col: usize,
     pub band: usize,

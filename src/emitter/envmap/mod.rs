@@ -547,6 +547,54 @@ impl EnvMap {
         (radiance, pdf)
     }
 
+    /// [`EnvMap::eval_pdf_at`] of four located points, each with its
+    /// `facing`, every lane bit for bit the scalar routine's (tested): the
+    /// lookup and the density in SIMD lanes. Lanes with a facing density,
+    /// and maps with the nearest filter, take the scalar routine.
+    #[inline]
+    pub fn eval_pdf_at_lanes(
+        &self,
+        at: &[EnvPoint; 4],
+        which: LightPdf,
+        facing: &[Option<Vec3>; 4],
+    ) -> [(Rgb, f32); 4] {
+        let scalar = |k: usize| self.eval_pdf_at(at[k], which, facing[k]);
+        let Some(density) = self.warp(which) else {
+            return [(Rgb::ZERO, 0.0); 4];
+        };
+        let warp = &density.map;
+        if !warp.is_bilinear() {
+            return std::array::from_fn(scalar);
+        }
+        let p = CellLanes {
+            col: at.map(|a| a.p.col),
+            band: at.map(|a| a.p.band),
+            fx: Vec4::from_array(at.map(|a| a.p.fx)),
+            fy: Vec4::from_array(at.map(|a| a.p.fy)),
+        };
+        let sin_theta = Vec4::from_array(at.map(|a| a.sin_theta));
+        // `pdf_at` without a facing density (its ratio is 1).
+        let pdf = warp.pdf_lanes(&p, &warp.corner_lanes(&p)) * 1.0 / (sin_theta * TWO_PI_SQ);
+        let valid = sin_theta.cmpgt(Vec4::ZERO) & pdf.abs().cmplt(Vec4::splat(f32::INFINITY));
+        let pdf = Vec4::select(valid, pdf, Vec4::ZERO);
+        let [r, g, b] = self
+            .grid
+            .lookup_lanes_bilinear(&self.image.pixels, &p)
+            .map(|c| c * self.scale);
+        std::array::from_fn(|k| {
+            if self.side(density, facing[k]).is_some() {
+                return scalar(k);
+            }
+            (Rgb::new(r[k], g[k], b[k]), pdf[k])
+        })
+    }
+
+    /// Whether the map has a density for `which` (it emits): then
+    /// [`EnvMap::eval_pdf_at`]'s radiance is [`EnvMap::eval_at`]'s.
+    pub fn has_density(&self, which: LightPdf) -> bool {
+        self.warp(which).is_some()
+    }
+
     /// Solid-angle pdf that `sample(_, which, facing)` draws world direction
     /// `d`. With `facing` (a normal, need not be unit), the density is for a
     /// surface that only receives light from the side `facing` points to:
@@ -605,7 +653,7 @@ impl EnvMap {
 /// Where a direction meets an environment map ([`EnvMap::locate`]): found
 /// once, to prefetch its texels while a ray that may escape is traced and
 /// then to look them up if it does.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct EnvPoint {
     p: CellPoint,
     sin_theta: f32,

@@ -1317,3 +1317,51 @@ fn sampling_four_at_once_is_sampling_one_at_a_time() {
     assert!(compared > 400_000, "{compared} samples compared");
     eprintln!("{compared} samples compared, {retried} without a sample");
 }
+
+/// `eval_pdf_at_lanes` returns what `eval_pdf_at` returns, bit for bit, at
+/// points located from random directions, the poles and the seam, for
+/// both densities, filters and row conventions, turned maps, with and
+/// without facing densities and normals.
+#[test]
+fn looking_up_four_at_once_is_looking_up_one_at_a_time() {
+    let mut dirs = vec![Vec3::Y, -Vec3::Y, -Vec3::Z, Vec3::new(-0.0, 0.5, -1.0)];
+    let mut s = Sampler::new(17, 2);
+    for _ in 0..20_000 {
+        dirs.push(crate::sampling::warp::square_to_uniform_sphere(s.next_2d()));
+    }
+    let normals = [None, Some(Vec3::Y), Some(Vec3::new(0.3, -0.2, 0.9))];
+    let mut compared = 0;
+    for rows in [TexelRows::CellCentres, TexelRows::PoleToPole] {
+        for filter in [EnvFilter::Bilinear, EnvFilter::Nearest] {
+            for (image, to_world, worth_it) in [
+                (sun_map(64, 32), Transform::IDENTITY, facing::WORTH_IT),
+                (gradient(37, 19), rot_mirror(), f64::INFINITY),
+            ] {
+                let env = EnvMap::build(image, 1.5, to_world, filter, rows, worth_it).unwrap();
+                for which in [LightPdf::Complete, LightPdf::MisCompensated] {
+                    for (c, four) in dirs.chunks(4).enumerate() {
+                        let at: [EnvPoint; 4] =
+                            std::array::from_fn(|k| env.locate(four[k % four.len()]).unwrap());
+                        let facing: [Option<Vec3>; 4] =
+                            std::array::from_fn(|k| normals[(c + k) % 7 / 3 % 3]);
+                        let lanes = env.eval_pdf_at_lanes(&at, which, &facing);
+                        for k in 0..4 {
+                            let (le, pdf) = env.eval_pdf_at(at[k], which, facing[k]);
+                            assert_eq!(
+                                (le.to_array().map(f32::to_bits), pdf.to_bits()),
+                                (
+                                    lanes[k].0.to_array().map(f32::to_bits),
+                                    lanes[k].1.to_bits()
+                                ),
+                                "{:?} ({rows:?}, {filter:?}, {which:?})",
+                                four[k % four.len()]
+                            );
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(compared > 300_000, "{compared} points compared");
+}

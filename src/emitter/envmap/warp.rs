@@ -251,6 +251,19 @@ impl EnvWarp {
         (cells, corners)
     }
 
+    /// The corner values of four cells of a bilinear density.
+    #[inline]
+    pub fn corner_lanes(&self, p: &CellLanes) -> CornerLanes {
+        let c: [(f32, f32, f32, f32); 4] =
+            std::array::from_fn(|k| self.corners(p.col[k], p.band[k]));
+        CornerLanes {
+            v00: Vec4::from_array(c.map(|c| c.0)),
+            v10: Vec4::from_array(c.map(|c| c.1)),
+            v01: Vec4::from_array(c.map(|c| c.2)),
+            v11: Vec4::from_array(c.map(|c| c.3)),
+        }
+    }
+
     /// [`EnvWarp::pdf`] of four points of a bilinear density whose cells'
     /// corners are `corners`, bit for bit.
     #[inline]
