@@ -343,6 +343,15 @@ impl PathState {
         (j == i).then(|| (at, self.mis_vertex(cfg).and_then(|prev| prev.at.facing)))
     }
 
+    /// Whether the escaped `ray` was not located on the environment map
+    /// before its trace but the path counts what it sees at infinity (a
+    /// camera ray): locating it now ([`PathState::set_escape`]) gives
+    /// [`PathState::escape`] the point it would find itself.
+    #[inline]
+    pub fn counts_unlocated_escape(&self, cfg: &PathConfig) -> bool {
+        self.escape.is_none() && !self.hides_emitters(cfg) && cfg.count_emission(self.specular)
+    }
+
     /// [`PathState::escape`] of a path that [`PathState::escape_point`]
     /// located on the map that is emitter `i`, the scene's only emitter at
     /// infinity (with a density for `cfg.which`), given the map's

@@ -138,19 +138,38 @@ impl PathBatch {
             return;
         };
         let mut group = EscapeGroup::default();
+        // Camera rays are not located before their trace (most of them
+        // hit something): those that escaped are located now, four at a
+        // time.
+        let mut unlocated = ([0usize; 4], 0usize);
         for &i in &self.escaped_paths[..self.escaped] {
-            let path = &mut self.paths[i as usize];
-            match path.escape_point(cfg, e) {
-                Some((at, facing)) => {
-                    let n = group.n;
-                    (group.path[n], group.at[n], group.facing[n]) = (i as usize, at, facing);
-                    group.n += 1;
-                    if group.n == 4 {
-                        group.flush(scene, cfg, e, env, &mut self.paths);
-                    }
+            let i = i as usize;
+            let path = &mut self.paths[i];
+            if let Some((at, facing)) = path.escape_point(cfg, e) {
+                group.push(i, at, facing, scene, cfg, e, env, &mut self.paths);
+            } else if path.counts_unlocated_escape(cfg) {
+                unlocated.0[unlocated.1] = i;
+                unlocated.1 += 1;
+                if unlocated.1 == 4 {
+                    locate_escaped(
+                        &unlocated.0,
+                        4,
+                        &mut group,
+                        scene,
+                        cfg,
+                        e,
+                        env,
+                        &mut self.paths,
+                    );
+                    unlocated.1 = 0;
                 }
-                None => path.escape(scene, cfg),
+            } else {
+                path.escape(scene, cfg);
             }
+        }
+        if unlocated.1 > 0 {
+            let (paths, n) = unlocated;
+            locate_escaped(&paths, n, &mut group, scene, cfg, e, env, &mut self.paths);
         }
         if group.n > 0 {
             group.flush(scene, cfg, e, env, &mut self.paths);
@@ -320,6 +339,28 @@ struct EscapeGroup {
 }
 
 impl EscapeGroup {
+    /// Adds path `i`, located at `at`, drawing the group when it is full.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn push(
+        &mut self,
+        i: usize,
+        at: EnvPoint,
+        facing: Option<Vec3>,
+        scene: &Scene,
+        cfg: &PathConfig,
+        e: u32,
+        env: &EnvMap,
+        paths: &mut [PathState],
+    ) {
+        let n = self.n;
+        (self.path[n], self.at[n], self.facing[n]) = (i, at, facing);
+        self.n += 1;
+        if self.n == 4 {
+            self.flush(scene, cfg, e, env, paths);
+        }
+    }
+
     /// Looks the waiting points up (unused lanes repeat the last one),
     /// adds what each path sees there, and empties the group.
     fn flush(
@@ -337,6 +378,33 @@ impl EscapeGroup {
             paths[self.path[m]].escape_located(scene, cfg, e, le_pdf[m]);
         }
         self.n = 0;
+    }
+}
+
+/// Locates the escaped rays of `paths[..n]` (paths that count what they
+/// see at infinity but were not located before their trace) on the map
+/// `env`, emitter `e`, four in SIMD lanes ([`EnvMap::locate_lanes`], the
+/// scalar points bit for bit), and hands them to `group`; a direction the
+/// lanes cannot place (bad input) leaves its path to the scalar escape.
+#[allow(clippy::too_many_arguments)]
+fn locate_escaped(
+    unlocated: &[usize; 4],
+    n: usize,
+    group: &mut EscapeGroup,
+    scene: &Scene,
+    cfg: &PathConfig,
+    e: u32,
+    env: &EnvMap,
+    paths: &mut [PathState],
+) {
+    let d = std::array::from_fn(|k| paths[unlocated[k.min(n - 1)]].ray.d);
+    let at = env.locate_lanes(&d);
+    for (k, &i) in unlocated.iter().enumerate().take(n) {
+        paths[i].set_escape(at[k].map(|at| (e, at)));
+        match paths[i].escape_point(cfg, e) {
+            Some((at, facing)) => group.push(i, at, facing, scene, cfg, e, env, paths),
+            None => paths[i].escape(scene, cfg),
+        }
     }
 }
 
