@@ -400,12 +400,12 @@ impl EnvMap {
 
     /// [`EnvMap::sample`] of four uniform pairs, each with its `facing`,
     /// every lane bit for bit the scalar routine's (tested): the position
-    /// in the cell, the direction, the density and the lookup run in SIMD
-    /// lanes (the scalar routine's operations in its order), where four
-    /// dependent chains of square roots and divisions would otherwise run
-    /// one after another. Lanes that the lane code does not cover (a
-    /// facing density, the nearest filter, a first try that lands where
-    /// the density vanishes) take the scalar routine.
+    /// in the cell (unless a facing density picks the cell), the direction,
+    /// the density and the lookup run in SIMD lanes (the scalar routine's
+    /// operations in its order), where four dependent chains of square
+    /// roots and divisions would otherwise run one after another. Lanes
+    /// that the lane code does not cover (the nearest filter, a first try
+    /// that lands where the density vanishes) take the scalar routine.
     #[inline]
     pub fn sample_lanes(
         &self,
@@ -418,10 +418,35 @@ impl EnvMap {
             return [None; 4];
         };
         let warp = &density.map;
-        if !warp.is_bilinear() || facing.iter().any(|&f| self.side(density, f).is_some()) {
+        if !warp.is_bilinear() {
             return std::array::from_fn(scalar);
         }
-        let (p, corners) = warp.place_lanes(&u.map(|u| warp.pick(u)));
+        let sides = facing.map(|f| self.side(density, f));
+        // Lanes whose facing density leaves nothing to sample.
+        let mut nothing = [false; 4];
+        let (p, corners) = if sides.iter().all(Option::is_none) {
+            warp.place_lanes(&u.map(|u| warp.pick(u)))
+        } else {
+            let pixels = &self.image.pixels;
+            let points: [CellPoint; 4] = std::array::from_fn(|k| match sides[k] {
+                Some((f, bin)) => f
+                    .sample(warp, bin, u[k], |cols, band| {
+                        self.grid.prefetch_span(pixels, cols, band)
+                    })
+                    .unwrap_or_else(|| {
+                        nothing[k] = true;
+                        CellPoint::default()
+                    }),
+                None => warp.place(warp.pick(u[k])),
+            });
+            let p = CellLanes {
+                col: points.map(|p| p.col),
+                band: points.map(|p| p.band),
+                fx: Vec4::from_array(points.map(|p| p.fx)),
+                fy: Vec4::from_array(points.map(|p| p.fy)),
+            };
+            (p, warp.corner_lanes(&p))
+        };
         // The scalar loop's first try (a shrink of 1).
         let half = Vec4::splat(0.5);
         let p = CellLanes {
@@ -440,8 +465,17 @@ impl EnvMap {
         let unit = rcp.cmplt(Vec4::splat(f32::INFINITY)) & rcp.cmpgt(Vec4::ZERO);
         let [wx, wy, wz] = [wx, wy, wz].map(|c| Vec4::select(unit, c * rcp, Vec4::ZERO));
         let nonzero = wx.cmpne(Vec4::ZERO) | wy.cmpne(Vec4::ZERO) | wz.cmpne(Vec4::ZERO);
-        // `pdf_at` without a facing density (its ratio is 1).
-        let pdf = warp.pdf_lanes(&p, &corners) * 1.0 / (sin_theta * TWO_PI_SQ);
+        // `pdf_at`, with the facing density's ratio where there is one.
+        let ratio = Vec4::from_array(std::array::from_fn(|k| {
+            let cell = CellPoint {
+                col: p.col[k],
+                band: p.band[k],
+                fx: p.fx[k],
+                fy: p.fy[k],
+            };
+            sides[k].map_or(1.0, |(f, bin)| f.ratio(bin, cell))
+        }));
+        let pdf = warp.pdf_lanes(&p, &corners) * ratio / (sin_theta * TWO_PI_SQ);
         let valid = sin_theta.cmpgt(Vec4::ZERO) & pdf.abs().cmplt(Vec4::splat(f32::INFINITY));
         let pdf = Vec4::select(valid, pdf, Vec4::ZERO);
         let found = (pdf.cmpgt(Vec4::ZERO) & nonzero).bitmask();
@@ -450,6 +484,9 @@ impl EnvMap {
             .lookup_lanes_bilinear(&self.image.pixels, &p)
             .map(|c| c * self.scale / pdf);
         std::array::from_fn(|k| {
+            if nothing[k] {
+                return None;
+            }
             if found & (1 << k) == 0 {
                 return scalar(k);
             }
