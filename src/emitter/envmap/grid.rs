@@ -51,6 +51,30 @@ pub(super) struct CellLanes {
     pub fy: Vec4,
 }
 
+impl CellLanes {
+    /// Four points in lanes.
+    #[inline]
+    pub fn from_points(p: &[CellPoint; 4]) -> CellLanes {
+        CellLanes {
+            col: p.map(|p| p.col),
+            band: p.map(|p| p.band),
+            fx: Vec4::from_array(p.map(|p| p.fx)),
+            fy: Vec4::from_array(p.map(|p| p.fy)),
+        }
+    }
+
+    /// Lane `k` as a point.
+    #[inline]
+    pub fn point(&self, k: usize) -> CellPoint {
+        CellPoint {
+            col: self.col[k],
+            band: self.band[k],
+            fx: self.fx[k],
+            fy: self.fy[k],
+        }
+    }
+}
+
 /// The cells of a W x H map for one filter and row convention.
 #[derive(Clone, Debug)]
 pub(super) struct TexelGrid {

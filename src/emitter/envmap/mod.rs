@@ -439,12 +439,7 @@ impl EnvMap {
                     }),
                 None => warp.place(warp.pick(u[k])),
             });
-            let p = CellLanes {
-                col: points.map(|p| p.col),
-                band: points.map(|p| p.band),
-                fx: Vec4::from_array(points.map(|p| p.fx)),
-                fy: Vec4::from_array(points.map(|p| p.fy)),
-            };
+            let p = CellLanes::from_points(&points);
             (p, warp.corner_lanes(&p))
         };
         // The scalar loop's first try (a shrink of 1).
@@ -465,19 +460,10 @@ impl EnvMap {
         let unit = rcp.cmplt(Vec4::splat(f32::INFINITY)) & rcp.cmpgt(Vec4::ZERO);
         let [wx, wy, wz] = [wx, wy, wz].map(|c| Vec4::select(unit, c * rcp, Vec4::ZERO));
         let nonzero = wx.cmpne(Vec4::ZERO) | wy.cmpne(Vec4::ZERO) | wz.cmpne(Vec4::ZERO);
-        // `pdf_at`, with the facing density's ratio where there is one.
         let ratio = Vec4::from_array(std::array::from_fn(|k| {
-            let cell = CellPoint {
-                col: p.col[k],
-                band: p.band[k],
-                fx: p.fx[k],
-                fy: p.fy[k],
-            };
-            sides[k].map_or(1.0, |(f, bin)| f.ratio(bin, cell))
+            sides[k].map_or(1.0, |(f, bin)| f.ratio(bin, p.point(k)))
         }));
-        let pdf = warp.pdf_lanes(&p, &corners) * ratio / (sin_theta * TWO_PI_SQ);
-        let valid = sin_theta.cmpgt(Vec4::ZERO) & pdf.abs().cmplt(Vec4::splat(f32::INFINITY));
-        let pdf = Vec4::select(valid, pdf, Vec4::ZERO);
+        let pdf = pdf_at_lanes(warp.pdf_lanes(&p, &corners), ratio, sin_theta);
         let found = (pdf.cmpgt(Vec4::ZERO) & nonzero).bitmask();
         let [r, g, b] = self
             .grid
@@ -603,17 +589,14 @@ impl EnvMap {
         if !warp.is_bilinear() {
             return std::array::from_fn(scalar);
         }
-        let p = CellLanes {
-            col: at.map(|a| a.p.col),
-            band: at.map(|a| a.p.band),
-            fx: Vec4::from_array(at.map(|a| a.p.fx)),
-            fy: Vec4::from_array(at.map(|a| a.p.fy)),
-        };
+        let p = CellLanes::from_points(&at.map(|a| a.p));
         let sin_theta = Vec4::from_array(at.map(|a| a.sin_theta));
-        // `pdf_at` without a facing density (its ratio is 1).
-        let pdf = warp.pdf_lanes(&p, &warp.corner_lanes(&p)) * 1.0 / (sin_theta * TWO_PI_SQ);
-        let valid = sin_theta.cmpgt(Vec4::ZERO) & pdf.abs().cmplt(Vec4::splat(f32::INFINITY));
-        let pdf = Vec4::select(valid, pdf, Vec4::ZERO);
+        // Lanes with a facing density are replaced below (ratio 1 here).
+        let pdf = pdf_at_lanes(
+            warp.pdf_lanes(&p, &warp.corner_lanes(&p)),
+            Vec4::ONE,
+            sin_theta,
+        );
         let [r, g, b] = self
             .grid
             .lookup_lanes_bilinear(&self.image.pixels, &p)
@@ -715,6 +698,16 @@ fn pdf_at(
     } else {
         0.0
     }
+}
+
+/// [`pdf_at`] of four points in lanes, bit for bit: their densities over
+/// (u, v) `pdf_uv`, the facing ratios (1 without a facing density) and
+/// sin(theta).
+#[inline]
+fn pdf_at_lanes(pdf_uv: Vec4, ratio: Vec4, sin_theta: Vec4) -> Vec4 {
+    let pdf = pdf_uv * ratio / (sin_theta * TWO_PI_SQ);
+    let valid = sin_theta.cmpgt(Vec4::ZERO) & pdf.abs().cmplt(Vec4::splat(f32::INFINITY));
+    Vec4::select(valid, pdf, Vec4::ZERO)
 }
 
 #[cfg(test)]
