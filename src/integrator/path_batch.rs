@@ -137,7 +137,7 @@ impl PathBatch {
             }
             return;
         };
-        let mut group = EscapeGroup::default();
+        let mut group = EscapeGroup::new(e, env);
         // Camera rays are not located before their trace (most of them
         // hit something): those that escaped are located now, four at a
         // time.
@@ -146,21 +146,12 @@ impl PathBatch {
             let i = i as usize;
             let path = &mut self.paths[i];
             if let Some((at, facing)) = path.escape_point(cfg, e) {
-                group.push(i, at, facing, scene, cfg, e, env, &mut self.paths);
+                group.push(i, at, facing, scene, cfg, &mut self.paths);
             } else if path.counts_unlocated_escape(cfg) {
                 unlocated.0[unlocated.1] = i;
                 unlocated.1 += 1;
                 if unlocated.1 == 4 {
-                    locate_escaped(
-                        &unlocated.0,
-                        4,
-                        &mut group,
-                        scene,
-                        cfg,
-                        e,
-                        env,
-                        &mut self.paths,
-                    );
+                    group.locate(&unlocated.0, 4, scene, cfg, &mut self.paths);
                     unlocated.1 = 0;
                 }
             } else {
@@ -169,10 +160,10 @@ impl PathBatch {
         }
         if unlocated.1 > 0 {
             let (paths, n) = unlocated;
-            locate_escaped(&paths, n, &mut group, scene, cfg, e, env, &mut self.paths);
+            group.locate(&paths, n, scene, cfg, &mut self.paths);
         }
         if group.n > 0 {
-            group.flush(scene, cfg, e, env, &mut self.paths);
+            group.flush(scene, cfg, &mut self.paths);
         }
     }
 
@@ -327,20 +318,31 @@ impl EnvGroup {
     }
 }
 
-/// Up to four escaped paths located on the environment map that is
-/// emitter `e`, waiting to look it up together: the paths, their points
-/// and their MIS weights' facing normals.
-#[derive(Default)]
-struct EscapeGroup {
+/// Up to four escaped paths located on the environment map `env` (emitter
+/// `e`), waiting to look it up together: the paths, their points and
+/// their MIS weights' facing normals.
+struct EscapeGroup<'a> {
+    e: u32,
+    env: &'a EnvMap,
     n: usize,
     path: [usize; 4],
     at: [EnvPoint; 4],
     facing: [Option<Vec3>; 4],
 }
 
-impl EscapeGroup {
+impl<'a> EscapeGroup<'a> {
+    fn new(e: u32, env: &'a EnvMap) -> EscapeGroup<'a> {
+        EscapeGroup {
+            e,
+            env,
+            n: 0,
+            path: [0; 4],
+            at: [EnvPoint::default(); 4],
+            facing: [None; 4],
+        }
+    }
+
     /// Adds path `i`, located at `at`, drawing the group when it is full.
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     fn push(
         &mut self,
@@ -349,61 +351,50 @@ impl EscapeGroup {
         facing: Option<Vec3>,
         scene: &Scene,
         cfg: &PathConfig,
-        e: u32,
-        env: &EnvMap,
         paths: &mut [PathState],
     ) {
         let n = self.n;
         (self.path[n], self.at[n], self.facing[n]) = (i, at, facing);
         self.n += 1;
         if self.n == 4 {
-            self.flush(scene, cfg, e, env, paths);
+            self.flush(scene, cfg, paths);
         }
     }
 
     /// Looks the waiting points up (unused lanes repeat the last one),
     /// adds what each path sees there, and empties the group.
-    fn flush(
-        &mut self,
-        scene: &Scene,
-        cfg: &PathConfig,
-        e: u32,
-        env: &EnvMap,
-        paths: &mut [PathState],
-    ) {
+    fn flush(&mut self, scene: &Scene, cfg: &PathConfig, paths: &mut [PathState]) {
         let n = self.n;
         let at = std::array::from_fn(|k| self.at[k.min(n - 1)]);
-        let le_pdf = env.eval_pdf_at_lanes(&at, cfg.which, &self.facing);
+        let le_pdf = self.env.eval_pdf_at_lanes(&at, cfg.which, &self.facing);
         for m in 0..n {
-            paths[self.path[m]].escape_located(scene, cfg, e, le_pdf[m]);
+            paths[self.path[m]].escape_located(scene, cfg, self.e, le_pdf[m]);
         }
         self.n = 0;
     }
-}
 
-/// Locates the escaped rays of `paths[..n]` (paths that count what they
-/// see at infinity but were not located before their trace) on the map
-/// `env`, emitter `e`, four in SIMD lanes ([`EnvMap::locate_lanes`], the
-/// scalar points bit for bit), and hands them to `group`; a direction the
-/// lanes cannot place (bad input) leaves its path to the scalar escape.
-#[allow(clippy::too_many_arguments)]
-fn locate_escaped(
-    unlocated: &[usize; 4],
-    n: usize,
-    group: &mut EscapeGroup,
-    scene: &Scene,
-    cfg: &PathConfig,
-    e: u32,
-    env: &EnvMap,
-    paths: &mut [PathState],
-) {
-    let d = std::array::from_fn(|k| paths[unlocated[k.min(n - 1)]].ray.d);
-    let at = env.locate_lanes(&d);
-    for (k, &i) in unlocated.iter().enumerate().take(n) {
-        paths[i].set_escape(at[k].map(|at| (e, at)));
-        match paths[i].escape_point(cfg, e) {
-            Some((at, facing)) => group.push(i, at, facing, scene, cfg, e, env, paths),
-            None => paths[i].escape(scene, cfg),
+    /// Locates the escaped rays of paths `unlocated[..n]` (paths that
+    /// count what they see at infinity but were not located before their
+    /// trace) on the map, four in SIMD lanes ([`EnvMap::locate_lanes`],
+    /// the scalar points bit for bit), and adds them; a direction the
+    /// lanes cannot place (bad input) leaves its path to the scalar
+    /// escape.
+    fn locate(
+        &mut self,
+        unlocated: &[usize; 4],
+        n: usize,
+        scene: &Scene,
+        cfg: &PathConfig,
+        paths: &mut [PathState],
+    ) {
+        let d = std::array::from_fn(|k| paths[unlocated[k.min(n - 1)]].ray.d);
+        let at = self.env.locate_lanes(&d);
+        for (k, &i) in unlocated.iter().enumerate().take(n) {
+            paths[i].set_escape(at[k].map(|at| (self.e, at)));
+            match paths[i].escape_point(cfg, self.e) {
+                Some((at, facing)) => self.push(i, at, facing, scene, cfg, paths),
+                None => paths[i].escape(scene, cfg),
+            }
         }
     }
 }
