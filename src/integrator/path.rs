@@ -307,10 +307,7 @@ impl PathState {
     /// ends.
     #[inline]
     pub fn escape(&mut self, scene: &Scene, cfg: &PathConfig) {
-        if self.hides_emitters(cfg) {
-            return;
-        }
-        if cfg.count_emission(self.specular) {
+        if self.counts_escape(cfg) {
             let mut l = self.l;
             let mis = self.mis_vertex(cfg);
             let d = self.ray.d;
@@ -328,6 +325,14 @@ impl PathState {
         }
     }
 
+    /// Whether the path counts what its ray sees at infinity if it
+    /// escapes (not a camera ray under `hide_emitters`, not after a
+    /// diffuse bounce under `path_ems`).
+    #[inline]
+    fn counts_escape(&self, cfg: &PathConfig) -> bool {
+        !self.hides_emitters(cfg) && cfg.count_emission(self.specular)
+    }
+
     /// Where the escaped `ray` met the environment map that is emitter
     /// `i`, and the facing normal its MIS weight takes, if the path counts
     /// what it sees there and found it before the trace: then
@@ -336,7 +341,7 @@ impl PathState {
     /// infinity is `i`.
     #[inline]
     pub fn escape_point(&self, cfg: &PathConfig, i: u32) -> Option<(EnvPoint, Option<Vec3>)> {
-        if self.hides_emitters(cfg) || !cfg.count_emission(self.specular) {
+        if !self.counts_escape(cfg) {
             return None;
         }
         let (j, at) = self.escape?;
@@ -349,7 +354,7 @@ impl PathState {
     /// [`PathState::escape`] the point it would find itself.
     #[inline]
     pub fn counts_unlocated_escape(&self, cfg: &PathConfig) -> bool {
-        self.escape.is_none() && !self.hides_emitters(cfg) && cfg.count_emission(self.specular)
+        self.escape.is_none() && self.counts_escape(cfg)
     }
 
     /// [`PathState::escape`] of a path that [`PathState::escape_point`]

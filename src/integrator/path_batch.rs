@@ -224,6 +224,7 @@ impl PathBatch {
                 Emitter::Environment(env) if group.n == 0 || group.emitter == e => {
                     let m = group.n;
                     group.emitter = e;
+                    group.env = Some(env);
                     group.slot[m] = j;
                     group.p[m] = its.p;
                     group.u[m] = numbers.u;
@@ -231,7 +232,7 @@ impl PathBatch {
                     group.pchoice[m] = pchoice;
                     group.n += 1;
                     if group.n == 4 {
-                        group.flush(env, &ctx, which, &mut self.lights);
+                        group.flush(&ctx, which, &mut self.lights);
                     }
                 }
                 emitter => {
@@ -241,9 +242,7 @@ impl PathBatch {
             }
         }
         if group.n > 0 {
-            if let Emitter::Environment(env) = &scene.emitters[group.emitter] {
-                group.flush(env, &ctx, which, &mut self.lights);
-            }
+            group.flush(&ctx, which, &mut self.lights);
         }
     }
 
@@ -276,13 +275,14 @@ impl PathBatch {
     }
 }
 
-/// Up to four light samples of one environment map waiting to be drawn
-/// together: where each goes in `lights`, its shading point, numbers,
-/// facing normal and choice probability.
+/// Up to four light samples of one environment map (`env`, emitter
+/// `emitter`) waiting to be drawn together: where each goes in `lights`,
+/// its shading point, numbers, facing normal and choice probability.
 #[derive(Default)]
-struct EnvGroup {
+struct EnvGroup<'a> {
     n: usize,
     emitter: usize,
+    env: Option<&'a EnvMap>,
     slot: [usize; 4],
     p: [Vec3; 4],
     u: [Vec2; 4],
@@ -290,18 +290,19 @@ struct EnvGroup {
     pchoice: [f32; 4],
 }
 
-impl EnvGroup {
-    /// Draws the waiting samples from `env` into their slots of `lights`
-    /// (unused lanes repeat the last one and are dropped), and empties
-    /// the group.
+impl EnvGroup<'_> {
+    /// Draws the waiting samples (at least one) into their slots of
+    /// `lights` (unused lanes repeat the last one and are dropped), and
+    /// empties the group.
     fn flush(
         &mut self,
-        env: &EnvMap,
         ctx: &EmitterContext,
         which: LightPdf,
         lights: &mut [Option<(LightSample, f32)>],
     ) {
-        let n = self.n;
+        let (n, Some(env)) = (self.n, self.env) else {
+            unreachable!("a group with samples has its map");
+        };
         let lane = |k: usize| k.min(n - 1);
         let u = std::array::from_fn(|k| self.u[lane(k)]);
         let facing = std::array::from_fn(|k| self.facing[lane(k)]);

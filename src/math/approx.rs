@@ -118,10 +118,15 @@ pub fn sin_cos_turns(t: f32) -> (f32, f32) {
     let s = a + a * a2 * (-1.666_665_5e-1 + a2 * (8.332_161e-3 + a2 * -1.951_529_6e-4));
     let c =
         1.0 - 0.5 * a2 + a2 * a2 * (4.166_664_6e-2 + a2 * (-1.388_731_6e-3 + a2 * 2.443_315_7e-5));
-    // Rotate by q quarter turns without branches (random angles would
-    // mispredict them): odd q swaps sin and cos, and the two's complement
-    // bits of q give the signs, for negative q too.
-    let qi = q as i32;
+    rotate_quarter_turn(q as i32, s, c)
+}
+
+/// (sin, cos) of the reduced angle, whose sin is `s` and cos `c`, rotated
+/// by `qi` quarter turns without branches (random angles would mispredict
+/// them): odd `qi` swaps sin and cos, and the two's complement bits of
+/// `qi` give the signs, for negative `qi` too.
+#[inline(always)]
+fn rotate_quarter_turn(qi: i32, s: f32, c: f32) -> (f32, f32) {
     let swap = qi & 1 != 0;
     let (x, y) = (select_bits(swap, c, s), select_bits(swap, s, c));
     let sin = f32::from_bits(x.to_bits() ^ (((qi & 2) as u32) << 30));
@@ -148,8 +153,7 @@ pub fn sin_cos_turns_lanes(t: Vec4) -> (Vec4, Vec4) {
     rotate_quarter_turns(q, s, c)
 }
 
-/// (sin, cos) of the reduced angle rotated by `q` (whole numbers, |q| <
-/// 2^22) quarter turns, as [`sin_cos_turns`] does it lane by lane.
+/// [`rotate_quarter_turn`] in lanes: `q` holds whole numbers, |q| < 2^22.
 #[inline(always)]
 fn rotate_quarter_turns(q: Vec4, s: Vec4, c: Vec4) -> (Vec4, Vec4) {
     #[cfg(target_arch = "x86_64")]
@@ -174,17 +178,12 @@ fn rotate_quarter_turns(q: Vec4, s: Vec4, c: Vec4) -> (Vec4, Vec4) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let (q, s, c) = (q.to_array(), s.to_array(), c.to_array());
-        let mut sin = [0.0f32; 4];
-        let mut cos = [0.0f32; 4];
-        for k in 0..4 {
-            let qi = q[k] as i32;
-            let swap = qi & 1 != 0;
-            let (x, y) = (select_bits(swap, c[k], s[k]), select_bits(swap, s[k], c[k]));
-            sin[k] = f32::from_bits(x.to_bits() ^ (((qi & 2) as u32) << 30));
-            cos[k] = f32::from_bits(y.to_bits() ^ ((((qi + 1) & 2) as u32) << 30));
-        }
-        (Vec4::from_array(sin), Vec4::from_array(cos))
+        let r: [(f32, f32); 4] =
+            std::array::from_fn(|k| rotate_quarter_turn(q[k] as i32, s[k], c[k]));
+        (
+            Vec4::from_array(r.map(|r| r.0)),
+            Vec4::from_array(r.map(|r| r.1)),
+        )
     }
 }
 

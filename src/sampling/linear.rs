@@ -44,6 +44,8 @@ pub fn linear_pdf(a: f32, b: f32, x: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::Sampler;
+    use crate::stats::{chi2_test, sidak};
 
     /// The lanes give the scalar bits, zero and tiny endpoints included.
     #[test]
@@ -75,8 +77,6 @@ mod tests {
             }
         }
     }
-    use crate::sampling::Sampler;
-    use crate::stats::{chi2_test, sidak};
 
     /// Expected counts of `bins` equal bins, integrating the linear pdf
     /// exactly (trapezoids).

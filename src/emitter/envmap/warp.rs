@@ -230,32 +230,28 @@ impl EnvWarp {
     #[inline]
     pub fn place_lanes(&self, picks: &[CellPick; 4]) -> (CellLanes, CornerLanes) {
         debug_assert!(self.bilinear);
-        let c = picks.map(|p| self.corners(p.col, p.band));
-        let corners = CornerLanes {
-            v00: Vec4::from_array(c.map(|c| c.0)),
-            v10: Vec4::from_array(c.map(|c| c.1)),
-            v01: Vec4::from_array(c.map(|c| c.2)),
-            v11: Vec4::from_array(c.map(|c| c.3)),
-        };
+        let (col, band) = (picks.map(|p| p.col), picks.map(|p| p.band));
+        let corners = self.corners_of(&col, &band);
         let CornerLanes { v00, v10, v01, v11 } = corners;
         let fx = sample_linear_lanes(v00 + v01, v10 + v11, Vec4::from_array(picks.map(|p| p.ux)));
         let top = v00 + (v10 - v00) * fx;
         let bottom = v01 + (v11 - v01) * fx;
         let fy = sample_linear_lanes(top, bottom, Vec4::from_array(picks.map(|p| p.uy)));
-        let cells = CellLanes {
-            col: picks.map(|p| p.col),
-            band: picks.map(|p| p.band),
-            fx,
-            fy,
-        };
+        let cells = CellLanes { col, band, fx, fy };
         (cells, corners)
     }
 
-    /// The corner values of four cells of a bilinear density.
+    /// The corner values of the cells of four points of a bilinear
+    /// density.
     #[inline]
     pub fn corner_lanes(&self, p: &CellLanes) -> CornerLanes {
-        let c: [(f32, f32, f32, f32); 4] =
-            std::array::from_fn(|k| self.corners(p.col[k], p.band[k]));
+        self.corners_of(&p.col, &p.band)
+    }
+
+    /// The corner values of cells (`col[k]`, `band[k]`), in lanes.
+    #[inline]
+    fn corners_of(&self, col: &[usize; 4], band: &[usize; 4]) -> CornerLanes {
+        let c: [(f32, f32, f32, f32); 4] = std::array::from_fn(|k| self.corners(col[k], band[k]));
         CornerLanes {
             v00: Vec4::from_array(c.map(|c| c.0)),
             v10: Vec4::from_array(c.map(|c| c.1)),
