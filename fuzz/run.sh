@@ -72,7 +72,7 @@ for t in "${TARGETS[@]}"; do
     echo "== fuzz target $t: ${SECONDS_EACH} s"
     log="fuzz/artifacts/$t/log.txt"
     rc=0
-    cargo +nightly fuzz run --sanitizer "$SANITIZER" "$t" "fuzz/corpus/$t" -- \
+    cargo +nightly fuzz run -O --sanitizer "$SANITIZER" "$t" "fuzz/corpus/$t" -- \
         -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 \
         -max_len=65536 -print_final_stats=1 >"$log" 2>&1 || rc=$?
     grep -E '^(stat::number_of_executed_units|stat::peak_rss_mb|==[0-9]+== ERROR|SUMMARY|Test unit written)|panicked' "$log" || true

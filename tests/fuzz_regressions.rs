@@ -80,6 +80,11 @@ fn the_known_attacks_fail_for_the_right_reason() {
         (Target::Png, "png/huge_header.png", "pixels"),
         (Target::Exr, "exr/negative_height_window.exr", "OpenEXR"),
         (Target::Exr, "exr/reversed_x_window.exr", "OpenEXR"),
+        (
+            Target::Exr,
+            "exr/huge_tiles_on_a_small_layer.exr",
+            "more than the 12x9 layer they tile",
+        ),
     ];
     for (target, file, expected) in cases {
         let bytes = std::fs::read(root.join(file)).unwrap();

@@ -86,7 +86,13 @@ fn channel_values(layer: &AnyLayer, index: usize, pixels: usize) -> Result<Vec<f
 /// data window that is empty or larger than the image bound, or channels
 /// that together need more than 16 bytes per pixel of the bound (RGBA in
 /// f32), is an error. The crate allocates all layers' samples at once, so
-/// their sum is bounded.
+/// their sum is bounded. So is each block: the crate reads a block into a
+/// buffer as large as the block's declared byte count, up to the size of
+/// a whole uncompressed block, before it finds the file too short (a
+/// 600-byte file with huge tiles made it take 1.9 GB). A tile may not need
+/// more bytes than its layer's samples or 16 MiB, whichever is more; a
+/// block of scan lines is at most 32 of the layer's rows, so at most 32
+/// times its samples.
 fn check_headers(bytes: &[u8]) -> Result<(), Malformed> {
     let meta = guarded("header", || {
         exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
@@ -103,7 +109,21 @@ fn check_headers(bytes: &[u8]) -> Result<(), Malformed> {
             .iter()
             .map(|c| c.sample_type.bytes_per_sample() as u64)
             .sum();
-        total = total.saturating_add(pixels.saturating_mul(bytes_per_pixel));
+        let layer_bytes = pixels.saturating_mul(bytes_per_pixel);
+        let block_bytes = header.max_block_byte_size() as u64;
+        let tiled = matches!(header.blocks, exr::meta::BlockDescription::Tiles(_));
+        if tiled && block_bytes > layer_bytes.max(MAX_TILE_BYTES_BEYOND_LAYER) {
+            let block = header.max_block_pixel_size();
+            return Err(Malformed::from(format!(
+                "OpenEXR tiles of {}x{} pixels need {block_bytes} bytes, more than \
+                 the {}x{} layer they tile",
+                block.width(),
+                block.height(),
+                size.width(),
+                size.height()
+            )));
+        }
+        total = total.saturating_add(layer_bytes);
         if total > budget {
             return Err(Malformed::from(format!(
                 "OpenEXR layers and channels need more than {budget} bytes of samples \
@@ -116,6 +136,10 @@ fn check_headers(bytes: &[u8]) -> Result<(), Malformed> {
     }
     Ok(())
 }
+
+/// A tile may need this many bytes even when its layer needs fewer (tiles
+/// of up to 1024 x 1024 RGBA f32 on a small image).
+const MAX_TILE_BYTES_BEYOND_LAYER: u64 = 1 << 24;
 
 /// Runs one call into the exr crate: its errors, and any panic of its on
 /// hostile input (caught so it cannot take lente down), become messages.
@@ -130,6 +154,9 @@ fn guarded<T>(part: &str, f: impl FnOnce() -> exr::error::Result<T>) -> Result<T
 }
 
 /// Every layer's channels and attributes, the headers checked first.
+/// Decoded on the calling thread: the crate's parallel decoder runs blocks
+/// on a rayon pool without a panic handler, where a panic of its on a
+/// hostile block aborts the process before [`guarded`] can catch it.
 fn read_layers(
     bytes: &[u8],
 ) -> Result<Image<exr::image::Layers<AnyChannels<FlatSamples>>>, Malformed> {
@@ -141,6 +168,7 @@ fn read_layers(
             .all_channels()
             .all_layers()
             .all_attributes()
+            .non_parallel()
             .from_buffered(Cursor::new(bytes))
     })
 }
@@ -589,12 +617,42 @@ mod tests {
             (&["R", "G", "B", "A"][..], false, Compression::ZIP16, 0.0),
             (&["A", "B", "G", "R", "Z"][..], false, Compression::PIZ, 0.0),
             (&["R", "G", "B"][..], true, Compression::DWAB(None), 0.05),
+            (&["R", "G", "B"][..], true, Compression::PXR24, 1e-3),
+            // Lossy: 6 bits per difference within a 4 x 4 block (7% off
+            // on a small value beside larger ones here).
+            (&["R", "G", "B"][..], true, Compression::B44, 0.15),
+            (&["R", "G", "B"][..], true, Compression::B44A, 0.15),
         ];
         for (names, half, compression, rel) in cases {
             write(&path, vec![layer(&img, names, half, compression)]);
             let what = format!("{names:?} half={half} {compression:?}");
             let (back, _) = load_image(&path).unwrap_or_else(|e| panic!("{what}: {e}"));
             assert_close(&img, &back, rel, &what);
+        }
+    }
+
+    #[test]
+    fn exr_reads_tiles_larger_than_the_image() {
+        // 64 x 64 and 1024 x 1024 tiles of RGBA f32 on a 10 x 7 image: the
+        // tile bound (16 MiB per tile beyond the layer's size) lets both
+        // through; 1025 x 1024 is refused.
+        let dir = tempfile::tempdir().unwrap();
+        let img = test_image(10, 7);
+        let path = dir.path().join("t.exr");
+        for (tile, ok) in [(64, true), (1024, true), (1025, false)] {
+            let mut layer = layer(&img, &["R", "G", "B", "A"], false, Compression::ZIP1);
+            layer.encoding.blocks = exr::prelude::Blocks::Tiles(exr::prelude::Vec2(tile, 1024));
+            write(&path, vec![layer]);
+            match load_image(&path) {
+                Ok((back, _)) => {
+                    assert!(ok, "{tile}: read");
+                    assert_close(&img, &back, 0.0, "tiled");
+                }
+                Err(e) => {
+                    assert!(!ok, "{tile}: {e}");
+                    assert!(e.to_string().contains("tiles of 1025x1024"), "{e}");
+                }
+            }
         }
     }
 
