@@ -175,11 +175,15 @@ impl FilmBlock {
         // fields took, lane by lane.
         let value = value.extend(1.0);
         if let Some((first, wx, wy)) = self.gaussian_window(pos) {
-            // Row by row: one bounds check a row.
+            // Row by row: one bounds check a row, the row's four weights
+            // wy_j wx_i in one multiply (the same products, so the same
+            // bits, as one at a time).
+            let wx = Vec4::from(wx);
             for (j, &wyj) in wy.iter().enumerate() {
                 let start = first + j * self.width;
-                for (cell, &wxi) in self.data[start..start + 4].iter_mut().zip(&wx) {
-                    *cell += (wyj * wxi) * value;
+                let w = (wx * wyj).to_array();
+                for (cell, &wij) in self.data[start..start + 4].iter_mut().zip(&w) {
+                    *cell += wij * value;
                 }
             }
             return;
