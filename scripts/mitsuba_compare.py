@@ -37,8 +37,10 @@ intervals resample the seeds' errors and times together.
 import argparse
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -73,15 +75,18 @@ def build_lente(rev):
     if rev is None:
         subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
         return os.path.join(ROOT, "target", "release", "lente")
-    tree = os.path.join(OUT, "base-tree")
-    if os.path.exists(tree):
-        subprocess.run(["git", "worktree", "remove", "--force", tree], cwd=ROOT)
+    # The worktree lives outside the repository: inside it, cargo would take
+    # today's Cargo.toml for the workspace of an older revision's package
+    # and refuse to build it.
+    work = tempfile.mkdtemp(prefix="lente-base-")
+    tree = os.path.join(work, "tree")
     subprocess.run(["git", "worktree", "add", "--quiet", "--detach", tree, rev], cwd=ROOT, check=True)
     try:
         env = dict(os.environ, CARGO_TARGET_DIR=os.path.join(OUT, "base-target"))
         subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=tree, env=env, check=True)
     finally:
         subprocess.run(["git", "worktree", "remove", "--force", tree], cwd=ROOT)
+        shutil.rmtree(work, ignore_errors=True)
     return os.path.join(OUT, "base-target", "release", "lente")
 
 
