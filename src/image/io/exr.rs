@@ -110,18 +110,23 @@ fn check_headers(bytes: &[u8]) -> Result<(), Malformed> {
             .map(|c| c.sample_type.bytes_per_sample() as u64)
             .sum();
         let layer_bytes = pixels.saturating_mul(bytes_per_pixel);
-        let block_bytes = header.max_block_byte_size() as u64;
-        let tiled = matches!(header.blocks, exr::meta::BlockDescription::Tiles(_));
-        if tiled && block_bytes > layer_bytes.max(MAX_TILE_BYTES_BEYOND_LAYER) {
-            let block = header.max_block_pixel_size();
-            return Err(Malformed::from(format!(
-                "OpenEXR tiles of {}x{} pixels need {block_bytes} bytes, more than \
-                 the {}x{} layer they tile",
-                block.width(),
-                block.height(),
-                size.width(),
-                size.height()
-            )));
+        if let exr::meta::BlockDescription::Tiles(tiles) = header.blocks {
+            // The crate's own product (`max_block_byte_size`), saturating
+            // rather than wrapping for tile sizes near the field's limit.
+            let tile = tiles.tile_size;
+            let tile_bytes = (tile.width() as u64)
+                .saturating_mul(tile.height() as u64)
+                .saturating_mul(bytes_per_pixel);
+            if tile_bytes > layer_bytes.max(MAX_TILE_BYTES_BEYOND_LAYER) {
+                return Err(Malformed::from(format!(
+                    "OpenEXR tiles of {}x{} pixels need {tile_bytes} bytes, more than \
+                     the {}x{} layer they tile",
+                    tile.width(),
+                    tile.height(),
+                    size.width(),
+                    size.height()
+                )));
+            }
         }
         total = total.saturating_add(layer_bytes);
         if total > budget {
