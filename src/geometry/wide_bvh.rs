@@ -172,52 +172,72 @@ unsafe fn slab_test_avx2(node: &WideNode, r: &SlabRay, tmax: f32) -> (u32, [f32;
     (_mm256_movemask_ps(hit) as u32, tnear)
 }
 
-/// The traversal stack: a fixed array (left uninitialised: it is written
-/// before it is read), spilling to the heap only for trees deeper than any
-/// sane scene builds (a level adds at most 7 entries).
-struct Stack {
-    fixed: [MaybeUninit<Entry>; Stack::FIXED],
+/// The traversal stack: a fixed array, left uninitialised (it is written
+/// before it is read). A node visit pops one entry and pushes at most 7,
+/// so a tree of depth `d` never holds more than `7 d` entries: trees that
+/// fit ([`WideBvh::fits_fixed_stack`]) are walked with this stack and no
+/// bounds check; deeper ones, which no sane scene builds, with [`VecStack`].
+struct FixedStack {
+    fixed: [MaybeUninit<Entry>; FixedStack::FIXED],
     len: usize,
-    spill: Vec<Entry>,
 }
 
-impl Stack {
-    const FIXED: usize = 256;
+/// Where a traversal keeps the subtrees it has still to visit.
+trait TraversalStack {
+    fn new() -> Self;
+    fn push(&mut self, e: Entry);
+    fn pop(&mut self) -> Option<Entry>;
+}
 
+impl FixedStack {
+    const FIXED: usize = 256;
+    /// The deepest tree whose traversal fits in `FIXED` entries.
+    const MAX_DEPTH: usize = FixedStack::FIXED / 7;
+}
+
+impl TraversalStack for FixedStack {
     #[inline(always)]
-    fn new() -> Stack {
-        Stack {
-            fixed: [const { MaybeUninit::uninit() }; Stack::FIXED],
+    fn new() -> FixedStack {
+        FixedStack {
+            fixed: [const { MaybeUninit::uninit() }; FixedStack::FIXED],
             len: 0,
-            spill: Vec::new(),
         }
     }
 
     #[inline(always)]
     fn push(&mut self, e: Entry) {
-        if self.len < Stack::FIXED {
-            self.fixed[self.len].write(e);
-            self.len += 1;
-        } else {
-            self.spill.push(e);
-        }
+        debug_assert!(self.len < FixedStack::FIXED);
+        // SAFETY: only trees of depth <= MAX_DEPTH are walked with this
+        // stack, and their walks hold at most 7 * MAX_DEPTH < FIXED entries.
+        unsafe { self.fixed.get_unchecked_mut(self.len).write(e) };
+        self.len += 1;
     }
 
     #[inline(always)]
     fn pop(&mut self) -> Option<Entry> {
-        // The spill holds entries only while the fixed array is full (push
-        // spills only then, and pop drains the spill first).
-        if self.len == Stack::FIXED {
-            if let Some(e) = self.spill.pop() {
-                return Some(e);
-            }
-        }
         if self.len == 0 {
             return None;
         }
         self.len -= 1;
         // SAFETY: entries below `len` were written by `push`.
-        Some(unsafe { self.fixed[self.len].assume_init() })
+        Some(unsafe { self.fixed.get_unchecked(self.len).assume_init() })
+    }
+}
+
+/// The stack of walks through trees too deep for [`FixedStack`].
+struct VecStack(Vec<Entry>);
+
+impl TraversalStack for VecStack {
+    fn new() -> VecStack {
+        VecStack(Vec::new())
+    }
+
+    fn push(&mut self, e: Entry) {
+        self.0.push(e);
+    }
+
+    fn pop(&mut self) -> Option<Entry> {
+        self.0.pop()
     }
 }
 
@@ -225,8 +245,8 @@ impl Stack {
 /// or several (all but the nearest pushed, farthest first, so they pop
 /// nearest first; the nearest returned).
 #[inline(always)]
-fn push_nearest_last(
-    stack: &mut Stack,
+fn push_nearest_last<S: TraversalStack>(
+    stack: &mut S,
     node: &WideNode,
     mut mask: u32,
     tnear: &[f32; 8],
@@ -269,6 +289,8 @@ fn push_nearest_last(
 /// `primitive_indices`, which the caller lays its primitives out in).
 pub struct WideBvh {
     nodes: Vec<WideNode>,
+    /// Whether the tree is shallow enough for [`FixedStack`].
+    fixed_stack: bool,
 }
 
 /// The root node (stored first), where every traversal starts.
@@ -327,7 +349,12 @@ impl WideBvh {
             }
             node_box[ni as usize] = total;
         }
-        WideBvh { nodes }
+        let mut bvh = WideBvh {
+            nodes,
+            fixed_stack: false,
+        };
+        bvh.fixed_stack = bvh.depth() <= FixedStack::MAX_DEPTH;
+        bvh
     }
 
     /// The number of nodes on the longest path from the root to a leaf
@@ -357,22 +384,27 @@ impl WideBvh {
     /// distance of a hit closer than `tmax`. True if anything was hit.
     #[inline]
     pub fn closest<F: FnMut(usize, f32) -> Option<f32>>(&self, ray: &Ray, hit: F) -> bool {
+        if !self.fixed_stack {
+            return self.closest_with::<Portable, VecStack, F>(ray, hit);
+        }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2.
             return unsafe { self.closest_avx2(ray, hit) };
         }
-        self.closest_with::<Portable, F>(ray, hit)
+        self.closest_with::<Portable, FixedStack, F>(ray, hit)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn closest_avx2<F: FnMut(usize, f32) -> Option<f32>>(&self, ray: &Ray, hit: F) -> bool {
-        self.closest_with::<Avx2, F>(ray, hit)
+        self.closest_with::<Avx2, FixedStack, F>(ray, hit)
     }
 
+    /// The closest-hit walk with node test `T` and stack `S` (a
+    /// [`FixedStack`] only for trees that fit it).
     #[inline(always)]
-    fn closest_with<T: NodeTest, F: FnMut(usize, f32) -> Option<f32>>(
+    fn closest_with<T: NodeTest, S: TraversalStack, F: FnMut(usize, f32) -> Option<f32>>(
         &self,
         ray: &Ray,
         mut hit: F,
@@ -383,7 +415,7 @@ impl WideBvh {
         let r = SlabRay::new(ray);
         let mut tmax = ray.tmax;
         let mut found = false;
-        let mut stack = Stack::new();
+        let mut stack = S::new();
         let mut next = Some(ROOT);
         while let Some(e) = next.take().or_else(|| stack.pop()) {
             // The box distances and the primitives' are rounded apart: a
@@ -414,27 +446,35 @@ impl WideBvh {
     /// first, but any hit ends the search).
     #[inline]
     pub fn any<F: FnMut(usize, f32) -> bool>(&self, ray: &Ray, hit: F) -> bool {
+        if !self.fixed_stack {
+            return self.any_with::<Portable, VecStack, F>(ray, hit);
+        }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2.
             return unsafe { self.any_avx2(ray, hit) };
         }
-        self.any_with::<Portable, F>(ray, hit)
+        self.any_with::<Portable, FixedStack, F>(ray, hit)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn any_avx2<F: FnMut(usize, f32) -> bool>(&self, ray: &Ray, hit: F) -> bool {
-        self.any_with::<Avx2, F>(ray, hit)
+        self.any_with::<Avx2, FixedStack, F>(ray, hit)
     }
 
+    /// The any-hit walk with node test `T` and stack `S`.
     #[inline(always)]
-    fn any_with<T: NodeTest, F: FnMut(usize, f32) -> bool>(&self, ray: &Ray, mut hit: F) -> bool {
+    fn any_with<T: NodeTest, S: TraversalStack, F: FnMut(usize, f32) -> bool>(
+        &self,
+        ray: &Ray,
+        mut hit: F,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
         let r = SlabRay::new(ray);
-        let mut stack = Stack::new();
+        let mut stack = S::new();
         let mut next = Some(ROOT);
         // Nearest child first, as for the closest hit: near occluders end
         // the search sooner.
@@ -558,7 +598,7 @@ mod tests {
             let sh = RayShear::new(ray.o, ray.d);
             let tri = |p: usize| PackedTriangle::new(leaf[p][0], leaf[p][1], leaf[p][2]);
             let mut best = None;
-            let found = bvh.closest_with::<T, _>(&ray, |p, tmax| {
+            let found = bvh.closest_with::<T, FixedStack, _>(&ray, |p, tmax| {
                 let t = intersect_triangle(&sh, &tri(p), ray.tmin, tmax).map(|h| h.0);
                 if t.is_some() {
                     best = t;
@@ -568,7 +608,7 @@ mod tests {
             let expect = brute(&tris, &ray);
             assert_eq!(found, expect.is_some());
             assert_eq!(best, expect, "closest hit of {ray:?}");
-            let any = bvh.any_with::<T, _>(&ray, |p, tmax| {
+            let any = bvh.any_with::<T, FixedStack, _>(&ray, |p, tmax| {
                 intersect_triangle(&sh, &tri(p), ray.tmin, tmax).is_some()
             });
             assert_eq!(any, expect.is_some(), "any hit of {ray:?}");
@@ -590,20 +630,83 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_stack_spills_and_stays_last_in_first_out() {
-        let mut s = Stack::new();
-        for i in 0..600 {
+    fn lifo<S: TraversalStack>(n: u32) {
+        let mut s = S::new();
+        for i in 0..n {
             s.push(Entry {
                 t: i as f32,
                 index: i,
                 count: 0,
             });
         }
-        for i in (0..600).rev() {
+        for i in (0..n).rev() {
             assert_eq!(s.pop().map(|e| e.index), Some(i));
         }
         assert!(s.pop().is_none());
+    }
+
+    #[test]
+    fn the_stacks_stay_last_in_first_out() {
+        lifo::<FixedStack>(FixedStack::FIXED as u32);
+        lifo::<VecStack>(600);
+    }
+
+    /// A chain of `levels` nodes, each with seven one-primitive leaves and
+    /// the next node as children, all boxes the unit cube.
+    fn chain(levels: u32) -> WideBvh {
+        let unit = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
+        let mut nodes = Vec::new();
+        for level in 0..levels {
+            let mut n = WideNode::EMPTY;
+            for slot in 0..7 {
+                n.set_box(slot, unit);
+                n.child[slot] = level * 7 + slot as u32;
+                n.count[slot] = 1;
+            }
+            if level + 1 < levels {
+                n.set_box(7, unit);
+                n.child[7] = level + 1;
+            }
+            nodes.push(n);
+        }
+        let mut bvh = WideBvh {
+            nodes,
+            fixed_stack: false,
+        };
+        bvh.fixed_stack = bvh.depth() <= FixedStack::MAX_DEPTH;
+        bvh
+    }
+
+    /// A tree too deep for the fixed stack is walked with the growing one,
+    /// and every leaf is still visited (the fixed stack would overflow:
+    /// 7 entries a level over 60 levels); a tree at the fixed stack's depth
+    /// limit fills it without overflowing.
+    #[test]
+    fn deep_trees_take_the_growing_stack() {
+        let ray = Ray::with_range(Vec3::splat(0.5) - Vec3::Z, Vec3::Z, 0.0, f32::INFINITY);
+        for (levels, fixed) in [(60, false), (FixedStack::MAX_DEPTH as u32, true)] {
+            let bvh = chain(levels);
+            assert_eq!(bvh.depth(), levels as usize);
+            assert_eq!(bvh.fixed_stack, fixed);
+            let mut seen = vec![false; levels as usize * 7];
+            assert!(!bvh.closest(&ray, |p, _| {
+                seen[p] = true;
+                None
+            }));
+            assert!(
+                seen.iter().all(|&s| s),
+                "{levels} levels: a leaf was skipped"
+            );
+            let mut visits = 0;
+            assert!(!bvh.any(&ray, |_, _| {
+                visits += 1;
+                false
+            }));
+            assert_eq!(visits, levels as usize * 7);
+        }
     }
 
     #[test]
@@ -634,7 +737,10 @@ mod tests {
             None
         });
         assert!(visited <= 1);
-        let empty = WideBvh { nodes: Vec::new() };
+        let empty = WideBvh {
+            nodes: Vec::new(),
+            fixed_stack: true,
+        };
         assert!(!empty.closest(&ray, |_, _| Some(1.0)));
         assert!(!empty.any(&ray, |_, _| true));
     }
