@@ -264,6 +264,19 @@ fn push_nearest_last<S: TraversalStack>(
     if mask == 0 {
         return Some(entry(first));
     }
+    if mask & (mask - 1) == 0 {
+        // Two children, the most common case after one: the insertion
+        // below in one comparison (on a tie the later slot goes first, as
+        // there).
+        let (a, b) = (entry(first), entry(mask.trailing_zeros() as usize));
+        return Some(if a.t < b.t {
+            stack.push(b);
+            a
+        } else {
+            stack.push(a);
+            b
+        });
+    }
     let mut hits = [entry(first); 8];
     let mut n = 1;
     while mask != 0 {
