@@ -113,7 +113,6 @@ impl Scene {
             if s.area_radiance.is_some() && matches!(s.geometry, Geometry::Curve(_)) {
                 return Err(BuildError::CurveEmitter(i));
             }
-            geometry.push(s.geometry);
             check_medium(s.media.interior)?;
             check_medium(s.media.exterior)?;
             shape_media.push(s.media);
@@ -124,13 +123,15 @@ impl Scene {
                         Some(t) => AreaLight::textured(i as u32, t),
                         None => AreaLight::new(i as u32, radiance),
                     }
-                    .map_err(|e| BuildError::AreaLight(i, e))?;
+                    .map_err(|e| BuildError::AreaLight(i, e))?
+                    .with_triangles(&s.geometry);
                     emitters.push(Emitter::Area(light));
                     Some((emitters.len() - 1) as u32)
                 }
                 None => None,
             };
             shape_emitter.push(emitter);
+            geometry.push(s.geometry);
         }
         emitters.extend(desc.emitters);
         let bvh = Bvh::build_instanced(&geometry, top, &group_ranges, desc.instances);

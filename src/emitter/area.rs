@@ -6,6 +6,9 @@
 //! sample its area. The radiance may be a texture read at the point's uv
 //! (it is not importance-sampled: the density is the geometry's).
 
+use std::borrow::Cow;
+
+use super::light_triangle::LightTriangle;
 use super::{EmitterContext, EmitterError, LightHit, LightSample};
 use crate::color::{luminance, Rgb};
 use crate::geometry::{Geometry, SurfaceSample, TriangleMesh};
@@ -13,27 +16,22 @@ use crate::math::{Vec2, Vec3, PI};
 use crate::sampling::spherical_triangle::{self, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
 use crate::texture::{SurfacePoint, Texture};
 
-/// The solid angle triangle `tri` of `m` subtends from `p_ref` and the
-/// unit directions to its vertices, if it is sampled by solid angle from
-/// there (see [`spherical_triangle::MIN_SOLID_ANGLE`]).
-fn spherical(m: &TriangleMesh, tri: usize, p_ref: Vec3) -> Option<([Vec3; 3], f32)> {
-    let verts = m.vertices(tri);
+/// The solid angle triangle `t` subtends from `p_ref` and the unit
+/// directions to its vertices, if it is sampled by solid angle from there
+/// (see [`spherical_triangle::MIN_SOLID_ANGLE`]).
+fn spherical(t: &LightTriangle, p_ref: Vec3) -> Option<([Vec3; 3], f32)> {
     // Cheap first: where the projected area over the cubed centroid
     // distance is far below the threshold, area sampling without any
     // trigonometry. (It underestimates for points close to the plane near
     // a vertex; those are then sampled by area: more variance, no bias,
     // since sample and pdf decide alike.)
-    let to_c = (verts[0] + verts[1] + verts[2]) / 3.0 - p_ref;
+    let to_c = t.centroid - p_ref;
     let d2 = to_c.length_squared();
-    let projected = 0.5
-        * (verts[1] - verts[0])
-            .cross(verts[2] - verts[0])
-            .dot(to_c)
-            .abs();
+    let projected = 0.5 * t.cross.dot(to_c).abs();
     if projected < 0.25 * MIN_SOLID_ANGLE * d2 * d2.sqrt() {
         return None;
     }
-    let dirs = verts.map(|v| (v - p_ref).normalize_or_zero());
+    let dirs = t.v.map(|v| (v - p_ref).normalize_or_zero());
     let omega = spherical_triangle::solid_angle(dirs[0], dirs[1], dirs[2]);
     ((MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&omega)).then_some((dirs, omega))
 }
@@ -47,6 +45,9 @@ pub struct AreaLight {
     /// Radiance varying over the surface, read at the point's uv (Mitsuba's
     /// `radiance` texture).
     pub texture: Option<Texture>,
+    /// Its mesh's triangles as light samples read them
+    /// ([`AreaLight::with_triangles`]; empty: computed at each sample).
+    triangles: Box<[LightTriangle]>,
 }
 
 impl AreaLight {
@@ -56,6 +57,7 @@ impl AreaLight {
             shape,
             radiance: super::radiance(radiance)?,
             texture: None,
+            triangles: Box::default(),
         })
     }
 
@@ -65,7 +67,27 @@ impl AreaLight {
             shape,
             radiance: super::radiance(texture.mean())?,
             texture: Some(texture),
+            triangles: Box::default(),
         })
+    }
+
+    /// The light with its shape's triangles tabulated for light sampling,
+    /// when the shape is a mesh (the scene's lights are built so; samples
+    /// and densities are the same bits either way, only faster).
+    pub fn with_triangles(mut self, shape: &Geometry) -> AreaLight {
+        if let Geometry::Mesh(m) = shape {
+            self.triangles = LightTriangle::table(m);
+        }
+        self
+    }
+
+    /// Triangle `tri` of the light's mesh `m`, from the table or computed.
+    #[inline]
+    fn triangle(&self, m: &TriangleMesh, tri: usize) -> Cow<'_, LightTriangle> {
+        match self.triangles.get(tri) {
+            Some(t) => Cow::Borrowed(t),
+            None => Cow::Owned(LightTriangle::of(m, tri)),
+        }
     }
 
     /// The radiance leaving the front side at a surface point.
@@ -113,11 +135,12 @@ impl AreaLight {
         let s = match &ctx.shapes[self.shape as usize] {
             Geometry::Mesh(m) => {
                 let (tri, p_tri) = m.choose_triangle(u1);
-                if let Some((dirs, omega)) = spherical(m, tri, p_ref) {
-                    return self.sample_spherical(ctx, m, tri, p_ref, dirs, p_tri / omega, u);
+                let t = self.triangle(m, tri);
+                if let Some((dirs, omega)) = spherical(&t, p_ref) {
+                    return self.sample_spherical(ctx, m, (tri, &t), p_ref, dirs, p_tri / omega, u);
                 }
                 let b = crate::sampling::warp::square_to_uniform_triangle(u);
-                m.surface_point(tri, b.x, b.y)
+                t.surface_point(m, tri, b.x, b.y)
             }
             Geometry::Sphere(sp) => match sp.visible_cone(p_ref) {
                 // Outside the sphere: sample the cone it subtends.
@@ -176,7 +199,7 @@ impl AreaLight {
         &self,
         ctx: &EmitterContext,
         m: &TriangleMesh,
-        tri: usize,
+        (tri, t): (usize, &LightTriangle),
         p_ref: Vec3,
         dirs: [Vec3; 3],
         pdf: f32,
@@ -184,7 +207,7 @@ impl AreaLight {
     ) -> Option<LightSample> {
         let d = spherical_triangle::sample(dirs[0], dirs[1], dirs[2], u)?;
         let (b1, b2) = m.barycentrics_along(tri, p_ref, d)?;
-        let s = m.surface_point(tri, b1, b2);
+        let s = t.surface_point(m, tri, b1, b2);
         let to = s.p - p_ref;
         let dist = to.length();
         // The emitting side faces p_ref, or nothing arrives.
@@ -208,7 +231,7 @@ impl AreaLight {
             Geometry::Mesh(m) => {
                 let tri = at.prim as usize;
                 if tri < m.triangle_count() {
-                    if let Some((_, omega)) = spherical(m, tri, p_ref) {
+                    if let Some((_, omega)) = spherical(&self.triangle(m, tri), p_ref) {
                         return if cos_l > 0.0 {
                             m.triangle_probability(tri) / omega
                         } else {
@@ -304,6 +327,55 @@ mod tests {
             k += 2 * (n - ii) - 1;
         }
         k + 2 * j + usize::from(upper)
+    }
+
+    /// A light with its triangles tabulated (as the scene builds it) takes
+    /// the same samples, bit for bit, with the same densities as one that
+    /// computes them from the mesh, for flat and smoothly shaded meshes,
+    /// by solid angle (near) and by area (far).
+    #[test]
+    fn tabulated_triangles_sample_the_same() {
+        let mut smooth = light_mesh();
+        smooth.compute_vertex_normals();
+        let mut s = crate::sampling::Sampler::for_pixel_sample(11, 0, 0, 0);
+        let mut spherical_seen = 0;
+        for mesh in [light_mesh(), smooth] {
+            let shapes = [Geometry::Mesh(mesh)];
+            let ctx = EmitterContext {
+                shapes: &shapes,
+                scene_radius: 10.0,
+            };
+            let plain = AreaLight::new(0, Rgb::ONE).unwrap();
+            let tabulated = plain.clone().with_triangles(&shapes[0]);
+            assert!(!tabulated.triangles.is_empty() && plain.triangles.is_empty());
+            for i in 0..4000 {
+                let scale = if i % 2 == 0 { 1.0 } else { 30.0 };
+                let p_ref = (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
+                let (u, u1) = (Vec2::new(s.next_1d(), s.next_1d()), s.next_1d());
+                let a = plain.sample(&ctx, p_ref, u, u1);
+                let b = tabulated.sample(&ctx, p_ref, u, u1);
+                assert_eq!(format!("{a:?}"), format!("{b:?}"), "from {p_ref}");
+                if let Some(ls) = a {
+                    let Geometry::Mesh(m) = &shapes[0] else {
+                        unreachable!()
+                    };
+                    let tri = m.choose_triangle(u1).0;
+                    spherical_seen +=
+                        usize::from(spherical(&LightTriangle::of(m, tri), p_ref).is_some());
+                    let at = LightHit {
+                        p: ls.p,
+                        n: ls.n,
+                        prim: tri as u32,
+                    };
+                    let (pa, pb) = (
+                        plain.pdf(&ctx, p_ref, ls.wi, &at),
+                        tabulated.pdf(&ctx, p_ref, ls.wi, &at),
+                    );
+                    assert_eq!(pa.to_bits(), pb.to_bits());
+                }
+            }
+        }
+        assert!(spherical_seen > 500, "{spherical_seen} solid-angle samples");
     }
 
     /// Samples land on the light with the density `pdf` reports for their

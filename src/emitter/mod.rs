@@ -7,6 +7,7 @@ mod directional;
 mod envmap;
 mod light_choice;
 mod light_lanes;
+mod light_triangle;
 mod point;
 mod projector;
 pub mod sky;
