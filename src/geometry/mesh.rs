@@ -368,8 +368,7 @@ impl TriangleMesh {
 
     /// A triangle chosen in proportion to its area, and the probability.
     pub fn choose_triangle(&self, u: f32) -> (usize, f32) {
-        let (tri, p, _) = self.area_distribution.sample_discrete(u);
-        (tri, p)
+        self.area_distribution.sample_index(u)
     }
 
     /// Probability that [`TriangleMesh::choose_triangle`] picks `tri`.

@@ -80,6 +80,18 @@ impl Distribution1D {
         }
     }
 
+    /// Picks a cell; returns (index, probability): the choice of
+    /// [`Distribution1D::sample_discrete`] without the rescaled number
+    /// (a division), for callers that do not reuse it.
+    #[inline]
+    pub fn sample_index(&self, u: f32) -> (usize, f32) {
+        if self.func.len() == 1 {
+            return (0, 1.0);
+        }
+        let i = self.find(u);
+        (i, self.discrete_pdf(i))
+    }
+
     /// Picks a cell; returns (index, probability, u rescaled to [0,1) within the cell).
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
         if self.func.len() == 1 {
@@ -87,8 +99,7 @@ impl Distribution1D {
             // case computes, without the search.
             return (0, 1.0, u.clamp(0.0, 1.0 - f32::EPSILON));
         }
-        let i = self.find(u);
-        let p = self.discrete_pdf(i);
+        let (i, p) = self.sample_index(u);
         let du = if p > 0.0 {
             ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
         } else {
