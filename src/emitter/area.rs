@@ -36,6 +36,11 @@ fn spherical(t: &LightTriangle, p_ref: Vec3) -> Option<([Vec3; 3], f32)> {
     ((MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&omega)).then_some((dirs, omega))
 }
 
+/// The largest emitting mesh whose triangles an area light tabulates
+/// (76 bytes each: at most 80 MB); larger ones are sampled from the mesh,
+/// with the same results, rather than doubling their memory.
+pub const MAX_TABULATED_TRIANGLES: usize = 1 << 20;
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct AreaLight {
     /// Index of the shape in the scene.
@@ -72,11 +77,15 @@ impl AreaLight {
     }
 
     /// The light with its shape's triangles tabulated for light sampling,
-    /// when the shape is a mesh (the scene's lights are built so; samples
-    /// and densities are the same bits either way, only faster).
+    /// when the shape is a mesh of at most [`MAX_TABULATED_TRIANGLES`]
+    /// (the scene's lights are built so; samples and densities are the
+    /// same bits either way, only faster).
     pub fn with_triangles(mut self, shape: &Geometry) -> AreaLight {
-        if let Geometry::Mesh(m) = shape {
-            self.triangles = LightTriangle::table(m);
+        match shape {
+            Geometry::Mesh(m) if m.triangle_count() <= MAX_TABULATED_TRIANGLES => {
+                self.triangles = LightTriangle::table(m);
+            }
+            _ => {}
         }
         self
     }
@@ -327,6 +336,22 @@ mod tests {
             k += 2 * (n - ii) - 1;
         }
         k + 2 * j + usize::from(upper)
+    }
+
+    /// Meshes beyond the table's limit are left to the per-sample path
+    /// (whose results the test below checks are the same), and a table
+    /// entry is the 76 bytes the limit's memory bound assumes.
+    #[test]
+    fn only_meshes_up_to_the_limit_are_tabulated() {
+        assert_eq!(std::mem::size_of::<LightTriangle>(), 76);
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        for (n, tabulated) in [(3, true), (MAX_TABULATED_TRIANGLES + 1, false)] {
+            let mesh = TriangleMesh::new(p.clone(), vec![], vec![], vec![[0, 1, 2]; n]).unwrap();
+            let light = AreaLight::new(0, Rgb::ONE)
+                .unwrap()
+                .with_triangles(&Geometry::Mesh(mesh));
+            assert_eq!(light.triangles.len(), if tabulated { n } else { 0 });
+        }
     }
 
     /// A light with its triangles tabulated (as the scene builds it) takes
