@@ -175,8 +175,9 @@ unsafe fn slab_test_avx2(node: &WideNode, r: &SlabRay, tmax: f32) -> (u32, [f32;
 /// The traversal stack: a fixed array, left uninitialised (it is written
 /// before it is read). A node visit pops one entry and pushes at most 7,
 /// so a tree of depth `d` never holds more than `7 d` entries: trees that
-/// fit ([`WideBvh::fits_fixed_stack`]) are walked with this stack and no
-/// bounds check; deeper ones, which no sane scene builds, with [`VecStack`].
+/// fit (`WideBvh::fixed_stack`, set by [`WideBvh::from_nodes`]) are walked
+/// with this stack and no bounds check; deeper ones, which no sane scene
+/// builds, with [`VecStack`].
 struct FixedStack {
     fixed: [MaybeUninit<Entry>; FixedStack::FIXED],
     len: usize,
@@ -362,6 +363,12 @@ impl WideBvh {
             }
             node_box[ni as usize] = total;
         }
+        WideBvh::from_nodes(nodes)
+    }
+
+    /// The tree of `nodes` (the root first), with the stack its walks
+    /// take chosen by its depth.
+    fn from_nodes(nodes: Vec<WideNode>) -> WideBvh {
         let mut bvh = WideBvh {
             nodes,
             fixed_stack: false,
@@ -685,12 +692,7 @@ mod tests {
             }
             nodes.push(n);
         }
-        let mut bvh = WideBvh {
-            nodes,
-            fixed_stack: false,
-        };
-        bvh.fixed_stack = bvh.depth() <= FixedStack::MAX_DEPTH;
-        bvh
+        WideBvh::from_nodes(nodes)
     }
 
     /// A tree too deep for the fixed stack is walked with the growing one,
@@ -750,10 +752,7 @@ mod tests {
             None
         });
         assert!(visited <= 1);
-        let empty = WideBvh {
-            nodes: Vec::new(),
-            fixed_stack: true,
-        };
+        let empty = WideBvh::from_nodes(Vec::new());
         assert!(!empty.closest(&ray, |_, _| Some(1.0)));
         assert!(!empty.any(&ray, |_, _| true));
     }
