@@ -19,52 +19,60 @@ pub struct LightTriangle {
     pub centroid: Vec3,
     /// The normal of the emitting side at every point of the triangle,
     /// where it does not depend on the point: `None` where the vertex
-    /// normals do not all lie clearly on one side of the geometric normal
-    /// (the side is then found per point, by the mesh).
+    /// normals do not all lie clearly on one side of the geometric normal,
+    /// and outside a table (the side is then found per point, by the mesh).
     front: Option<Vec3>,
 }
 
 impl LightTriangle {
-    /// Triangle `tri` of `m`.
+    /// Triangle `tri` of `m`, its emitting side left to the mesh to find
+    /// per point (what a light sample of an untabulated mesh computes: no
+    /// more than it gathered before the table).
     pub fn of(m: &TriangleMesh, tri: usize) -> LightTriangle {
         let v = m.vertices(tri);
-        let cross = (v[1] - v[0]).cross(v[2] - v[0]);
-        // The mesh's geometric normal, the same expression.
-        let ng = cross.normalize_or_zero();
-        let front = if m.normals().is_empty() || ng == Vec3::ZERO {
-            // `surface_point` keeps ng then (its side test reads 0 or |ng|^2).
-            Some(ng)
-        } else {
-            let normals = m.indices()[tri].map(|i| m.normals()[i as usize]);
-            // Normals of about unit length, each at least 0.01 onto one side
-            // of ng: their interpolation at any barycentrics in the triangle
-            // has a dot product with ng of at least 0.009 (rounding moves it
-            // by ~1e-6), so its sign, which the mesh tests, is known.
-            let on_side = |s: f32| {
-                normals
-                    .iter()
-                    .all(|n| (0.81..=1.21).contains(&n.length_squared()) && s * n.dot(ng) >= 0.01)
-            };
-            if on_side(1.0) {
-                Some(ng)
-            } else if on_side(-1.0) {
-                Some(-ng)
-            } else {
-                None
-            }
-        };
         LightTriangle {
             v,
-            cross,
+            cross: (v[1] - v[0]).cross(v[2] - v[0]),
             centroid: (v[0] + v[1] + v[2]) / 3.0,
-            front,
+            front: None,
         }
     }
 
-    /// Every triangle of `m`, in order.
+    /// The normal of triangle `tri`'s emitting side, where every point of
+    /// it has the same one.
+    fn known_side(m: &TriangleMesh, tri: usize) -> Option<Vec3> {
+        let ng = m.geometric_normal(tri);
+        if m.normals().is_empty() || ng == Vec3::ZERO {
+            // `surface_point` keeps ng then (its side test reads 0 or |ng|^2).
+            return Some(ng);
+        }
+        let normals = m.indices()[tri].map(|i| m.normals()[i as usize]);
+        // Normals of about unit length, each at least 0.01 onto one side
+        // of ng: their interpolation at any barycentrics in the triangle
+        // has a dot product with ng of at least 0.009 (rounding moves it
+        // by ~1e-6), so its sign, which the mesh tests, is known.
+        let on_side = |s: f32| {
+            normals
+                .iter()
+                .all(|n| (0.81..=1.21).contains(&n.length_squared()) && s * n.dot(ng) >= 0.01)
+        };
+        if on_side(1.0) {
+            Some(ng)
+        } else if on_side(-1.0) {
+            Some(-ng)
+        } else {
+            None
+        }
+    }
+
+    /// Every triangle of `m`, in order, with its emitting side where it is
+    /// known.
     pub fn table(m: &TriangleMesh) -> Box<[LightTriangle]> {
         (0..m.triangle_count())
-            .map(|tri| LightTriangle::of(m, tri))
+            .map(|tri| LightTriangle {
+                front: LightTriangle::known_side(m, tri),
+                ..LightTriangle::of(m, tri)
+            })
             .collect()
     }
 
@@ -75,11 +83,10 @@ impl LightTriangle {
         let Some(n) = self.front else {
             return m.surface_point(tri, b1, b2);
         };
-        let [a, b, c] = self.v;
-        let b0 = 1.0 - b1 - b2;
+        let (p, err) = TriangleMesh::barycentric_point(self.v, b1, b2);
         SurfaceSample {
-            p: a * b0 + b * b1 + c * b2,
-            err: crate::math::barycentric_error(b0, b1, b2, a, b, c),
+            p,
+            err,
             n,
             pdf_area: 1.0 / m.area(),
             prim: tri as u32,

@@ -253,6 +253,19 @@ impl TriangleMesh {
         }
     }
 
+    /// The point at barycentrics (b1, b2) of the triangle with vertices `v`
+    /// and its rounding-error bound: how every point on a mesh (hits, light
+    /// samples) is computed.
+    #[inline]
+    pub fn barycentric_point(v: [Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
+        let [a, b, c] = v;
+        let b0 = 1.0 - b1 - b2;
+        (
+            a * b0 + b * b1 + c * b2,
+            crate::math::barycentric_error(b0, b1, b2, a, b, c),
+        )
+    }
+
     /// Unit geometric normal of a triangle from its winding.
     pub fn geometric_normal(&self, tri: usize) -> Vec3 {
         let [a, b, c] = self.vertices(tri);
@@ -351,11 +364,11 @@ impl TriangleMesh {
         let ng = e1.cross(e2).normalize_or_zero();
         let (ns, uv) = self.shading_with(tri, ng, hit.b1, hit.b2);
         // Recompute the point from barycentrics: more precise than o + t d.
-        let b0 = 1.0 - hit.b1 - hit.b2;
+        let (p, err) = TriangleMesh::barycentric_point([a, b, c], hit.b1, hit.b2);
         Intersection {
             t: hit.t,
-            p: a * b0 + b * hit.b1 + c * hit.b2,
-            err: crate::math::barycentric_error(b0, hit.b1, hit.b2, a, b, c),
+            p,
+            err,
             ng,
             shading: Frame::from_normal_tangent(ns, self.dpdu_with(tri, e1, e2)),
             uv,
@@ -379,10 +392,7 @@ impl TriangleMesh {
     /// The point at barycentrics (b1, b2) of triangle `tri` as an emitter
     /// sees it (area density of uniform sampling over the whole mesh).
     pub fn surface_point(&self, tri: usize, b1: f32, b2: f32) -> SurfaceSample {
-        let [a, bb, c] = self.vertices(tri);
-        let b0 = 1.0 - b1 - b2;
-        let p = a * b0 + bb * b1 + c * b2;
-        let err = crate::math::barycentric_error(b0, b1, b2, a, bb, c);
+        let (p, err) = TriangleMesh::barycentric_point(self.vertices(tri), b1, b2);
         let ng = self.geometric_normal(tri);
         // Emission is defined on the geometric side the shading normal
         // agrees with (ng computed once, no uv: this runs for every light
