@@ -243,6 +243,43 @@ impl Scene {
         true
     }
 
+    /// Whether [`Scene::intersect_packet_into`] traces its rays together
+    /// (a small scene on a CPU with AVX2: [`Bvh::walks_packets`]).
+    pub fn walks_packets(&self) -> bool {
+        self.bvh.walks_packets()
+    }
+
+    /// [`Scene::intersect_into`] of each of `rays` (at most
+    /// [`crate::geometry::PACKET_LANES`]): `found[k]` says whether ray `k`
+    /// meets a surface, and the surfaces met are written to `out` in the
+    /// rays' order; returns how many. The rays are traced by one walk of
+    /// the packet where [`Scene::walks_packets`] (ties of two surfaces at
+    /// exactly one distance aside, the same surfaces).
+    #[inline]
+    pub fn intersect_packet_into(
+        &self,
+        rays: &[Ray],
+        found: &mut [bool],
+        out: &mut [Intersection],
+    ) -> usize {
+        let mut hits = [None; crate::geometry::PACKET_LANES];
+        self.bvh.intersect_packet(rays, &mut hits);
+        let mut n = 0;
+        for (k, (hit, f)) in hits
+            .iter()
+            .zip(found.iter_mut())
+            .enumerate()
+            .take(rays.len())
+        {
+            *f = hit.is_some();
+            if let Some(hit) = hit {
+                out[n] = hit_intersection(&self.bvh, &self.geometry, &rays[k], hit);
+                n += 1;
+            }
+        }
+        n
+    }
+
     /// True if something blocks the segment between two points, each moved
     /// off its surface by [`crate::math::offset_ray_origin`] beforehand.
     pub fn occluded_segment(&self, from: Vec3, to: Vec3) -> bool {

@@ -484,6 +484,182 @@ impl Bvh {
     }
 }
 
+/// Trees of at most this many primitives are walked by packets of rays
+/// ([`Bvh::intersect_packet`]): there, eight unrelated rays visit mostly
+/// the same nodes and leaves, so testing them together costs less than
+/// eight walks. Measured in instructions (callgrind, the speed suite): a
+/// cube on a ground (13 primitives) -11% for the whole render, the
+/// Cornell box (31) -5%, a mirror sphere on a stand (770) -2%; the
+/// 102,401-triangle blob +37%.
+pub const PACKET_MAX_PRIMITIVES: usize = 1024;
+
+/// Rays in a packet: AVX2's eight lanes.
+pub const PACKET_LANES: usize = 8;
+
+impl Bvh {
+    /// Whether [`Bvh::intersect_packet`] walks rays together here: a small
+    /// tree and a CPU with AVX2.
+    pub fn walks_packets(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.prims.len() <= PACKET_MAX_PRIMITIVES
+                && self.bvh.as_ref().is_some_and(WideBvh::packet_walkable)
+                && std::arch::is_x86_feature_detected!("avx2")
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// [`Bvh::intersect`] of each of `rays` (at most
+    /// [`super::packet::LANES`]) into `hits`: the same hits, found by one
+    /// walk of the packet where [`Bvh::walks_packets`] (on ties, two
+    /// primitives at exactly the same distance, the packet may keep the
+    /// other one), by one walk per ray elsewhere.
+    pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
+        #[cfg(target_arch = "x86_64")]
+        if rays.len() > 1 && self.walks_packets() {
+            // SAFETY: the CPU supports AVX2 (`walks_packets`).
+            unsafe { self.intersect_packet_avx2(rays, hits) };
+            return;
+        }
+        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+            *hit = self.intersect(ray);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn intersect_packet_avx2(&self, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
+        use super::packet::{mask_of, to_array, RayPacket, LANES};
+        use super::triangle::intersect_triangle_lanes;
+        use std::arch::x86_64::*;
+        let Some(bvh) = self.bvh.as_ref() else {
+            hits.iter_mut().for_each(|h| *h = None);
+            return;
+        };
+        let p = RayPacket::new(rays);
+        // SAFETY: the packet's rows are aligned.
+        let mut tmax = unsafe { super::packet::load(&p.tmax) };
+        let (mut b1, mut b2) = (_mm256_setzero_ps(), _mm256_setzero_ps());
+        // The primitive each lane hit (-1: none); curve and instance hits,
+        // tested one ray at a time, keep their whole record in `special`.
+        const NONE: i32 = -1;
+        const SPECIAL: i32 = -2;
+        let mut found = _mm256_set1_epi32(NONE);
+        let mut special = [None::<BvhHit>; LANES];
+        bvh.closest_packet(&p, &mut tmax, |id, lanes, tmax| {
+            let prim = &self.prims[id];
+            let (bits, t, u, v) = match prim.kind() {
+                PrimKind::Triangle => {
+                    intersect_triangle_lanes(&p, &prim.packed_triangle(), lanes, *tmax)
+                }
+                PrimKind::Sphere(si) => {
+                    let (bits, t) = self.spheres[si].intersect_lanes(&p, *tmax);
+                    (bits, t, _mm256_setzero_ps(), _mm256_setzero_ps())
+                }
+                PrimKind::Disk(di) => {
+                    let (bits, [t, x, y]) = self.disks[di].intersect_lanes(&p, *tmax);
+                    (bits, t, x, y)
+                }
+                PrimKind::Rectangle(ri) => {
+                    let (bits, [t, x, y]) = self.rectangles[ri].intersect_lanes(&p, *tmax);
+                    (bits, t, x, y)
+                }
+                PrimKind::Curve(_) | PrimKind::Instance(_) => {
+                    // One ray at a time, through the one-ray walk's test.
+                    let mut ts = to_array(*tmax);
+                    let mut each = lanes;
+                    while each != 0 {
+                        let lane = each.trailing_zeros() as usize;
+                        each &= each - 1;
+                        if let Some(h) = self.primitive_hit(id, &p.rays[lane], ts[lane]) {
+                            ts[lane] = h.t;
+                            special[lane] = Some(h);
+                            found = _mm256_blendv_epi8(
+                                found,
+                                _mm256_set1_epi32(SPECIAL),
+                                _mm256_castps_si256(mask_of(1 << lane)),
+                            );
+                        }
+                    }
+                    // SAFETY: `ts` holds eight floats.
+                    *tmax = unsafe { _mm256_loadu_ps(ts.as_ptr()) };
+                    return;
+                }
+            };
+            let bits = bits & lanes;
+            if bits == 0 {
+                return;
+            }
+            let m = mask_of(bits);
+            *tmax = _mm256_blendv_ps(*tmax, t, m);
+            b1 = _mm256_blendv_ps(b1, u, m);
+            b2 = _mm256_blendv_ps(b2, v, m);
+            found = _mm256_blendv_epi8(found, _mm256_set1_epi32(id as i32), _mm256_castps_si256(m));
+        });
+        let (ts, b1s, b2s) = (to_array(tmax), to_array(b1), to_array(b2));
+        let mut ids = [0i32; LANES];
+        // SAFETY: `ids` holds eight integers.
+        unsafe { _mm256_storeu_si256(ids.as_mut_ptr().cast(), found) };
+        for (lane, hit) in hits.iter_mut().enumerate().take(rays.len()) {
+            *hit = match ids[lane] {
+                NONE => None,
+                SPECIAL => special[lane],
+                id => {
+                    let id = id as usize;
+                    let r = self.refs[id];
+                    Some(match self.prims[id].kind() {
+                        PrimKind::Triangle => BvhHit {
+                            t: ts[lane],
+                            shape: r.shape,
+                            index: r.index,
+                            b1: b1s[lane],
+                            b2: b2s[lane],
+                            instance: BvhHit::NO_INSTANCE,
+                        },
+                        PrimKind::Sphere(_) => BvhHit {
+                            shape: r.shape,
+                            ..BvhHit::none(ts[lane])
+                        },
+                        _ => planar_hit(ts[lane], glam::Vec2::new(b1s[lane], b2s[lane]), r.shape),
+                    })
+                }
+            };
+        }
+    }
+
+    /// A curve segment's or an instance's hit along `ray` closer than
+    /// `tmax`, as the one-ray walk finds it.
+    #[cfg(target_arch = "x86_64")]
+    fn primitive_hit(&self, id: usize, ray: &Ray, tmax: f32) -> Option<BvhHit> {
+        let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
+        match self.prims[id].kind() {
+            PrimKind::Curve(ci) => {
+                self.curves[ci]
+                    .intersect(o, d, tmin, tmax)
+                    .map(|(t, v)| BvhHit {
+                        t,
+                        shape: self.refs[id].shape,
+                        index: self.refs[id].index,
+                        b1: v,
+                        ..BvhHit::none(t)
+                    })
+            }
+            PrimKind::Instance(ii) => {
+                let inst = &self.instances[ii];
+                let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
+                self.groups[inst.group as usize]
+                    .intersect(&local)
+                    .map(|h| BvhHit {
+                        instance: ii as u32,
+                        ..h
+                    })
+            }
+            _ => unreachable!("only curves and instances are tested one ray at a time"),
+        }
+    }
+}
+
 /// The hit record of a flat analytic shape: its object coordinates `l`
 /// ride in the barycentrics' place.
 #[inline]
@@ -501,6 +677,192 @@ fn planar_hit(t: f32, l: glam::Vec2, shape: u32) -> BvhHit {
 mod tests {
     use super::*;
     use crate::geometry::TriangleMesh;
+
+    /// A hit as bits, for exact comparison.
+    fn bits(h: Option<BvhHit>) -> Option<(u32, u32, u32, u32, u32, u32)> {
+        h.map(|h| {
+            (
+                h.t.to_bits(),
+                h.shape,
+                h.index,
+                h.b1.to_bits(),
+                h.b2.to_bits(),
+                h.instance,
+            )
+        })
+    }
+
+    /// Every ray of every packet size finds what it finds alone (with
+    /// `ties`, where two primitives lie at exactly the hit's distance, the
+    /// same distance, either primitive).
+    fn check_packets(bvh: &Bvh, rays: &[Ray], ties: bool) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            assert!(bvh.walks_packets(), "a small tree is walked by packets");
+        }
+        let mut hit = 0;
+        let mut start = 0;
+        let mut size = 1;
+        while start < rays.len() {
+            let chunk = &rays[start..(start + size).min(rays.len())];
+            let mut hits = [None; PACKET_LANES];
+            bvh.intersect_packet(chunk, &mut hits);
+            for (k, ray) in chunk.iter().enumerate() {
+                let alone = bvh.intersect(ray);
+                let (packed, alone_bits) = if ties {
+                    (hits[k].map(|h| h.t.to_bits()), alone.map(|h| h.t.to_bits()))
+                } else {
+                    (bits(hits[k]).map(|b| b.0), bits(alone).map(|b| b.0))
+                };
+                assert_eq!(packed, alone_bits, "ray {} {ray:?}", start + k);
+                if !ties {
+                    assert_eq!(bits(hits[k]), bits(alone), "ray {} {ray:?}", start + k);
+                }
+                hit += usize::from(alone.is_some());
+            }
+            start += chunk.len();
+            size = size % PACKET_LANES + 1;
+        }
+        hit
+    }
+
+    /// Triangles (a random soup and a quad's two halves), spheres, a
+    /// disk, a rectangle, a linear curve and two instances of a group
+    /// holding a sphere and a triangle, met by random rays (some along an
+    /// axis, some from inside a sphere, some with a short range): the
+    /// packet walk's hits are the one-ray walk's, bit for bit.
+    #[test]
+    fn packets_find_what_single_rays_find() {
+        use crate::geometry::{Curve, CurveBasis, Disk, Instance, Rectangle, Sphere};
+        use crate::math::{Mat4, Transform};
+        use crate::sampling::Sampler;
+        let mut s = Sampler::for_pixel_sample(11, 2, 3, 0);
+        let mut v = |scale: f32| (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
+        let mut p = Vec::new();
+        let mut tris = Vec::new();
+        for _ in 0..24 {
+            let c = v(6.0);
+            let n = p.len() as u32;
+            p.extend([c, c + v(2.0), c + v(2.0)]);
+            tris.push([n, n + 1, n + 2]);
+        }
+        let n = p.len() as u32;
+        p.extend([
+            Vec3::new(-1.0, -1.0, 2.0),
+            Vec3::new(1.0, -1.0, 2.0),
+            Vec3::new(1.0, 1.0, 2.0),
+            Vec3::new(-1.0, 1.0, 2.0),
+        ]);
+        tris.extend([[n, n + 1, n + 2], [n, n + 2, n + 3]]);
+        let mesh = TriangleMesh::new(p, vec![], vec![], tris).unwrap();
+        let t = |m: Mat4| Transform::new(m).unwrap();
+        let small = TriangleMesh::new(
+            vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            vec![],
+            vec![],
+            vec![[0, 1, 2]],
+        )
+        .unwrap();
+        let curve = Curve::parse(
+            "-2 0 0 0.1\n0 1 0 0.2\n2 0 1 0.1\n",
+            CurveBasis::Linear,
+            &Transform::IDENTITY,
+        )
+        .unwrap();
+        let shapes = vec![
+            Geometry::Mesh(mesh),
+            Geometry::Sphere(Sphere::new(Vec3::new(1.0, 0.5, -1.0), 1.5).unwrap()),
+            Geometry::Sphere(Sphere::new(Vec3::new(-2.0, -1.0, 1.0), 0.5).unwrap()),
+            Geometry::Disk(
+                Disk::new(&t(
+                    Mat4::from_rotation_x(0.6) * Mat4::from_scale(Vec3::splat(1.5))
+                ))
+                .unwrap(),
+            ),
+            Geometry::Rectangle(
+                Rectangle::new(&t(
+                    Mat4::from_translation(Vec3::new(0.0, -2.0, 0.5)) * Mat4::from_rotation_y(-0.4)
+                ))
+                .unwrap(),
+            ),
+            Geometry::Curve(curve),
+            // The group: a sphere and a triangle.
+            Geometry::Sphere(Sphere::new(Vec3::ZERO, 0.4).unwrap()),
+            Geometry::Mesh(small),
+        ];
+        let instances = vec![
+            Instance {
+                group: 0,
+                to_world: t(Mat4::from_translation(Vec3::new(2.0, 2.0, 2.0))),
+            },
+            Instance {
+                group: 0,
+                to_world: t(Mat4::from_translation(Vec3::new(-2.0, 2.0, -1.0))
+                    * Mat4::from_scale(Vec3::new(1.0, 2.0, 0.5))),
+            },
+        ];
+        let group = 6..8;
+        let bvh = Bvh::build_instanced(&shapes, 6, std::slice::from_ref(&group), instances);
+        let mut s = Sampler::for_pixel_sample(12, 0, 1, 0);
+        let rays: Vec<Ray> = (0..6000)
+            .map(|i| {
+                let mut o = (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * 10.0;
+                let mut d = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5;
+                match i % 5 {
+                    0 => {
+                        d.x = 0.0;
+                        d.y = if i % 2 == 0 { 0.0 } else { -0.0 };
+                    }
+                    1 => o = Vec3::new(1.0, 0.5, -1.0) + d,
+                    _ => {}
+                }
+                let tmax = if i % 7 == 0 { 2.0 } else { f32::INFINITY };
+                Ray::with_range(o, d.normalize(), if i % 3 == 0 { 0.5 } else { 0.0 }, tmax)
+            })
+            .collect();
+        let hit = check_packets(&bvh, &rays, false);
+        assert!(hit > 1000 && hit < 5000, "{hit} of 6000 rays hit");
+        // Each kind of primitive was hit by some ray.
+        let mut met = [0; 7];
+        for ray in &rays {
+            if let Some(h) = bvh.intersect(ray) {
+                let slot = if h.instance == BvhHit::NO_INSTANCE {
+                    h.shape as usize
+                } else {
+                    6
+                };
+                met[slot] += 1;
+            }
+        }
+        assert!(met.iter().all(|&m| m > 0), "hits per shape: {met:?}");
+    }
+
+    /// Rays along z through a quad's shared diagonal and vertices: their
+    /// edge functions come out exactly zero, so the packet redoes them
+    /// with the one-ray test (in double precision) and finds a hit at the
+    /// same distance. On the diagonal both halves are hit at that distance
+    /// and the walks, visiting them in different orders, may keep
+    /// different ones.
+    #[test]
+    fn packets_through_edges_and_vertices_find_the_same() {
+        let p = vec![
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ];
+        let mesh = TriangleMesh::new(p, vec![], vec![], vec![[0, 1, 2], [0, 2, 3]]).unwrap();
+        let bvh = Bvh::build(&[Geometry::Mesh(mesh)]);
+        let mut rays = Vec::new();
+        for i in 0..=8 {
+            for j in 0..=8 {
+                let o = Vec3::new(i as f32 / 8.0, j as f32 / 8.0, 0.0);
+                rays.push(Ray::new(o, Vec3::Z));
+            }
+        }
+        // Every ray lands on the closed quad: none slips through an edge.
+        assert_eq!(check_packets(&bvh, &rays, true), rays.len());
+    }
 
     /// One triangle repeated 20,000 times: PLOC's merge costs all tie, and
     /// before `build_boxes` broke the ties the tree came out a chain of

@@ -62,6 +62,28 @@ impl Disk {
             .filter(|(_, l)| l.length_squared() <= 1.0)
     }
 
+    /// [`Disk::intersect`] of a packet's eight rays: the lanes that hit as
+    /// bits, their t and object coordinates (bit for bit the scalar's).
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn intersect_lanes(
+        &self,
+        p: &super::packet::RayPacket,
+        tmax: std::arch::x86_64::__m256,
+    ) -> (u32, [std::arch::x86_64::__m256; 3]) {
+        use super::packet::bits_of;
+        use std::arch::x86_64::*;
+        let [within, t, x, y] = self.frame.hit_lanes(p, tmax);
+        let r2 = _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y));
+        let inside = _mm256_cmp_ps::<_CMP_LE_OQ>(r2, _mm256_set1_ps(1.0));
+        (bits_of(_mm256_and_ps(within, inside)), [t, x, y])
+    }
+
     /// Mitsuba's (u, v) at object coordinates `l`: (radius, angle / 2pi),
     /// the angle from object x towards y, in [0, 1).
     fn uv(l: Vec2) -> Vec2 {

@@ -7,6 +7,8 @@ mod disk;
 mod instance;
 mod mesh;
 mod obj;
+#[cfg(target_arch = "x86_64")]
+mod packet;
 mod plane;
 mod ply;
 mod rectangle;
@@ -17,7 +19,7 @@ mod triangle;
 mod wide_bvh;
 
 pub use attribute::MeshAttribute;
-pub use bvh::{build_boxes, BoundsOnly, Bvh, BvhHit};
+pub use bvh::{build_boxes, BoundsOnly, Bvh, BvhHit, PACKET_LANES, PACKET_MAX_PRIMITIVES};
 pub use curve::{load_curve, Curve, CurveBasis, CurveError, CurveSegment};
 pub use disk::Disk;
 pub use instance::Instance;

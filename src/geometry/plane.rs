@@ -127,6 +127,60 @@ impl PlaneFrame {
         Some((t, Vec2::new(q.dot(self.dx), q.dot(self.dy))))
     }
 
+    /// [`PlaneFrame::hit`] of a packet's eight rays: the lanes that meet the
+    /// plane within (tmin, tmax) as a vector mask, their t and object
+    /// coordinates, by the scalar routine's operations in its order.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn hit_lanes(
+        &self,
+        p: &super::packet::RayPacket,
+        tmax: std::arch::x86_64::__m256,
+    ) -> [std::arch::x86_64::__m256; 4] {
+        use super::packet::load;
+        use std::arch::x86_64::*;
+        let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
+        let dot = |a: [__m256; 3], b: Vec3| {
+            add(
+                add(
+                    mul(a[0], _mm256_set1_ps(b.x)),
+                    mul(a[1], _mm256_set1_ps(b.y)),
+                ),
+                mul(a[2], _mm256_set1_ps(b.z)),
+            )
+        };
+        // SAFETY: loads of the packet's aligned rows.
+        let (o, d, tmin) = unsafe {
+            (
+                [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
+                [load(&p.d[0]), load(&p.d[1]), load(&p.d[2])],
+                load(&p.tmin),
+            )
+        };
+        let c = self.center;
+        let to_center = [
+            sub(_mm256_set1_ps(c.x), o[0]),
+            sub(_mm256_set1_ps(c.y), o[1]),
+            sub(_mm256_set1_ps(c.z), o[2]),
+        ];
+        let t = _mm256_div_ps(dot(to_center, self.n), dot(d, self.n));
+        let within = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
+        );
+        let q = [
+            sub(mul(t, d[0]), to_center[0]),
+            sub(mul(t, d[1]), to_center[1]),
+            sub(mul(t, d[2]), to_center[2]),
+        ];
+        [within, t, dot(q, self.dx), dot(q, self.dy)]
+    }
+
     /// The point at object coordinates `l` and its error bound: on the
     /// plane up to that bound, whatever the error of the ray's o + t d.
     pub fn point(&self, l: Vec2) -> (Vec3, Vec3) {

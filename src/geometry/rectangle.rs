@@ -69,6 +69,31 @@ impl Rectangle {
             .filter(|(_, l)| l.x.abs() <= 1.0 && l.y.abs() <= 1.0)
     }
 
+    /// [`Rectangle::intersect`] of a packet's eight rays: the lanes that hit
+    /// as bits, their t and object coordinates (bit for bit the scalar's).
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn intersect_lanes(
+        &self,
+        p: &super::packet::RayPacket,
+        tmax: std::arch::x86_64::__m256,
+    ) -> (u32, [std::arch::x86_64::__m256; 3]) {
+        use super::packet::{abs, bits_of};
+        use std::arch::x86_64::*;
+        let [within, t, x, y] = self.frame.hit_lanes(p, tmax);
+        let one = _mm256_set1_ps(1.0);
+        let inside = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LE_OQ>(abs(x), one),
+            _mm256_cmp_ps::<_CMP_LE_OQ>(abs(y), one),
+        );
+        (bits_of(_mm256_and_ps(within, inside)), [t, x, y])
+    }
+
     /// Mitsuba's (u, v) at object coordinates `l`: ((x + 1) / 2, (y + 1) / 2).
     fn uv(l: Vec2) -> Vec2 {
         (l + Vec2::ONE) * 0.5

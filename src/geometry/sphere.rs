@@ -195,6 +195,82 @@ impl Sphere {
         }
     }
 
+    /// [`Sphere::intersect`] of a packet's eight rays: the lanes that hit
+    /// within (tmin, tmax) as bits, and their t, by the scalar test's
+    /// operations in its order (each lane's t is its, bit for bit).
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn intersect_lanes(
+        &self,
+        p: &super::packet::RayPacket,
+        tmax: std::arch::x86_64::__m256,
+    ) -> (u32, std::arch::x86_64::__m256) {
+        use super::packet::{bits_of, load};
+        use std::arch::x86_64::*;
+        let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
+        let dot = |a: [__m256; 3], b: [__m256; 3]| {
+            add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+        };
+        // SAFETY: loads of the packet's aligned rows.
+        let (o, d, tmin) = unsafe {
+            (
+                [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
+                [load(&p.d[0]), load(&p.d[1]), load(&p.d[2])],
+                load(&p.tmin),
+            )
+        };
+        let c = self.center;
+        let f = [
+            sub(o[0], _mm256_set1_ps(c.x)),
+            sub(o[1], _mm256_set1_ps(c.y)),
+            sub(o[2], _mm256_set1_ps(c.z)),
+        ];
+        let a = dot(d, d);
+        let b = _mm256_xor_ps(dot(f, d), _mm256_set1_ps(-0.0));
+        let s = _mm256_div_ps(b, a);
+        let l = [
+            add(f[0], mul(s, d[0])),
+            add(f[1], mul(s, d[1])),
+            add(f[2], mul(s, d[2])),
+        ];
+        let r2 = _mm256_set1_ps(self.radius * self.radius);
+        let disc = sub(r2, dot(l, l));
+        let zero = _mm256_setzero_ps();
+        let outside = _mm256_cmp_ps::<_CMP_LT_OQ>(disc, zero);
+        let cc = sub(dot(f, f), r2);
+        // `b.signum()`: +-1 by b's sign bit (a NaN b makes q NaN anyway).
+        let sign = _mm256_or_ps(_mm256_and_ps(b, _mm256_set1_ps(-0.0)), _mm256_set1_ps(1.0));
+        let q = add(b, mul(sign, _mm256_sqrt_ps(mul(a, disc))));
+        let (x, y) = (_mm256_div_ps(cc, q), _mm256_div_ps(q, a));
+        // f32::min and max: a NaN operand gives the other one.
+        // (`_mm256_min_ps(x, y)` gives y where either is NaN.)
+        let y_nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(y, y);
+        let t0 = _mm256_blendv_ps(_mm256_min_ps(x, y), x, y_nan);
+        let t1 = _mm256_blendv_ps(_mm256_max_ps(x, y), x, y_nan);
+        let q_zero = _mm256_cmp_ps::<_CMP_EQ_OQ>(q, zero);
+        let (t0, t1) = (
+            _mm256_blendv_ps(t0, zero, q_zero),
+            _mm256_blendv_ps(t1, zero, q_zero),
+        );
+        let within = |t| {
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
+            )
+        };
+        let (in0, in1) = (within(t0), within(t1));
+        let t = _mm256_blendv_ps(t1, t0, in0);
+        (
+            bits_of(_mm256_andnot_ps(outside, _mm256_or_ps(in0, in1))),
+            t,
+        )
+    }
+
     /// Outward normal and spherical (u, v) at a surface point, in
     /// object space ([`SphereUv`]). The angles come from [`fast_atan2`]
     /// (within 6e-7 radians: below the rounding of u and v; libm's

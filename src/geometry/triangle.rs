@@ -83,6 +83,11 @@ impl RayShear {
             rz: ez * sz,
         }
     }
+
+    /// The shear's rows (x', y', z' of a point relative to the origin).
+    pub fn rows(&self) -> [Vec3; 3] {
+        [self.rx, self.ry, self.rz]
+    }
 }
 
 /// Returns (t, b1, b2) for a hit with t in (tmin, tmax); b1, b2 weight
@@ -146,6 +151,151 @@ pub fn intersect_triangle(
         }
     }
     Some((t, v * inv_det, w * inv_det))
+}
+
+/// [`intersect_triangle`] of the eight rays of a packet: the lanes that hit
+/// the triangle within (tmin, tmax) as bits, and their t, b1 and b2. Each
+/// lane does the scalar test's operations in its order, so it finds the
+/// same hit bit for bit; a lane whose edge function comes out exactly zero
+/// (a ray through an edge or vertex) is redone by the scalar test, which
+/// recomputes it in double precision.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn intersect_triangle_lanes(
+    p: &super::packet::RayPacket,
+    tri: &PackedTriangle,
+    lanes: u32,
+    tmax: std::arch::x86_64::__m256,
+) -> (
+    u32,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+) {
+    use super::packet::{abs, bits_of, load, max, to_array};
+    use std::arch::x86_64::*;
+    // SAFETY: loads of the packet's aligned rows.
+    let (o, r) = unsafe {
+        (
+            [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
+            [
+                load(&p.shear[0]),
+                load(&p.shear[1]),
+                load(&p.shear[2]),
+                load(&p.shear[3]),
+                load(&p.shear[4]),
+                load(&p.shear[5]),
+                load(&p.shear[6]),
+                load(&p.shear[7]),
+                load(&p.shear[8]),
+            ],
+        )
+    };
+    let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
+    // One vertex relative to the origins and sheared: (x', y', z').
+    let sheared = |vx: f32, vy: f32, vz: f32| {
+        let x = sub(_mm256_set1_ps(vx), o[0]);
+        let y = sub(_mm256_set1_ps(vy), o[1]);
+        let z = sub(_mm256_set1_ps(vz), o[2]);
+        let row = |k: usize| add(add(mul(x, r[k]), mul(y, r[k + 1])), mul(z, r[k + 2]));
+        (row(0), row(3), row(6))
+    };
+    let (xa, ya, za) = sheared(tri.xs.x, tri.ys.x, tri.zs.x);
+    let (xb, yb, zb) = sheared(tri.xs.y, tri.ys.y, tri.zs.y);
+    let (xc, yc, zc) = sheared(tri.xs.z, tri.ys.z, tri.zs.z);
+    // `yt.cross(xt)`'s products and differences.
+    let u = sub(mul(yb, xc), mul(xb, yc));
+    let v = sub(mul(yc, xa), mul(xc, ya));
+    let w = sub(mul(ya, xb), mul(xa, yb));
+    let zero = _mm256_setzero_ps();
+    let zero_edge = bits_of(_mm256_or_ps(
+        _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(u, zero),
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(v, zero),
+        ),
+        _mm256_cmp_ps::<_CMP_EQ_OQ>(w, zero),
+    )) & lanes;
+    let below = _mm256_or_ps(
+        _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(u, zero),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(v, zero),
+        ),
+        _mm256_cmp_ps::<_CMP_LT_OQ>(w, zero),
+    );
+    let above = _mm256_or_ps(
+        _mm256_or_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(u, zero),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(v, zero),
+        ),
+        _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero),
+    );
+    let det = add(add(u, v), w);
+    let t_scaled = add(add(mul(u, za), mul(v, zb)), mul(w, zc));
+    let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+    let t = mul(t_scaled, inv_det);
+    // SAFETY: a load of the packet's aligned row.
+    let tmin = unsafe { load(&p.tmin) };
+    let in_range = _mm256_and_ps(
+        _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
+        _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
+    );
+    let max3 = |a, b, c| max(max(abs(a), abs(b)), abs(c));
+    let (max_xt, max_yt, max_zt) = (max3(xa, xb, xc), max3(ya, yb, yc), max3(za, zb, zc));
+    let g = |n: i32| _mm256_set1_ps(gamma(n));
+    let delta_z = mul(g(3), max_zt);
+    let delta_x = mul(g(5), add(max_xt, max_zt));
+    let delta_y = mul(g(5), add(max_yt, max_zt));
+    let delta_e = mul(
+        _mm256_set1_ps(2.0),
+        add(
+            add(mul(mul(g(2), max_xt), max_yt), mul(delta_y, max_xt)),
+            mul(delta_x, max_yt),
+        ),
+    );
+    let max_e = max3(u, v, w);
+    let delta_t = mul(
+        mul(
+            _mm256_set1_ps(3.0),
+            add(
+                add(mul(mul(g(3), max_e), max_zt), mul(delta_e, max_zt)),
+                mul(delta_z, max_e),
+            ),
+        ),
+        abs(inv_det),
+    );
+    let hit = _mm256_andnot_ps(
+        _mm256_or_ps(
+            _mm256_and_ps(below, above),
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(det, zero),
+        ),
+        _mm256_and_ps(in_range, _mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t)),
+    );
+    let mut bits = bits_of(hit) & lanes & !zero_edge;
+    let (mut t, mut b1, mut b2) = (t, mul(v, inv_det), mul(w, inv_det));
+    if zero_edge != 0 {
+        // The scalar test, in double precision where it needs it.
+        let (mut ts, mut b1s, mut b2s) = (to_array(t), to_array(b1), to_array(b2));
+        let tmaxs = to_array(tmax);
+        let mut edge = zero_edge;
+        while edge != 0 {
+            let lane = edge.trailing_zeros() as usize;
+            edge &= edge - 1;
+            let ray = &p.rays[lane];
+            let shear = RayShear::new(ray.o, ray.d);
+            if let Some((tl, u1, u2)) = intersect_triangle(&shear, tri, ray.tmin, tmaxs[lane]) {
+                (ts[lane], b1s[lane], b2s[lane]) = (tl, u1, u2);
+                bits |= 1 << lane;
+            }
+        }
+        // SAFETY: each array holds eight floats.
+        unsafe {
+            t = _mm256_loadu_ps(ts.as_ptr());
+            b1 = _mm256_loadu_ps(b1s.as_ptr());
+            b2 = _mm256_loadu_ps(b2s.as_ptr());
+        }
+    }
+    (bits, t, b1, b2)
 }
 
 #[cfg(test)]

@@ -515,6 +515,133 @@ impl WideBvh {
     }
 }
 
+/// A subtree a packet is still to visit, with the lanes whose rays meet
+/// its box and where each enters it.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct PacketEntry {
+    tnear: [f32; 8],
+    index: u32,
+    count: u32,
+    lanes: u32,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl WideBvh {
+    /// Whether [`WideBvh::closest_packet`] can walk this tree (its stack is
+    /// [`FixedStack`]'s size).
+    pub fn packet_walkable(&self) -> bool {
+        self.fixed_stack
+    }
+
+    /// The closest-hit walk of a packet of rays: every subtree whose box
+    /// one of the packet's rays meets before that ray's closest hit so far
+    /// (`tmax`, one lane per ray) is visited, children in slot order, and
+    /// `hit(prim, lanes, tmax)` tests a leaf's primitive against the rays
+    /// in `lanes`, lowering their lanes of `tmax` where it hits closer.
+    /// Only for trees that are [`WideBvh::packet_walkable`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn closest_packet<F: FnMut(usize, u32, &mut std::arch::x86_64::__m256)>(
+        &self,
+        p: &super::packet::RayPacket,
+        tmax: &mut std::arch::x86_64::__m256,
+        mut hit: F,
+    ) {
+        use super::packet::{bits_of, load, load_mask};
+        use std::arch::x86_64::*;
+        assert!(self.fixed_stack);
+        if self.nodes.is_empty() {
+            return;
+        }
+        // SAFETY: loads of the packet's aligned rows.
+        let (o, inv, neg, tmin) = unsafe {
+            (
+                [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
+                [load(&p.inv[0]), load(&p.inv[1]), load(&p.inv[2])],
+                [
+                    load_mask(&p.neg[0]),
+                    load_mask(&p.neg[1]),
+                    load_mask(&p.neg[2]),
+                ],
+                load(&p.tmin),
+            )
+        };
+        let scale = _mm256_set1_ps(FAR_SCALE);
+        let mut stack = [const { MaybeUninit::<PacketEntry>::uninit() }; FixedStack::FIXED];
+        let mut len = 0usize;
+        let mut next = Some(PacketEntry {
+            tnear: [f32::NEG_INFINITY; 8],
+            index: ROOT.index,
+            count: 0,
+            lanes: p.live,
+        });
+        loop {
+            let e = match next.take() {
+                Some(e) => e,
+                None if len == 0 => break,
+                None => {
+                    len -= 1;
+                    // SAFETY: entries below `len` were written below.
+                    unsafe { stack.get_unchecked(len).assume_init() }
+                }
+            };
+            // As the one-ray walk: a box entered a rounding error beyond
+            // the closest hit may still hold a hit as close.
+            let reach = _mm256_mul_ps(*tmax, scale);
+            // SAFETY: the entry's row is aligned.
+            let tnear = unsafe { load(&e.tnear) };
+            let lanes = e.lanes & bits_of(_mm256_cmp_ps::<_CMP_LE_OQ>(tnear, reach));
+            if lanes == 0 {
+                continue;
+            }
+            if e.count > 0 {
+                for prim in e.index..e.index + e.count {
+                    hit(prim as usize, lanes, tmax);
+                }
+                continue;
+            }
+            let node = &self.nodes[e.index as usize];
+            for slot in (0..8).rev() {
+                let mut lo = tmin;
+                let mut hi = reach;
+                for a in 0..3 {
+                    let lower = _mm256_set1_ps(node.bounds[2 * a][slot]);
+                    let upper = _mm256_set1_ps(node.bounds[2 * a + 1][slot]);
+                    let t_lower = _mm256_mul_ps(_mm256_sub_ps(lower, o[a]), inv[a]);
+                    let t_upper = _mm256_mul_ps(_mm256_sub_ps(upper, o[a]), inv[a]);
+                    let t0 = _mm256_blendv_ps(t_lower, t_upper, neg[a]);
+                    let t1 = _mm256_mul_ps(_mm256_blendv_ps(t_upper, t_lower, neg[a]), scale);
+                    // A NaN distance leaves the range as it is (as the
+                    // one-ray test).
+                    lo = _mm256_max_ps(t0, lo);
+                    hi = _mm256_min_ps(t1, hi);
+                }
+                let meets = bits_of(_mm256_cmp_ps::<_CMP_LE_OQ>(lo, hi)) & lanes;
+                if meets == 0 {
+                    continue;
+                }
+                let mut child = PacketEntry {
+                    tnear: [0.0; 8],
+                    index: node.child[slot],
+                    count: node.count[slot] as u32,
+                    lanes: meets,
+                };
+                // SAFETY: the entry's row is aligned.
+                unsafe { _mm256_store_ps(child.tnear.as_mut_ptr(), lo) };
+                if let Some(later) = next.replace(child) {
+                    debug_assert!(len < FixedStack::FIXED);
+                    // SAFETY: the tree is at most `FixedStack::MAX_DEPTH`
+                    // deep and a node visit pushes at most 7 entries.
+                    unsafe { stack.get_unchecked_mut(len).write(later) };
+                    len += 1;
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

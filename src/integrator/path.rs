@@ -260,7 +260,7 @@ impl PathState {
     /// Whether `ray` is a camera ray under `hide_emitters`: it passes
     /// through area emitters and counts no emission.
     #[inline]
-    fn hides_emitters(&self, cfg: &PathConfig) -> bool {
+    pub fn hides_emitters(&self, cfg: &PathConfig) -> bool {
         self.depth == 0 && cfg.params.hide_emitters
     }
 

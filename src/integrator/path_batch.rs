@@ -8,18 +8,21 @@
 //! Each path keeps its own [`Sampler`] and runs the steps of
 //! [`PathState`], so it draws the same numbers in the same order as
 //! [`super::path::li`] and returns the same radiance bit for bit (tested):
-//! the batch changes the order of the work, not the image. It is the
-//! frame for stages that work on many paths at once (SIMD lanes across
-//! paths, issue 15): the environment map's lookups of escaped paths, its
-//! light samples (within the bounce stage) and the location of new rays
-//! on the map (the last stage) run four paths at a time; the rest takes
-//! one path at a time.
+//! the batch changes the order of the work, not the image. (In a scene
+//! small enough for packets, a ray that meets two surfaces at exactly the
+//! same distance may keep the other one: [`crate::geometry::Bvh::intersect_packet`].)
+//! It is the frame for stages that work on many paths at once (SIMD lanes
+//! across paths, issue 15): the trace of a small scene runs eight rays at
+//! a time in AVX2 lanes; the environment map's lookups of escaped paths,
+//! its light samples (within the bounce stage) and the location of new
+//! rays on the map (the last stage) run four paths at a time; the rest
+//! takes one path at a time.
 
 use super::path::{PathConfig, PathState};
 use super::LightNumbers;
 use crate::color::Rgb;
 use crate::emitter::{Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample};
-use crate::geometry::Intersection;
+use crate::geometry::{Intersection, PACKET_LANES};
 use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -107,6 +110,9 @@ impl PathBatch {
             self.escaped_paths.resize(n, 0);
         }
         let (mut reached, mut escaped) = (0, 0);
+        if scene.walks_packets() {
+            return self.trace_packets(scene, cfg);
+        }
         for &i in &self.live {
             // A miss leaves the slot as it was: the next path writes it.
             let found = self.paths[i as usize].trace_into(scene, cfg, &mut self.hits[reached]);
@@ -114,6 +120,44 @@ impl PathBatch {
             self.escaped_paths[escaped] = i;
             reached += usize::from(found);
             escaped += usize::from(!found);
+        }
+        (self.reached, self.escaped) = (reached, escaped);
+    }
+
+    /// [`PathBatch::trace`] in packets of [`PACKET_LANES`] rays
+    /// ([`Scene::intersect_packet_into`]), the paths in the same order;
+    /// camera rays that pass through emitters (`hide_emitters`) are traced
+    /// one at a time.
+    fn trace_packets(&mut self, scene: &Scene, cfg: &PathConfig) {
+        let (mut reached, mut escaped) = (0, 0);
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); PACKET_LANES];
+        let mut found = [false; PACKET_LANES];
+        for chunk in self.live.chunks(PACKET_LANES) {
+            let hiding = chunk
+                .iter()
+                .any(|&i| self.paths[i as usize].hides_emitters(cfg));
+            if hiding {
+                for &i in chunk {
+                    let path = &self.paths[i as usize];
+                    let f = path.trace_into(scene, cfg, &mut self.hits[reached]);
+                    self.hit_paths[reached] = i;
+                    self.escaped_paths[escaped] = i;
+                    reached += usize::from(f);
+                    escaped += usize::from(!f);
+                }
+                continue;
+            }
+            for (ray, &i) in rays.iter_mut().zip(chunk) {
+                *ray = self.paths[i as usize].ray;
+            }
+            let n = chunk.len();
+            scene.intersect_packet_into(&rays[..n], &mut found[..n], &mut self.hits[reached..]);
+            for (&i, &f) in chunk.iter().zip(&found) {
+                self.hit_paths[reached] = i;
+                self.escaped_paths[escaped] = i;
+                reached += usize::from(f);
+                escaped += usize::from(!f);
+            }
         }
         (self.reached, self.escaped) = (reached, escaped);
     }
@@ -411,7 +455,10 @@ mod tests {
     /// A batch returns what `li` returns for each of its rays, bit for
     /// bit, whatever the batch size (lanes part-filled too), on scenes
     /// with an environment map, area lights and a thin lens, under every
-    /// strategy, `direct`, hidden emitters and early roulette.
+    /// strategy, `direct`, hidden emitters and early roulette. All three
+    /// are small enough for the trace in packets, whose hits are the
+    /// one-ray walk's (none of these rays meets two surfaces at exactly
+    /// one distance).
     #[test]
     fn a_batch_is_li_bit_for_bit() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));

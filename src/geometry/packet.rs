@@ -1,0 +1,203 @@
+//! Eight rays at once in AVX2 lanes, for scenes small enough that rays
+//! which have nothing in common still visit the same few nodes and leaves
+//! (issue 15: a Cornell box's 31 primitives, a cube on a ground's 13).
+//! One primitive is tested against all eight rays with one sequence of
+//! vector operations, where a ray alone tests it with three lanes of four.
+//!
+//! Each shape's lane test ([`super::triangle::intersect_triangle_lanes`],
+//! `Sphere::intersect_lanes`, `PlaneFrame::hit_lanes`) does its scalar
+//! test's operations in the same order, so a lane's hit is the scalar
+//! test's bit for bit (tested in `bvh.rs`).
+//!
+//! Everything here runs only inside functions compiled for AVX2, which are
+//! called only after the CPU was seen to support it.
+
+use std::arch::x86_64::*;
+
+#[allow(unused_imports)]
+use super::triangle::RayShear;
+use crate::math::Ray;
+
+/// Lanes in a packet.
+pub const LANES: usize = super::bvh::PACKET_LANES;
+
+/// Up to eight rays, by coordinate (lane `i` of every row is ray `i`), with
+/// what the slab and triangle tests precompute per ray. Lanes beyond the
+/// rays given repeat the first ray and are left out of `live`.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub struct RayPacket<'a> {
+    pub o: [[f32; LANES]; 3],
+    pub d: [[f32; LANES]; 3],
+    /// The reciprocal direction.
+    pub inv: [[f32; LANES]; 3],
+    /// All ones where the direction is negative along the axis (its sign
+    /// bit, -0 included): the slab test meets the far plane first there.
+    pub neg: [[u32; LANES]; 3],
+    pub tmin: [f32; LANES],
+    pub tmax: [f32; LANES],
+    /// The rows of each ray's triangle shear ([`RayShear::rows`]): row
+    /// `3 r + c` is component `c` of row `r`.
+    pub shear: [[f32; LANES]; 9],
+    /// The rays, for the primitives tested one ray at a time.
+    pub rays: &'a [Ray],
+    /// Bit `i` set: lane `i` carries a ray.
+    pub live: u32,
+}
+
+impl<'a> RayPacket<'a> {
+    /// The packet of `rays` (1 to [`LANES`] of them). The shears are
+    /// [`RayShear::new`]'s, computed in lanes (its axis choice by masks,
+    /// not by the jumps that a ray's random direction mispredicts).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn new(rays: &'a [Ray]) -> RayPacket<'a> {
+        assert!(!rays.is_empty() && rays.len() <= LANES);
+        let mut rows = [[0.0f32; LANES]; 8];
+        // Lane by lane into eight rows (clippy would have one row by lane).
+        #[allow(clippy::needless_range_loop)]
+        for lane in 0..LANES {
+            let ray = rays.get(lane).unwrap_or(&rays[0]);
+            for a in 0..3 {
+                rows[a][lane] = ray.o[a];
+                rows[3 + a][lane] = ray.d[a];
+            }
+            rows[6][lane] = ray.tmin;
+            rows[7][lane] = ray.tmax;
+        }
+        let store = |x: __m256| {
+            let mut row = [0.0f32; LANES];
+            // SAFETY: `row` holds eight floats.
+            unsafe { _mm256_storeu_ps(row.as_mut_ptr(), x) };
+            row
+        };
+        // SAFETY: each row holds eight floats.
+        let d = unsafe {
+            [
+                _mm256_loadu_ps(rows[3].as_ptr()),
+                _mm256_loadu_ps(rows[4].as_ptr()),
+                _mm256_loadu_ps(rows[5].as_ptr()),
+            ]
+        };
+        let one = _mm256_set1_ps(1.0);
+        let inv = d.map(|c| store(_mm256_div_ps(one, c)));
+        let neg = d.map(|c| {
+            let sign = _mm256_srai_epi32::<31>(_mm256_castps_si256(c));
+            let mut row = [0u32; LANES];
+            // SAFETY: `row` holds eight integers.
+            unsafe { _mm256_storeu_si256(row.as_mut_ptr().cast(), sign) };
+            row
+        });
+        let shear = shear_lanes(d).map(store);
+        RayPacket {
+            o: [rows[0], rows[1], rows[2]],
+            d: [rows[3], rows[4], rows[5]],
+            inv,
+            neg,
+            tmin: rows[6],
+            tmax: rows[7],
+            shear,
+            rays,
+            live: (1u32 << rays.len()) - 1,
+        }
+    }
+}
+
+/// [`RayShear::new`]'s rows for eight directions, by its operations: the
+/// dominant axis kz (ties as its comparisons break them), kx and ky after
+/// it (swapped where d[kz] < 0), then `e_kx - e_kz sx`, `e_ky - e_kz sy`
+/// and `e_kz sz` with the unit vectors as 0/1 lanes.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn shear_lanes(d: [__m256; 3]) -> [__m256; 9] {
+    let (and, or, andnot) = (_mm256_and_ps, _mm256_or_ps, _mm256_andnot_ps);
+    let a = d.map(|c| abs(c));
+    let x_over_y = _mm256_cmp_ps::<_CMP_GT_OQ>(a[0], a[1]);
+    let k0 = and(x_over_y, _mm256_cmp_ps::<_CMP_GT_OQ>(a[0], a[2]));
+    let k1 = andnot(x_over_y, _mm256_cmp_ps::<_CMP_GT_OQ>(a[1], a[2]));
+    let k2 = andnot(or(k0, k1), _mm256_castsi256_ps(_mm256_set1_epi32(-1)));
+    let dz = _mm256_blendv_ps(_mm256_blendv_ps(d[2], d[1], k1), d[0], k0);
+    let flip = _mm256_cmp_ps::<_CMP_LT_OQ>(dz, _mm256_setzero_ps());
+    let sel = |kept, swapped| or(andnot(flip, kept), and(flip, swapped));
+    // kz = 0: (kx, ky) = (1, 2); kz = 1: (2, 0); kz = 2: (0, 1).
+    let ex = [sel(k2, k1), sel(k0, k2), sel(k1, k0)];
+    let ey = [sel(k1, k2), sel(k2, k0), sel(k0, k1)];
+    let ez = [k0, k1, k2];
+    let pick = |m: [__m256; 3]| or(or(and(m[0], d[0]), and(m[1], d[1])), and(m[2], d[2]));
+    let sx = _mm256_div_ps(pick(ex), dz);
+    let sy = _mm256_div_ps(pick(ey), dz);
+    let sz = _mm256_div_ps(_mm256_set1_ps(1.0), dz);
+    let unit = |m| and(m, _mm256_set1_ps(1.0));
+    let (mul, sub) = (_mm256_mul_ps, _mm256_sub_ps);
+    let rx = |c: usize| sub(unit(ex[c]), mul(unit(ez[c]), sx));
+    let ry = |c: usize| sub(unit(ey[c]), mul(unit(ez[c]), sy));
+    let rz = |c: usize| mul(unit(ez[c]), sz);
+    [
+        rx(0),
+        rx(1),
+        rx(2),
+        ry(0),
+        ry(1),
+        ry(2),
+        rz(0),
+        rz(1),
+        rz(2),
+    ]
+}
+
+/// A row of the packet in a register.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub unsafe fn load(row: &[f32; LANES]) -> __m256 {
+    // SAFETY: the packet is 32-byte aligned and every row is 32 bytes.
+    unsafe { _mm256_load_ps(row.as_ptr()) }
+}
+
+/// A mask row of the packet in a register.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub unsafe fn load_mask(row: &[u32; LANES]) -> __m256 {
+    // SAFETY: as `load`.
+    unsafe { _mm256_load_ps(row.as_ptr().cast()) }
+}
+
+/// |x| in every lane.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn abs(x: __m256) -> __m256 {
+    _mm256_andnot_ps(_mm256_set1_ps(-0.0), x)
+}
+
+/// `f32::max(a, b)` in every lane where neither is NaN (what the scalar
+/// tests' maxima of absolute values see).
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn max(a: __m256, b: __m256) -> __m256 {
+    _mm256_max_ps(a, b)
+}
+
+/// The lanes set in `bits` as a vector mask.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn mask_of(bits: u32) -> __m256 {
+    let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    let set = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits);
+    _mm256_castsi256_ps(_mm256_cmpeq_epi32(set, lane_bits))
+}
+
+/// The vector mask as bits.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn bits_of(mask: __m256) -> u32 {
+    _mm256_movemask_ps(mask) as u32
+}
+
+/// The lanes of a register as an array.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn to_array(x: __m256) -> [f32; LANES] {
+    let mut out = [0.0; LANES];
+    // SAFETY: `out` holds eight floats.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
+    out
+}
