@@ -283,22 +283,44 @@ impl Scene {
     /// True if something blocks the segment between two points, each moved
     /// off its surface by [`crate::math::offset_ray_origin`] beforehand.
     pub fn occluded_segment(&self, from: Vec3, to: Vec3) -> bool {
-        let ray = Ray::with_range(from, to - from, 0.0, 1.0 - 1e-4);
+        let ray = Ray::with_range(from, to - from, 0.0, Scene::SEGMENT_END);
         self.bvh.occluded(&ray)
     }
 
     /// True if the light sample `ls` taken from the surface point `its` is
     /// not blocked (both ends moved off their surfaces).
     pub fn unoccluded(&self, its: &Intersection, ls: &crate::emitter::LightSample) -> bool {
+        !self.bvh.occluded(&Scene::shadow_ray(its, ls))
+    }
+
+    /// The ray [`Scene::unoccluded`] tests: from `its` towards the light
+    /// sample, both ends moved off their surfaces (the rays of
+    /// [`Scene::occluded_ray`] and [`Scene::occluded_segment`]).
+    #[inline]
+    pub fn shadow_ray(its: &Intersection, ls: &crate::emitter::LightSample) -> Ray {
         let from = its.spawn(ls.wi);
         if ls.dist.is_infinite() {
-            !self.occluded_ray(from, ls.wi)
-        } else if ls.n == Vec3::ZERO {
-            !self.occluded_segment(from, ls.p)
+            Ray::new(from, ls.wi)
         } else {
-            let to = crate::math::offset_ray_origin(ls.p, ls.err, ls.n, -ls.wi);
-            !self.occluded_segment(from, to)
+            let to = if ls.n == Vec3::ZERO {
+                ls.p
+            } else {
+                crate::math::offset_ray_origin(ls.p, ls.err, ls.n, -ls.wi)
+            };
+            Ray::with_range(from, to - from, 0.0, Scene::SEGMENT_END)
         }
+    }
+
+    /// Where a segment's ray stops short of its far end (a fraction of
+    /// its length).
+    const SEGMENT_END: f32 = 1.0 - 1e-4;
+
+    /// Whether something blocks each of `rays` (at most
+    /// [`crate::geometry::PACKET_LANES`]), into `blocked`: one walk of the
+    /// packet where [`Scene::walks_packets`], the same answers.
+    #[inline]
+    pub fn occluded_packet(&self, rays: &[Ray], blocked: &mut [bool]) {
+        self.bvh.occluded_packet(rays, blocked);
     }
 
     /// True if something blocks the ray towards infinity.

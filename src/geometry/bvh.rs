@@ -551,18 +551,18 @@ impl Bvh {
             let prim = &self.prims[id];
             let (bits, t, u, v) = match prim.kind() {
                 PrimKind::Triangle => {
-                    intersect_triangle_lanes(&p, &prim.packed_triangle(), lanes, *tmax)
+                    intersect_triangle_lanes::<false>(&p, &prim.packed_triangle(), lanes, *tmax)
                 }
                 PrimKind::Sphere(si) => {
-                    let (bits, t) = self.spheres[si].intersect_lanes(&p, *tmax);
+                    let (bits, t) = self.spheres[si].intersect_lanes::<false>(&p, *tmax);
                     (bits, t, _mm256_setzero_ps(), _mm256_setzero_ps())
                 }
                 PrimKind::Disk(di) => {
-                    let (bits, [t, x, y]) = self.disks[di].intersect_lanes(&p, *tmax);
+                    let (bits, [t, x, y]) = self.disks[di].intersect_lanes::<false>(&p, *tmax);
                     (bits, t, x, y)
                 }
                 PrimKind::Rectangle(ri) => {
-                    let (bits, [t, x, y]) = self.rectangles[ri].intersect_lanes(&p, *tmax);
+                    let (bits, [t, x, y]) = self.rectangles[ri].intersect_lanes::<false>(&p, *tmax);
                     (bits, t, x, y)
                 }
                 PrimKind::Curve(_) | PrimKind::Instance(_) => {
@@ -626,6 +626,75 @@ impl Bvh {
                 }
             };
         }
+    }
+
+    /// [`Bvh::occluded`] of each of `rays` (at most [`PACKET_LANES`]) into
+    /// `blocked`: the same answers (which primitive blocks a ray does not
+    /// matter), by one walk of the packet where [`Bvh::walks_packets`].
+    pub fn occluded_packet(&self, rays: &[Ray], blocked: &mut [bool]) {
+        #[cfg(target_arch = "x86_64")]
+        if rays.len() > 1 && self.walks_packets() {
+            // SAFETY: the CPU supports AVX2 (`walks_packets`).
+            let bits = unsafe { self.occluded_packet_avx2(rays) };
+            for (k, b) in blocked.iter_mut().enumerate().take(rays.len()) {
+                *b = bits & (1 << k) != 0;
+            }
+            return;
+        }
+        for (ray, b) in rays.iter().zip(blocked.iter_mut()) {
+            *b = self.occluded(ray);
+        }
+    }
+
+    /// The lanes of `rays`' packet that something blocks, as bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn occluded_packet_avx2(&self, rays: &[Ray]) -> u32 {
+        use super::packet::RayPacket;
+        use super::triangle::intersect_triangle_lanes;
+        let Some(bvh) = self.bvh.as_ref() else {
+            return 0;
+        };
+        let p = RayPacket::new(rays);
+        // SAFETY: the packet's rows are aligned.
+        let tmax = unsafe { super::packet::load(&p.tmax) };
+        bvh.any_packet(&p, |id, lanes| {
+            let prim = &self.prims[id];
+            let bits = match prim.kind() {
+                PrimKind::Triangle => {
+                    intersect_triangle_lanes::<true>(&p, &prim.packed_triangle(), lanes, tmax).0
+                }
+                PrimKind::Sphere(si) => self.spheres[si].intersect_lanes::<true>(&p, tmax).0,
+                PrimKind::Disk(di) => self.disks[di].intersect_lanes::<true>(&p, tmax).0,
+                PrimKind::Rectangle(ri) => self.rectangles[ri].intersect_lanes::<true>(&p, tmax).0,
+                PrimKind::Curve(ci) => {
+                    let mut bits = 0;
+                    let mut each = lanes;
+                    while each != 0 {
+                        let lane = each.trailing_zeros() as usize;
+                        each &= each - 1;
+                        let r = &p.rays[lane];
+                        let hit = self.curves[ci].intersect(r.o, r.d, r.tmin, r.tmax);
+                        bits |= u32::from(hit.is_some()) << lane;
+                    }
+                    bits
+                }
+                PrimKind::Instance(ii) => {
+                    let inst = &self.instances[ii];
+                    let mut bits = 0;
+                    let mut each = lanes;
+                    while each != 0 {
+                        let lane = each.trailing_zeros() as usize;
+                        each &= each - 1;
+                        let local = inst.to_local(&p.rays[lane]);
+                        let hit = self.groups[inst.group as usize].occluded(&local);
+                        bits |= u32::from(hit) << lane;
+                    }
+                    bits
+                }
+            };
+            bits & lanes
+        })
     }
 
     /// A curve segment's or an instance's hit along `ray` closer than
@@ -694,7 +763,7 @@ mod tests {
 
     /// Every ray of every packet size finds what it finds alone (with
     /// `ties`, where two primitives lie at exactly the hit's distance, the
-    /// same distance, either primitive).
+    /// same distance, either primitive), and is blocked where it is alone.
     fn check_packets(bvh: &Bvh, rays: &[Ray], ties: bool) -> usize {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
@@ -707,6 +776,8 @@ mod tests {
             let chunk = &rays[start..(start + size).min(rays.len())];
             let mut hits = [None; PACKET_LANES];
             bvh.intersect_packet(chunk, &mut hits);
+            let mut blocked = [false; PACKET_LANES];
+            bvh.occluded_packet(chunk, &mut blocked[..chunk.len()]);
             for (k, ray) in chunk.iter().enumerate() {
                 let alone = bvh.intersect(ray);
                 let (packed, alone_bits) = if ties {
@@ -718,6 +789,7 @@ mod tests {
                 if !ties {
                     assert_eq!(bits(hits[k]), bits(alone), "ray {} {ray:?}", start + k);
                 }
+                assert_eq!(blocked[k], bvh.occluded(ray), "ray {} {ray:?}", start + k);
                 hit += usize::from(alone.is_some());
             }
             start += chunk.len();

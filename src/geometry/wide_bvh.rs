@@ -529,6 +529,109 @@ struct PacketEntry {
 
 #[cfg(target_arch = "x86_64")]
 impl WideBvh {
+    /// The any-hit walk of a packet of rays: every subtree whose box the
+    /// ray of a lane not yet blocked meets within its range is visited,
+    /// children in slot order, and `hit(prim, lanes)` tells which of the
+    /// rays in `lanes` the leaf's primitive blocks. Returns the blocked
+    /// lanes. Only for trees that are [`WideBvh::packet_walkable`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn any_packet<F: FnMut(usize, u32) -> u32>(
+        &self,
+        p: &super::packet::RayPacket,
+        mut hit: F,
+    ) -> u32 {
+        use super::packet::{bits_of, load, load_mask};
+        use std::arch::x86_64::*;
+        assert!(self.fixed_stack);
+        if self.nodes.is_empty() {
+            return 0;
+        }
+        // SAFETY: loads of the packet's aligned rows.
+        let (o, inv, neg, tmin, tmax) = unsafe {
+            (
+                [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
+                [load(&p.inv[0]), load(&p.inv[1]), load(&p.inv[2])],
+                [
+                    load_mask(&p.neg[0]),
+                    load_mask(&p.neg[1]),
+                    load_mask(&p.neg[2]),
+                ],
+                load(&p.tmin),
+                load(&p.tmax),
+            )
+        };
+        let scale = _mm256_set1_ps(FAR_SCALE);
+        let mut stack = [const { MaybeUninit::<PacketEntry>::uninit() }; FixedStack::FIXED];
+        let mut len = 0usize;
+        let mut open = p.live;
+        let mut next = Some(PacketEntry {
+            tnear: [f32::NEG_INFINITY; 8],
+            index: ROOT.index,
+            count: 0,
+            lanes: p.live,
+        });
+        loop {
+            let e = match next.take() {
+                Some(e) => e,
+                None if len == 0 => break,
+                None => {
+                    len -= 1;
+                    // SAFETY: entries below `len` were written below.
+                    unsafe { stack.get_unchecked(len).assume_init() }
+                }
+            };
+            let lanes = e.lanes & open;
+            if lanes == 0 {
+                continue;
+            }
+            if e.count > 0 {
+                for prim in e.index..e.index + e.count {
+                    open &= !hit(prim as usize, lanes & open);
+                    if lanes & open == 0 {
+                        break;
+                    }
+                }
+                if open == 0 {
+                    break;
+                }
+                continue;
+            }
+            let node = &self.nodes[e.index as usize];
+            for slot in (0..8).rev() {
+                let mut lo = tmin;
+                let mut hi = tmax;
+                for a in 0..3 {
+                    let lower = _mm256_set1_ps(node.bounds[2 * a][slot]);
+                    let upper = _mm256_set1_ps(node.bounds[2 * a + 1][slot]);
+                    let t_lower = _mm256_mul_ps(_mm256_sub_ps(lower, o[a]), inv[a]);
+                    let t_upper = _mm256_mul_ps(_mm256_sub_ps(upper, o[a]), inv[a]);
+                    let t0 = _mm256_blendv_ps(t_lower, t_upper, neg[a]);
+                    let t1 = _mm256_mul_ps(_mm256_blendv_ps(t_upper, t_lower, neg[a]), scale);
+                    lo = _mm256_max_ps(t0, lo);
+                    hi = _mm256_min_ps(t1, hi);
+                }
+                let meets = bits_of(_mm256_cmp_ps::<_CMP_LE_OQ>(lo, hi)) & lanes;
+                if meets == 0 {
+                    continue;
+                }
+                let child = PacketEntry {
+                    tnear: [0.0; 8],
+                    index: node.child[slot],
+                    count: node.count[slot] as u32,
+                    lanes: meets,
+                };
+                if let Some(later) = next.replace(child) {
+                    debug_assert!(len < FixedStack::FIXED);
+                    // SAFETY: as in `closest_packet`.
+                    unsafe { stack.get_unchecked_mut(len).write(later) };
+                    len += 1;
+                }
+            }
+        }
+        p.live & !open
+    }
+
     /// Whether [`WideBvh::closest_packet`] can walk this tree (its stack is
     /// [`FixedStack`]'s size).
     pub fn packet_walkable(&self) -> bool {

@@ -410,7 +410,14 @@ impl PathState {
         let light = self
             .next_event(scene, its)
             .and_then(|numbers| sample_light_with(scene, its.p, &self.prev_at, numbers, cfg.which));
-        self.scatter(scene, cfg, its, light, sampler)
+        let mut shadow = None;
+        let going = self.scatter(scene, cfg, its, light, sampler, &mut shadow);
+        if let Some(test) = shadow {
+            if !scene.bvh.occluded(&test.ray) {
+                self.l += test.l;
+            }
+        }
+        going
     }
 
     /// A bounce's first step: adds the emission of the surface `ray`
@@ -475,10 +482,12 @@ impl PathState {
         &self.prev_at
     }
 
-    /// A bounce's last step: adds the contribution of the light sample
-    /// `light` (with the probability of its emitter's choice) taken at
-    /// `its`, if any, and samples the BSDF for the next ray. False if the
-    /// path ends there.
+    /// A bounce's last step: the contribution of the light sample `light`
+    /// (with the probability of its emitter's choice) taken at `its`, if
+    /// any and not zero, set in `shadow` with the ray that must be
+    /// unblocked for it to count (the caller traces it and adds it to
+    /// `l`: a batch traces them together); then samples the BSDF for the
+    /// next ray. False if the path ends there.
     #[inline]
     pub fn scatter(
         &mut self,
@@ -487,6 +496,7 @@ impl PathState {
         its: &Intersection,
         light: Option<(LightSample, f32)>,
         sampler: &mut Sampler,
+        shadow: &mut Option<ShadowTest>,
     ) -> bool {
         let wi_world = -self.ray.d;
         let which = cfg.which;
@@ -507,13 +517,16 @@ impl PathState {
             } else {
                 (bsdf.eval(sp, wi, wo), 0.0)
             };
-            if f != Rgb::ZERO && ls.weight != Rgb::ZERO && scene.unoccluded(its, &ls) {
+            if f != Rgb::ZERO && ls.weight != Rgb::ZERO {
                 let w = if mis {
                     power_heuristic(ls.pdf * pchoice, bsdf_pdf)
                 } else {
                     1.0
                 };
-                self.l += self.beta * f * wo.z.abs() * ls.weight * (w / pchoice);
+                *shadow = Some(ShadowTest {
+                    ray: Scene::shadow_ray(its, &ls),
+                    l: self.beta * f * wo.z.abs() * ls.weight * (w / pchoice),
+                });
             }
         }
 
@@ -557,6 +570,14 @@ impl PathState {
         }
         true
     }
+}
+
+/// A light sample's contribution to a path's radiance, which counts if
+/// nothing blocks `ray` ([`Scene::shadow_ray`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowTest {
+    pub ray: Ray,
+    pub l: Rgb,
 }
 
 /// One sample of the radiance arriving along `camera_ray`.

@@ -56,6 +56,10 @@ pub struct PathBatch {
     arrived: Vec<u32>,
     requests: Vec<Option<LightNumbers>>,
     lights: Vec<Option<(LightSample, f32)>>,
+    /// The bounce stage's shadow rays, and the path and contribution of
+    /// each (added where the ray is unblocked).
+    shadow_rays: Vec<Ray>,
+    shadow_paths: Vec<(u32, Rgb)>,
 }
 
 impl PathBatch {
@@ -85,6 +89,10 @@ impl PathBatch {
         self.arrived.reserve(n);
         self.requests.reserve(n);
         self.lights.reserve(n);
+        self.shadow_rays.clear();
+        self.shadow_paths.clear();
+        self.shadow_rays.reserve(n);
+        self.shadow_paths.reserve(n);
         for (k, (ray, sampler)) in rays.iter().zip(samplers.iter_mut()).enumerate() {
             self.paths.push(PathState::new(scene, cfg, ray, sampler));
             self.live.push(k as u32);
@@ -234,13 +242,49 @@ impl PathBatch {
         self.sample_lights(scene, cfg.which);
         let mut kept = 0;
         self.live.resize(self.arrived.len(), 0);
+        self.shadow_rays.clear();
+        self.shadow_paths.clear();
         for (&k, light) in self.arrived.iter().zip(&self.lights) {
             let (k, i) = (k as usize, self.hit_paths[k as usize] as usize);
-            let going = self.paths[i].scatter(scene, cfg, &self.hits[k], *light, &mut samplers[i]);
+            let mut shadow = None;
+            let path = &mut self.paths[i];
+            let going = path.scatter(
+                scene,
+                cfg,
+                &self.hits[k],
+                *light,
+                &mut samplers[i],
+                &mut shadow,
+            );
+            if let Some(test) = shadow {
+                self.shadow_rays.push(test.ray);
+                self.shadow_paths.push((i as u32, test.l));
+            }
             self.live[kept] = i as u32;
             kept += usize::from(going);
         }
         self.live.truncate(kept);
+        self.trace_shadows(scene);
+    }
+
+    /// Stage 3's shadow rays, eight at a time ([`Scene::occluded_packet`]):
+    /// each light sample's contribution is added to its path where nothing
+    /// blocks its ray (after the path's BSDF sample, which does not read
+    /// the radiance: the same sums as `li`'s).
+    fn trace_shadows(&mut self, scene: &Scene) {
+        let mut blocked = [false; PACKET_LANES];
+        for (rays, paths) in self
+            .shadow_rays
+            .chunks(PACKET_LANES)
+            .zip(self.shadow_paths.chunks(PACKET_LANES))
+        {
+            scene.occluded_packet(rays, &mut blocked[..rays.len()]);
+            for (&(i, l), &b) in paths.iter().zip(&blocked) {
+                if !b {
+                    self.paths[i as usize].l += l;
+                }
+            }
+        }
     }
 
     /// Stage 3's light samples: `lights[j]` is what `sample_light_with`
