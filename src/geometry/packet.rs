@@ -16,7 +16,7 @@ use std::arch::x86_64::*;
 
 #[allow(unused_imports)]
 use super::triangle::RayShear;
-use crate::math::Ray;
+use crate::math::{Ray, Vec3};
 
 /// Lanes in a packet.
 pub const LANES: usize = super::bvh::PACKET_LANES;
@@ -142,6 +142,61 @@ fn shear_lanes(d: [__m256; 3]) -> [__m256; 9] {
         rz(0),
         rz(1),
         rz(2),
+    ]
+}
+
+/// The packet's origins, directions and `tmin`, in registers.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn rays_lanes(p: &RayPacket) -> ([__m256; 3], [__m256; 3], __m256) {
+    // SAFETY: loads of the packet's aligned rows.
+    unsafe {
+        (
+            [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
+            [load(&p.d[0]), load(&p.d[1]), load(&p.d[2])],
+            load(&p.tmin),
+        )
+    }
+}
+
+/// `v` in every lane, by coordinate.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn splat3(v: Vec3) -> [__m256; 3] {
+    [
+        _mm256_set1_ps(v.x),
+        _mm256_set1_ps(v.y),
+        _mm256_set1_ps(v.z),
+    ]
+}
+
+/// `a - b` by coordinate.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn sub3(a: [__m256; 3], b: [__m256; 3]) -> [__m256; 3] {
+    [
+        _mm256_sub_ps(a[0], b[0]),
+        _mm256_sub_ps(a[1], b[1]),
+        _mm256_sub_ps(a[2], b[2]),
+    ]
+}
+
+/// `a . b` in every lane, in `Vec3::dot`'s order ((x + y) + z).
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn dot3(a: [__m256; 3], b: [__m256; 3]) -> __m256 {
+    let (mul, add) = (_mm256_mul_ps, _mm256_add_ps);
+    add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+}
+
+/// `t a - b` by coordinate (`f32 * Vec3 - Vec3`).
+#[inline]
+#[target_feature(enable = "avx2")]
+pub fn scaled_sub3(t: __m256, a: [__m256; 3], b: [__m256; 3]) -> [__m256; 3] {
+    [
+        _mm256_sub_ps(_mm256_mul_ps(t, a[0]), b[0]),
+        _mm256_sub_ps(_mm256_mul_ps(t, a[1]), b[1]),
+        _mm256_sub_ps(_mm256_mul_ps(t, a[2]), b[2]),
     ]
 }
 

@@ -142,43 +142,23 @@ impl PlaneFrame {
         p: &super::packet::RayPacket,
         tmax: std::arch::x86_64::__m256,
     ) -> [std::arch::x86_64::__m256; 4] {
-        use super::packet::load;
+        use super::packet::{dot3, rays_lanes, scaled_sub3, splat3, sub3};
         use std::arch::x86_64::*;
-        let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
-        let dot = |a: [__m256; 3], b: Vec3| {
-            add(
-                add(
-                    mul(a[0], _mm256_set1_ps(b.x)),
-                    mul(a[1], _mm256_set1_ps(b.y)),
-                ),
-                mul(a[2], _mm256_set1_ps(b.z)),
-            )
-        };
-        // SAFETY: loads of the packet's aligned rows.
-        let (o, d, tmin) = unsafe {
-            (
-                [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
-                [load(&p.d[0]), load(&p.d[1]), load(&p.d[2])],
-                load(&p.tmin),
-            )
-        };
-        let c = self.center;
-        let to_center = [
-            sub(_mm256_set1_ps(c.x), o[0]),
-            sub(_mm256_set1_ps(c.y), o[1]),
-            sub(_mm256_set1_ps(c.z), o[2]),
-        ];
-        let t = _mm256_div_ps(dot(to_center, self.n), dot(d, self.n));
+        let (o, d, tmin) = rays_lanes(p);
+        let to_center = sub3(splat3(self.center), o);
+        let n = splat3(self.n);
+        let t = _mm256_div_ps(dot3(to_center, n), dot3(d, n));
         let within = _mm256_and_ps(
             _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
             _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
         );
-        let q = [
-            sub(mul(t, d[0]), to_center[0]),
-            sub(mul(t, d[1]), to_center[1]),
-            sub(mul(t, d[2]), to_center[2]),
-        ];
-        [within, t, dot(q, self.dx), dot(q, self.dy)]
+        let q = scaled_sub3(t, d, to_center);
+        [
+            within,
+            t,
+            dot3(q, splat3(self.dx)),
+            dot3(q, splat3(self.dy)),
+        ]
     }
 
     /// The point at object coordinates `l` and its error bound: on the

@@ -214,26 +214,12 @@ impl Sphere {
         p: &super::packet::RayPacket,
         tmax: std::arch::x86_64::__m256,
     ) -> (u32, std::arch::x86_64::__m256) {
-        use super::packet::{bits_of, load};
+        use super::packet::{bits_of, dot3, rays_lanes, splat3, sub3};
         use std::arch::x86_64::*;
         let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
-        let dot = |a: [__m256; 3], b: [__m256; 3]| {
-            add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
-        };
-        // SAFETY: loads of the packet's aligned rows.
-        let (o, d, tmin) = unsafe {
-            (
-                [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
-                [load(&p.d[0]), load(&p.d[1]), load(&p.d[2])],
-                load(&p.tmin),
-            )
-        };
-        let c = self.center;
-        let f = [
-            sub(o[0], _mm256_set1_ps(c.x)),
-            sub(o[1], _mm256_set1_ps(c.y)),
-            sub(o[2], _mm256_set1_ps(c.z)),
-        ];
+        let dot = dot3;
+        let (o, d, tmin) = rays_lanes(p);
+        let f = sub3(o, splat3(self.center));
         let a = dot(d, d);
         let b = _mm256_xor_ps(dot(f, d), _mm256_set1_ps(-0.0));
         let s = _mm256_div_ps(b, a);
