@@ -493,7 +493,7 @@ impl Bvh {
     }
 
     /// [`Bvh::intersect`] of each of `rays` (at most
-    /// [`super::packet::LANES`]) into `hits`: the same hits, found by one
+    /// [`PACKET_LANES`]) into `hits`: the same hits, found by one
     /// walk of the packet where [`Bvh::walks_packets`] (on ties, two
     /// primitives at exactly the same distance, the packet may keep the
     /// other one), by one walk per ray elsewhere.

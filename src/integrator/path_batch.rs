@@ -117,10 +117,10 @@ impl PathBatch {
             self.hit_paths.resize(n, 0);
             self.escaped_paths.resize(n, 0);
         }
-        let (mut reached, mut escaped) = (0, 0);
         if scene.walks_packets() {
             return self.trace_packets(scene, cfg);
         }
+        let (mut reached, mut escaped) = (0, 0);
         for &i in &self.live {
             // A miss leaves the slot as it was: the next path writes it.
             let found = self.paths[i as usize].trace_into(scene, cfg, &mut self.hits[reached]);
