@@ -14,8 +14,6 @@
 
 use std::arch::x86_64::*;
 
-#[allow(unused_imports)]
-use super::triangle::RayShear;
 use crate::math::{Ray, Vec3};
 
 /// Lanes in a packet.
@@ -36,8 +34,9 @@ pub struct RayPacket<'a> {
     pub neg: [[u32; LANES]; 3],
     pub tmin: [f32; LANES],
     pub tmax: [f32; LANES],
-    /// The rows of each ray's triangle shear ([`RayShear::rows`]): row
-    /// `3 r + c` is component `c` of row `r`.
+    /// The rows of each ray's triangle shear
+    /// ([`RayShear::rows`](super::triangle::RayShear::rows)): row `3 r + c`
+    /// is component `c` of row `r`.
     pub shear: [[f32; LANES]; 9],
     /// The rays, for the primitives tested one ray at a time.
     pub rays: &'a [Ray],
@@ -47,8 +46,9 @@ pub struct RayPacket<'a> {
 
 impl<'a> RayPacket<'a> {
     /// The packet of `rays` (1 to [`LANES`] of them). The shears are
-    /// [`RayShear::new`]'s, computed in lanes (its axis choice by masks,
-    /// not by the jumps that a ray's random direction mispredicts).
+    /// [`RayShear::new`](super::triangle::RayShear::new)'s, computed in
+    /// lanes (its axis choice by masks, not by the jumps that a ray's
+    /// random direction mispredicts).
     #[inline]
     #[target_feature(enable = "avx2")]
     pub fn new(rays: &'a [Ray]) -> RayPacket<'a> {
@@ -103,10 +103,11 @@ impl<'a> RayPacket<'a> {
     }
 }
 
-/// [`RayShear::new`]'s rows for eight directions, by its operations: the
-/// dominant axis kz (ties as its comparisons break them), kx and ky after
-/// it (swapped where d[kz] < 0), then `e_kx - e_kz sx`, `e_ky - e_kz sy`
-/// and `e_kz sz` with the unit vectors as 0/1 lanes.
+/// [`RayShear::new`](super::triangle::RayShear::new)'s rows for eight
+/// directions, by its operations: the dominant axis kz (ties as its
+/// comparisons break them), kx and ky after it (swapped where d[kz] < 0),
+/// then `e_kx - e_kz sx`, `e_ky - e_kz sy` and `e_kz sz` with the unit
+/// vectors as 0/1 lanes.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn shear_lanes(d: [__m256; 3]) -> [__m256; 9] {

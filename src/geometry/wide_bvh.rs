@@ -178,44 +178,46 @@ unsafe fn slab_test_avx2(node: &WideNode, r: &SlabRay, tmax: f32) -> (u32, [f32;
 /// fit (`WideBvh::fixed_stack`, set by [`WideBvh::from_nodes`]) are walked
 /// with this stack and no bounds check; deeper ones, which no sane scene
 /// builds, with [`VecStack`].
-struct FixedStack {
-    fixed: [MaybeUninit<Entry>; FixedStack::FIXED],
+/// The packet walks keep their entries (`PacketEntry`) in one too.
+struct FixedStack<E = Entry> {
+    fixed: [MaybeUninit<E>; FIXED_ENTRIES],
     len: usize,
 }
 
 /// Where a traversal keeps the subtrees it has still to visit.
-trait TraversalStack {
+trait TraversalStack<E = Entry> {
     fn new() -> Self;
-    fn push(&mut self, e: Entry);
-    fn pop(&mut self) -> Option<Entry>;
+    fn push(&mut self, e: E);
+    fn pop(&mut self) -> Option<E>;
 }
 
-impl FixedStack {
-    const FIXED: usize = 256;
-    /// The deepest tree whose traversal fits in `FIXED` entries.
-    const MAX_DEPTH: usize = FixedStack::FIXED / 7;
-}
+/// The entries a [`FixedStack`] holds.
+const FIXED_ENTRIES: usize = 256;
 
-impl TraversalStack for FixedStack {
+/// The deepest tree whose traversal fits in [`FIXED_ENTRIES`].
+const FIXED_DEPTH: usize = FIXED_ENTRIES / 7;
+
+impl<E: Copy> TraversalStack<E> for FixedStack<E> {
     #[inline(always)]
-    fn new() -> FixedStack {
+    fn new() -> FixedStack<E> {
         FixedStack {
-            fixed: [const { MaybeUninit::uninit() }; FixedStack::FIXED],
+            fixed: [const { MaybeUninit::uninit() }; FIXED_ENTRIES],
             len: 0,
         }
     }
 
     #[inline(always)]
-    fn push(&mut self, e: Entry) {
-        debug_assert!(self.len < FixedStack::FIXED);
-        // SAFETY: only trees of depth <= MAX_DEPTH are walked with this
-        // stack, and their walks hold at most 7 * MAX_DEPTH < FIXED entries.
+    fn push(&mut self, e: E) {
+        debug_assert!(self.len < FIXED_ENTRIES);
+        // SAFETY: only trees of depth <= FIXED_DEPTH are walked with this
+        // stack, and their walks hold at most 7 * FIXED_DEPTH < FIXED_ENTRIES
+        // entries.
         unsafe { self.fixed.get_unchecked_mut(self.len).write(e) };
         self.len += 1;
     }
 
     #[inline(always)]
-    fn pop(&mut self) -> Option<Entry> {
+    fn pop(&mut self) -> Option<E> {
         if self.len == 0 {
             return None;
         }
@@ -373,7 +375,7 @@ impl WideBvh {
             nodes,
             fixed_stack: false,
         };
-        bvh.fixed_stack = bvh.depth() <= FixedStack::MAX_DEPTH;
+        bvh.fixed_stack = bvh.depth() <= FIXED_DEPTH;
         bvh
     }
 
@@ -540,44 +542,6 @@ impl PacketEntry {
     }
 }
 
-/// A packet walk's stack: a fixed array, as [`FixedStack`] (the packet
-/// walks take only trees it fits).
-#[cfg(target_arch = "x86_64")]
-struct PacketStack {
-    entries: [MaybeUninit<PacketEntry>; FixedStack::FIXED],
-    len: usize,
-}
-
-#[cfg(target_arch = "x86_64")]
-impl PacketStack {
-    #[inline(always)]
-    fn new() -> PacketStack {
-        PacketStack {
-            entries: [const { MaybeUninit::uninit() }; FixedStack::FIXED],
-            len: 0,
-        }
-    }
-
-    #[inline(always)]
-    fn push(&mut self, e: PacketEntry) {
-        debug_assert!(self.len < FixedStack::FIXED);
-        // SAFETY: the tree is at most `FixedStack::MAX_DEPTH` deep and a
-        // node visit pushes at most 7 entries.
-        unsafe { self.entries.get_unchecked_mut(self.len).write(e) };
-        self.len += 1;
-    }
-
-    #[inline(always)]
-    fn pop(&mut self) -> Option<PacketEntry> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        // SAFETY: entries below `len` were written by `push`.
-        Some(unsafe { self.entries.get_unchecked(self.len).assume_init() })
-    }
-}
-
 /// A packet's rays as the slab test of a child box wants them, in
 /// registers.
 #[cfg(target_arch = "x86_64")]
@@ -667,7 +631,7 @@ impl WideBvh {
         let slabs = PacketSlabs::new(p);
         // SAFETY: the packet's row is aligned.
         let tmax = unsafe { super::packet::load(&p.tmax) };
-        let mut stack = PacketStack::new();
+        let mut stack = FixedStack::<PacketEntry>::new();
         let mut open = p.live;
         let mut next = Some(PacketEntry::root(p.live));
         while let Some(e) = next.take().or_else(|| stack.pop()) {
@@ -732,7 +696,7 @@ impl WideBvh {
         }
         let slabs = PacketSlabs::new(p);
         let scale = _mm256_set1_ps(FAR_SCALE);
-        let mut stack = PacketStack::new();
+        let mut stack = FixedStack::<PacketEntry>::new();
         let mut next = Some(PacketEntry::root(p.live));
         while let Some(e) = next.take().or_else(|| stack.pop()) {
             // As the one-ray walk: a box entered a rounding error beyond
@@ -925,7 +889,7 @@ mod tests {
 
     #[test]
     fn the_stacks_stay_last_in_first_out() {
-        lifo::<FixedStack>(FixedStack::FIXED as u32);
+        lifo::<FixedStack>(FIXED_ENTRIES as u32);
         lifo::<VecStack>(600);
     }
 
@@ -960,7 +924,7 @@ mod tests {
     #[test]
     fn deep_trees_take_the_growing_stack() {
         let ray = Ray::with_range(Vec3::splat(0.5) - Vec3::Z, Vec3::Z, 0.0, f32::INFINITY);
-        for (levels, fixed) in [(60, false), (FixedStack::MAX_DEPTH as u32, true)] {
+        for (levels, fixed) in [(60, false), (FIXED_DEPTH as u32, true)] {
             let bvh = chain(levels);
             assert_eq!(bvh.depth(), levels as usize);
             assert_eq!(bvh.fixed_stack, fixed);
