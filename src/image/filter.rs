@@ -85,6 +85,26 @@ impl FilterEval {
     pub fn gaussian_4(&self, x: Vec4) -> Option<Vec4> {
         self.gaussian.map(|g| gaussian(g, x))
     }
+
+    /// The Gaussian's values at eight offsets in AVX lanes (None for other
+    /// filters): lane by lane the bits [`FilterEval::gaussian_4`] gives.
+    ///
+    /// # Safety
+    /// Call only where the CPU has AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn gaussian_8(&self, x: std::arch::x86_64::__m256) -> Option<std::arch::x86_64::__m256> {
+        use std::arch::x86_64::*;
+        let (alpha, at_radius) = self.gaussian?;
+        // gaussian(), in eight lanes: (alpha x) x, exp, less the value at
+        // the radius, at least 0 (max with 0 second, as glam's max).
+        let e = crate::math::exp8(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(alpha), x), x));
+        Some(_mm256_max_ps(
+            _mm256_sub_ps(e, _mm256_set1_ps(at_radius)),
+            _mm256_setzero_ps(),
+        ))
+    }
 }
 
 /// exp(alpha x^2) less its value at the radius, at least 0.
