@@ -190,20 +190,17 @@ impl FilmBlock {
     /// +0.5) onto every pixel within the filter radius.
     #[inline]
     pub fn put(&mut self, pos: Vec2, value: Rgb) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `avx2` says the CPU has AVX2.
+        if self.avx2 && self.gaussian_4 && unsafe { self.put_gaussian_avx2(pos, value) } {
+            return;
+        }
         if !value.is_finite() {
             return;
         }
         // (w r, w g, w b, w 1): the products and sums the separate
         // fields took, lane by lane.
         let value = value.extend(1.0);
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            if let Some((first, x, y)) = self.gaussian_offsets(pos) {
-                // SAFETY: `avx2` says the CPU has AVX2.
-                unsafe { self.put_gaussian_avx2(first, x, y, value) };
-                return;
-            }
-        }
         if let Some((first, wx, wy)) = self.gaussian_window(pos) {
             // Row by row: one bounds check a row, the row's four weights
             // wy_j wx_i in one multiply (the same products, so the same
@@ -223,17 +220,50 @@ impl FilmBlock {
         });
     }
 
-    /// [`FilmBlock::put`]'s 4 x 4 Gaussian splat in AVX lanes: the eight
-    /// weights along x and y in one [`FilterEval::gaussian_8`], the sixteen
+    /// [`FilmBlock::put`]'s 4 x 4 Gaussian splat in AVX lanes, for a finite
+    /// sample whose window [`FilmBlock::gaussian_offsets`] takes (false,
+    /// and nothing added, for the others: the caller's general path sees
+    /// to them). The window's floor and offsets in lanes, the eight weights
+    /// along x and y in one [`FilterEval::gaussian_8`], the sixteen
     /// products wy_j wx_i in two multiplies, then two cells (eight floats)
     /// per multiply and add. The same products and sums as the four-lane
-    /// loop, so the same bits (tested); a third of its instructions.
+    /// loop, so the same bits (tested); half of its instructions.
     #[cfg(target_arch = "x86_64")]
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn put_gaussian_avx2(&mut self, first: usize, x: Vec4, y: Vec4, value: Vec4) {
+    fn put_gaussian_avx2(&mut self, pos: Vec2, value: Rgb) -> bool {
         use std::arch::x86_64::*;
-        let offsets = _mm256_set_m128(y.into(), x.into());
+        // value.extend(1.0), finite in every lane (NaN compares false).
+        let v = _mm_setr_ps(value.x, value.y, value.z, 1.0);
+        let magnitude = _mm_andnot_ps(_mm_set1_ps(-0.0), v);
+        if _mm_movemask_ps(_mm_cmplt_ps(magnitude, _mm_set1_ps(f32::INFINITY))) != 0xF {
+            return false;
+        }
+        let (px, py) = (pos.x - 0.5, pos.y - 0.5);
+        let p = _mm256_setr_ps(px, px, px, px, py, py, py, py);
+        let floor = _mm256_floor_ps(p);
+        let (fx, fy) = (
+            _mm256_cvtss_f32(floor),
+            _mm_cvtss_f32(_mm256_extractf128_ps::<1>(floor)),
+        );
+        // Beyond i32 (or NaN) the conversion gives i32::MIN, which the
+        // bounds below refuse; within them the floor is floor_i32's.
+        let i = _mm256_cvttps_epi32(floor);
+        let (ix, iy) = (_mm256_extract_epi32::<0>(i), _mm256_extract_epi32::<4>(i));
+        let cx = ix.wrapping_sub(1).wrapping_sub(self.x0);
+        let cy = iy.wrapping_sub(1).wrapping_sub(self.y0);
+        if fx == px
+            || fy == py
+            || (cx as u32 as usize).saturating_add(4) > self.width
+            || (cy as u32 as usize).saturating_add(4) > self.height
+        {
+            return false;
+        }
+        let first = cy as usize * self.width + cx as usize;
+        // (floor - 1) - p .. (floor + 2) - p: integers this small are exact
+        // in f32, so these are gaussian_offsets' (f0 + k) as f32 - p.
+        let steps = _mm256_setr_ps(-1.0, 0.0, 1.0, 2.0, -1.0, 0.0, 1.0, 2.0);
+        let offsets = _mm256_sub_ps(_mm256_add_ps(floor, steps), p);
         let w = self
             .filter
             .gaussian_8(offsets)
@@ -245,7 +275,6 @@ impl FilmBlock {
             _mm256_mul_ps(wx, _mm256_permutevar8x32_ps(w, idx(4, 5))),
             _mm256_mul_ps(wx, _mm256_permutevar8x32_ps(w, idx(6, 7))),
         ];
-        let v: __m128 = value.into();
         let v = _mm256_set_m128(v, v);
         // Each cell's weight spread over its four floats: cells (0, 1) and
         // (2, 3) of a row, from lanes (4 r, 4 r + 1) and (4 r + 2, 4 r + 3).
@@ -266,6 +295,7 @@ impl FilmBlock {
                 }
             }
         }
+        true
     }
 
     /// The block's pixels a sample at film position `pos` reaches, with
