@@ -53,32 +53,25 @@ impl<'a> RayPacket<'a> {
     #[target_feature(enable = "avx2")]
     pub fn new(rays: &'a [Ray]) -> RayPacket<'a> {
         assert!(!rays.is_empty() && rays.len() <= LANES);
-        let mut rows = [[0.0f32; LANES]; 8];
-        // Lane by lane into eight rows (clippy would have one row by lane).
-        #[allow(clippy::needless_range_loop)]
-        for lane in 0..LANES {
+        // Ray k's eight floats (o, d, tmin, tmax: `Ray` is repr(C)) as row
+        // k of a matrix, transposed so that row j holds field j of every
+        // ray.
+        const _: () = assert!(std::mem::size_of::<Ray>() == 32);
+        let load = |lane: usize| {
             let ray = rays.get(lane).unwrap_or(&rays[0]);
-            for a in 0..3 {
-                rows[a][lane] = ray.o[a];
-                rows[3 + a][lane] = ray.d[a];
-            }
-            rows[6][lane] = ray.tmin;
-            rows[7][lane] = ray.tmax;
-        }
+            // SAFETY: a `Ray` is eight contiguous floats.
+            unsafe { _mm256_loadu_ps((ray as *const Ray).cast()) }
+        };
+        let r: [__m256; LANES] = std::array::from_fn(load);
+        let cols = transpose8(r);
         let store = |x: __m256| {
             let mut row = [0.0f32; LANES];
             // SAFETY: `row` holds eight floats.
             unsafe { _mm256_storeu_ps(row.as_mut_ptr(), x) };
             row
         };
-        // SAFETY: each row holds eight floats.
-        let d = unsafe {
-            [
-                _mm256_loadu_ps(rows[3].as_ptr()),
-                _mm256_loadu_ps(rows[4].as_ptr()),
-                _mm256_loadu_ps(rows[5].as_ptr()),
-            ]
-        };
+        let rows = cols.map(store);
+        let d = [cols[3], cols[4], cols[5]];
         let one = _mm256_set1_ps(1.0);
         let inv = d.map(|c| store(_mm256_div_ps(one, c)));
         let neg = d.map(|c| {
@@ -101,6 +94,43 @@ impl<'a> RayPacket<'a> {
             live: (1u32 << rays.len()) - 1,
         }
     }
+}
+
+/// The transpose of an 8 x 8 matrix of floats held by rows: unpacks
+/// within 128-bit halves, then across them.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose8(r: [__m256; LANES]) -> [__m256; LANES] {
+    let t = [
+        _mm256_unpacklo_ps(r[0], r[1]),
+        _mm256_unpackhi_ps(r[0], r[1]),
+        _mm256_unpacklo_ps(r[2], r[3]),
+        _mm256_unpackhi_ps(r[2], r[3]),
+        _mm256_unpacklo_ps(r[4], r[5]),
+        _mm256_unpackhi_ps(r[4], r[5]),
+        _mm256_unpacklo_ps(r[6], r[7]),
+        _mm256_unpackhi_ps(r[6], r[7]),
+    ];
+    let q = [
+        _mm256_shuffle_ps::<0x44>(t[0], t[2]),
+        _mm256_shuffle_ps::<0xEE>(t[0], t[2]),
+        _mm256_shuffle_ps::<0x44>(t[1], t[3]),
+        _mm256_shuffle_ps::<0xEE>(t[1], t[3]),
+        _mm256_shuffle_ps::<0x44>(t[4], t[6]),
+        _mm256_shuffle_ps::<0xEE>(t[4], t[6]),
+        _mm256_shuffle_ps::<0x44>(t[5], t[7]),
+        _mm256_shuffle_ps::<0xEE>(t[5], t[7]),
+    ];
+    [
+        _mm256_permute2f128_ps::<0x20>(q[0], q[4]),
+        _mm256_permute2f128_ps::<0x20>(q[1], q[5]),
+        _mm256_permute2f128_ps::<0x20>(q[2], q[6]),
+        _mm256_permute2f128_ps::<0x20>(q[3], q[7]),
+        _mm256_permute2f128_ps::<0x31>(q[0], q[4]),
+        _mm256_permute2f128_ps::<0x31>(q[1], q[5]),
+        _mm256_permute2f128_ps::<0x31>(q[2], q[6]),
+        _mm256_permute2f128_ps::<0x31>(q[3], q[7]),
+    ]
 }
 
 /// [`RayShear::new`](super::triangle::RayShear::new)'s rows for eight

@@ -2,8 +2,11 @@
 
 use super::Vec3;
 
-/// A ray `o + t d` valid for `t` in `[tmin, tmax]`.
+/// A ray `o + t d` valid for `t` in `[tmin, tmax]`. Laid out as eight
+/// floats in this order (`o`, `d`, `tmin`, `tmax`), so eight rays are an
+/// 8 x 8 matrix that `RayPacket::new` transposes in AVX2 registers.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct Ray {
     pub o: Vec3,
     pub d: Vec3,
