@@ -623,10 +623,13 @@ impl Bsdf {
 
     /// `(eval, pdf)` at once: what next-event estimation under MIS needs.
     /// The same values as the two calls; the models whose two share work
-    /// (rough conductors and plastics, textured ones' lookups) do it once.
+    /// (plastics, rough conductors, textured ones' lookups) do it once,
+    /// and the diffuse model, most scenes' commonest, is inlined.
     pub fn eval_pdf(&self, at: impl Into<SurfacePoint>, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
         let at = at.into();
         match self {
+            Bsdf::Diffuse(b) => b.eval_pdf(wi, wo),
+            Bsdf::Plastic(b) => b.eval_pdf(wi, wo),
             Bsdf::RoughConductor(b) => b.eval_pdf(wi, wo),
             Bsdf::RoughPlastic(b) => {
                 let (kd, ks) = (b.diffuse_reflectance, b.specular_reflectance);

@@ -96,6 +96,20 @@ impl Plastic {
         (1.0 - self.prob_specular(f_i)) * warp::square_to_cosine_hemisphere_pdf(wo)
     }
 
+    /// `(eval, pdf)`, the incoming side's Fresnel term computed once (the
+    /// same values as the two calls).
+    #[inline]
+    pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (f_i, _, _) = fresnel_dielectric(wi.z, self.eta);
+        let (f_o, _, _) = fresnel_dielectric(wo.z, self.eta);
+        let f = self.diffuse_term() * (INV_PI / (self.eta * self.eta) * (1.0 - f_i) * (1.0 - f_o));
+        let pdf = (1.0 - self.prob_specular(f_i)) * warp::square_to_cosine_hemisphere_pdf(wo);
+        (f, pdf)
+    }
+
     pub fn sample(&self, wi: Vec3, u: Vec2, u_lobe: f32) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;

@@ -90,3 +90,55 @@ fn mirror_reflects_with_unit_weight() {
     assert_eq!(Bsdf::mirror().eval(UV0, wi, b.wo), lente::color::Rgb::ZERO);
     assert_eq!(Bsdf::mirror().pdf(UV0, wi, b.wo), 0.0);
 }
+
+/// `eval_pdf` gives the bits `eval` and `pdf` give, for the models with a
+/// combined routine of their own (diffuse, plastic, rough conductor, rough
+/// plastic) and for one that takes the two calls (Nori's microfacet), over
+/// directions on both sides.
+#[test]
+fn eval_pdf_is_eval_and_pdf_bit_for_bit() {
+    use lente::bsdf::MicrofacetType;
+    use lente::color::Rgb;
+    let bsdfs = [
+        Bsdf::diffuse(Rgb::new(0.2, 0.5, 0.7)).unwrap(),
+        Bsdf::plastic(1.49, 1.000277, Rgb::new(0.2, 0.4, 0.8), Rgb::ONE, false).unwrap(),
+        Bsdf::plastic(1.6, 1.0, Rgb::new(0.9, 0.1, 0.1), Rgb::splat(0.5), true).unwrap(),
+        Bsdf::rough_conductor(
+            MicrofacetType::Ggx,
+            0.2,
+            0.3,
+            Rgb::new(0.2, 0.9, 1.1),
+            Rgb::new(3.9, 2.4, 2.2),
+            Rgb::ONE,
+            true,
+        )
+        .unwrap(),
+        Bsdf::rough_plastic(
+            MicrofacetType::Ggx,
+            0.3,
+            1.5,
+            1.0,
+            Rgb::splat(0.5),
+            Rgb::ONE,
+            false,
+            true,
+        )
+        .unwrap(),
+        Bsdf::microfacet(0.3, 1.7, 1.0, Rgb::splat(0.4)).unwrap(),
+    ];
+    let mut s = Sampler::new(5, 9);
+    let mut compared = 0;
+    for bsdf in &bsdfs {
+        for _ in 0..2000 {
+            let wi = lente::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let wo = lente::sampling::warp::square_to_uniform_sphere(s.next_2d());
+            let (f, pdf) = bsdf.eval_pdf(UV0, wi, wo);
+            let (want_f, want_pdf) = (bsdf.eval(UV0, wi, wo), bsdf.pdf(UV0, wi, wo));
+            let bits = |c: Rgb| c.to_array().map(f32::to_bits);
+            assert_eq!(bits(f), bits(want_f), "{bsdf:?} at {wi}, {wo}");
+            assert_eq!(pdf.to_bits(), want_pdf.to_bits(), "{bsdf:?} at {wi}, {wo}");
+            compared += usize::from(pdf > 0.0);
+        }
+    }
+    assert!(compared > 2000, "{compared} nonzero densities");
+}
