@@ -60,6 +60,11 @@ pub struct Scene {
     pub infinite: Vec<u32>,
     /// Chooses the emitter to sample from a shading point.
     pub light_choice: Option<LightChoice>,
+    /// Some emitter at infinity is an environment map, whose light samples
+    /// are worth prefetching when their numbers are drawn
+    /// (`LightNumbers::draw_ahead`): elsewhere there is nothing to fetch,
+    /// and finding which emitter the numbers choose was wasted.
+    pub prefetches_light_samples: bool,
     pub bvh: Bvh,
     pub bounds: Aabb,
     pub scene_radius: f32,
@@ -149,7 +154,7 @@ impl Scene {
         } else {
             (0.5 * bounds.diagonal().length()).max(1e-3)
         };
-        let infinite = emitters
+        let infinite: Vec<u32> = emitters
             .iter()
             .enumerate()
             .filter(|(_, e)| e.is_infinite())
@@ -160,6 +165,8 @@ impl Scene {
             scene_radius,
         };
         let light_choice = LightChoice::new(&emitters, &ctx);
+        let prefetches_light_samples = (infinite.iter())
+            .any(|&i: &u32| matches!(emitters[i as usize], Emitter::Environment(_)));
         let camera = if desc.camera.autofocus {
             Camera::new(autofocus(desc.camera, &bvh, &geometry)?)?
         } else {
@@ -176,6 +183,7 @@ impl Scene {
             emitters,
             infinite,
             light_choice,
+            prefetches_light_samples,
             bvh,
             bounds,
             scene_radius,

@@ -437,6 +437,7 @@ impl Bsdf {
     /// True if every lobe is a delta: NEE is pointless on it. A BSDF with
     /// both delta and smooth lobes (plastic) is not specular; its samples
     /// say which lobe they came from.
+    #[inline]
     pub fn is_specular(&self) -> bool {
         match self {
             Bsdf::Mirror(_)
@@ -462,6 +463,7 @@ impl Bsdf {
     /// to the integrand. A purely glossy lobe gains too little from that
     /// to pay for the extra table reads. False where unsure (transmission,
     /// null lobes, tilted frames).
+    #[inline]
     pub fn favours_facing_light(&self) -> bool {
         match self {
             Bsdf::Diffuse(_) | Bsdf::Microfacet(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {

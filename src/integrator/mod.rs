@@ -73,6 +73,9 @@ impl LightNumbers {
     #[inline]
     fn draw_ahead(scene: &Scene, sampler: &mut Sampler, which: LightPdf) -> LightNumbers {
         let numbers = LightNumbers::draw(sampler);
+        if !scene.prefetches_light_samples {
+            return numbers;
+        }
         if let Some(c) = &scene.light_choice {
             if let Some(i) = c.choice_at_infinity(numbers.choice) {
                 scene.emitters[i].prefetch_sample(numbers.u, which);
