@@ -105,6 +105,144 @@ impl BoundsLanes {
     }
 }
 
+/// Up to eight lights' bounds for [`BoundsLanes8::importance`]: the fields
+/// of [`BoundsLanes`], eight lanes to a row (unused lanes padded alike).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(super) struct BoundsLanes8 {
+    /// cx, cy, cz, radius, power, ax, ay, az, cos_o, sin_o.
+    rows: [[f32; 8]; 10],
+    /// All ones where the light emits within a cone.
+    cone: [u32; 8],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl BoundsLanes8 {
+    /// The lanes of `lights` in groups of eight, the last padded: each
+    /// group is two groups of [`BoundsLanes::group`] side by side.
+    pub fn group(lights: &[LightBounds]) -> Vec<BoundsLanes8> {
+        let fours = BoundsLanes::group(lights);
+        let padding = BoundsLanes::new(&[]);
+        fours
+            .chunks(2)
+            .map(|pair| {
+                let (lo, hi) = (pair[0], *pair.get(1).unwrap_or(&padding));
+                let row = |f: &dyn Fn(&BoundsLanes) -> Vec4| {
+                    let (a, b) = (f(&lo).to_array(), f(&hi).to_array());
+                    std::array::from_fn(|k| if k < 4 { a[k] } else { b[k - 4] })
+                };
+                let cone = |b: &BoundsLanes| b.cone.bitmask();
+                let (cl, ch) = (cone(&lo), cone(&hi));
+                BoundsLanes8 {
+                    rows: [
+                        row(&|b| b.cx),
+                        row(&|b| b.cy),
+                        row(&|b| b.cz),
+                        row(&|b| b.radius),
+                        row(&|b| b.power),
+                        row(&|b| b.ax),
+                        row(&|b| b.ay),
+                        row(&|b| b.az),
+                        row(&|b| b.cos_o),
+                        row(&|b| b.sin_o),
+                    ],
+                    cone: std::array::from_fn(|k| {
+                        let bit = if k < 4 { cl >> k } else { ch >> (k - 4) };
+                        if bit & 1 == 1 {
+                            u32::MAX
+                        } else {
+                            0
+                        }
+                    }),
+                }
+            })
+            .collect()
+    }
+
+    /// [`BoundsLanes::importance`] of the eight lanes in AVX lanes: the
+    /// same operations in the same order, so the same bits (tested).
+    ///
+    /// # Safety
+    /// Call only where the CPU has AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn importance(&self, p: Vec3, n: Vec3) -> [f32; 8] {
+        use std::arch::x86_64::*;
+        let (add, sub, mul, div) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
+        // glam's select: b where the mask is clear, a where it is set.
+        let select = |m: __m256, a: __m256, b: __m256| _mm256_blendv_ps(b, a, m);
+        let ge = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_GE_OQ>(a, b);
+        let le = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
+        let dot = |x1, y1, z1, x2, y2, z2| add(add(mul(x1, x2), mul(y1, y2)), mul(z1, z2));
+        let sqrt1m = |x| {
+            _mm256_sqrt_ps(_mm256_max_ps(
+                sub(_mm256_set1_ps(1.0), mul(x, x)),
+                _mm256_setzero_ps(),
+            ))
+        };
+        // SAFETY: the rows are eight aligned floats each.
+        let row = |k: usize| unsafe { _mm256_load_ps(self.rows[k].as_ptr()) };
+        let (cx, cy, cz, radius, power) = (row(0), row(1), row(2), row(3), row(4));
+        let (ax, ay, az, cos_o, sin_o) = (row(5), row(6), row(7), row(8), row(9));
+        // SAFETY: eight aligned integers.
+        let cone = _mm256_castsi256_ps(unsafe { _mm256_load_si256(self.cone.as_ptr().cast()) });
+        let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+        let (tx, ty, tz) = (
+            sub(_mm256_set1_ps(p.x), cx),
+            sub(_mm256_set1_ps(p.y), cy),
+            sub(_mm256_set1_ps(p.z), cz),
+        );
+        let d2 = dot(tx, ty, tz, tx, ty, tz);
+        let r2 = mul(radius, radius);
+        let inside = le(d2, r2);
+        let inside_value = div(power, _mm256_max_ps(r2, _mm256_set1_ps(f32::MIN_POSITIVE)));
+        let dist = _mm256_sqrt_ps(d2);
+        let (wx, wy, wz) = (div(tx, dist), div(ty, dist), div(tz, dist));
+        let sin_b = div(radius, dist);
+        let cos_b = sqrt1m(sin_b);
+        // glam's clamp: max with the low end, then min with the high end.
+        let cos_w = _mm256_min_ps(
+            _mm256_max_ps(dot(ax, ay, az, wx, wy, wz), _mm256_set1_ps(-1.0)),
+            one,
+        );
+        let sin_w = sqrt1m(cos_w);
+        let within = ge(cos_w, cos_o);
+        let cos_x = select(within, one, add(mul(cos_w, cos_o), mul(sin_w, sin_o)));
+        let sin_x = select(within, zero, sub(mul(sin_w, cos_o), mul(cos_w, sin_o)));
+        let c = select(
+            ge(cos_x, cos_b),
+            one,
+            add(mul(cos_x, cos_b), mul(sin_x, sin_b)),
+        );
+        let culled = _mm256_and_ps(cone, le(c, _mm256_set1_ps(-1e-4)));
+        let mut factor = select(cone, _mm256_max_ps(c, _mm256_set1_ps(MIN_FACTOR)), one);
+        if n != Vec3::ZERO {
+            let (nx, ny, nz) = (
+                _mm256_set1_ps(n.x),
+                _mm256_set1_ps(n.y),
+                _mm256_set1_ps(n.z),
+            );
+            let magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
+            let cos_i = _mm256_min_ps(_mm256_and_ps(dot(nx, ny, nz, wx, wy, wz), magnitude), one);
+            let sin_i = sqrt1m(cos_i);
+            let c = select(
+                ge(cos_i, cos_b),
+                one,
+                add(mul(cos_i, cos_b), mul(sin_i, sin_b)),
+            );
+            factor = mul(factor, _mm256_max_ps(c, _mm256_set1_ps(MIN_FACTOR)));
+        }
+        let outside_value = select(culled, zero, div(mul(power, factor), d2));
+        let value = select(inside, inside_value, outside_value);
+        let value = select(le(power, zero), zero, value);
+        let mut out = [0.0f32; 8];
+        // SAFETY: `out` holds eight floats.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), value) };
+        out
+    }
+}
+
 /// x1 x2 + y1 y2 + z1 z2, added in glam's `Vec3::dot` order.
 #[inline(always)]
 fn dot(x1: Vec4, y1: Vec4, z1: Vec4, x2: Vec4, y2: Vec4, z2: Vec4) -> Vec4 {
@@ -169,6 +307,42 @@ mod tests {
         }
         assert!(nonzero > 20_000, "only {nonzero} lights with importance");
         assert!(differs_without_normal > 1000, "{differs_without_normal}");
+    }
+
+    /// The eight-lane routine equals the four-lane one (so the scalar one)
+    /// bit for bit, for groups of 1 to 8 lights, padding lanes included.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn eight_lanes_equal_four_lanes_bit_for_bit() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let mut s = Sampler::new(17, 5);
+        let mut nonzero = 0;
+        for round in 0..3000 {
+            let count = 1 + round % 8;
+            let lights: Vec<LightBounds> = (0..count).map(|_| random_bounds(&mut s)).collect();
+            let eight = BoundsLanes8::group(&lights);
+            let four = BoundsLanes::group(&lights);
+            assert_eq!(eight.len(), 1);
+            let p = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 6.0 - 3.0;
+            let n = (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5).normalize();
+            for normal in [n, Vec3::ZERO] {
+                // SAFETY: AVX2 was detected above.
+                let got = unsafe { eight[0].importance(p, normal) };
+                let want: Vec<f32> = four
+                    .iter()
+                    .flat_map(|g| g.importance(p, normal).to_array())
+                    .chain(std::iter::repeat(0.0))
+                    .take(8)
+                    .collect();
+                for k in 0..8 {
+                    assert_eq!(got[k].to_bits(), want[k].to_bits(), "lane {k} of {count}");
+                    nonzero += usize::from(got[k] > 0.0);
+                }
+            }
+        }
+        assert!(nonzero > 10_000, "only {nonzero} lights with importance");
     }
 
     /// Padding lanes weigh nothing.
