@@ -77,7 +77,7 @@ impl AreaLight {
     }
 
     /// The light with its shape's triangles tabulated for light sampling,
-    /// when the shape is a mesh of at most [`MAX_TABULATED_TRIANGLES`]
+    /// when the shape is a mesh of at most `MAX_TABULATED_TRIANGLES`
     /// (the scene's lights are built so; samples and densities are the
     /// same bits either way, only faster).
     pub fn with_triangles(mut self, shape: &Geometry) -> AreaLight {

@@ -105,7 +105,7 @@ pub const MAT_EMITS: u32 = 0x100;
 /// texture. Word A then holds (texture record index as bits, the
 /// plastics' internal reflectance, 1 if the plastic is nonlinear else 0)
 /// in place of the colour or the plastics' diffuse term (see
-/// [`texture_record`]).
+/// `texture_record`).
 pub const MAT_TEXTURED: u32 = 0x200;
 
 /// Set when the colour of word B (a plastic's specular reflectance, a
@@ -344,9 +344,9 @@ pub struct GpuScene {
     /// uvs (slots are given to triangles with normals, and to those of
     /// textured shapes), or a textured sphere's (u, v) frame.
     pub normals: Vec<[f32; 4]>,
-    /// `SHAPE_WORDS` per shape ([`material`] says what they hold), then
+    /// `SHAPE_WORDS` per shape (`material` says what they hold), then
     /// the rough plastics' coating transmittance tables (16 words each)
-    /// and the textures' records ([`texture_record`]), then Beckmann's
+    /// and the textures' records (`texture_record`), then Beckmann's
     /// visible-slope guesses (`Params::beckmann_table`).
     pub shapes: Vec<[f32; 4]>,
     /// `LIGHT_WORDS` per light: (p0, centre, position or direction to the

@@ -95,7 +95,7 @@ pub fn render(
     render_with_passes(scene, job, opts, cancel, |_| {})
 }
 
-/// Like [`render`], in the CPU renderer's passes ([`pass_schedule_from`]),
+/// Like [`render()`], in the CPU renderer's passes ([`pass_schedule_from`]),
 /// reporting progress as `opts.progress` asks and calling `on_pass` with
 /// the film after each (for the preview, tev and checkpoints). A pass cut
 /// short by `cancel` (or `opts.abandon`) is dropped whole, as on the CPU:

@@ -193,7 +193,7 @@ pub fn tonemap(image: &Bitmap, exposure_stops: f32, op: Tonemap) -> Bitmap {
 }
 
 /// Tone maps and saves as an 8-bit sRGB PNG, tone mapping each pixel as
-/// it is encoded (atomically, like [`save_image`]). The path must end in `.png`.
+/// it is encoded (atomically, like [`save_image`](crate::image::save_image)). The path must end in `.png`.
 pub fn save_png_tonemapped(
     path: &Path,
     image: &Bitmap,

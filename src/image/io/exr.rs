@@ -312,7 +312,7 @@ impl<'a> OutChannel<'a> {
 }
 
 /// An image of named float channels given per pixel, and text attributes:
-/// what [`encode_channels`] writes.
+/// what `encode_channels` writes.
 pub struct OutChannels<'a> {
     pub width: usize,
     pub height: usize,

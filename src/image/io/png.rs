@@ -108,7 +108,7 @@ pub(super) fn encode(image: &Bitmap, out: impl std::io::Write) -> Result<(), Mal
     encode_pixels(image.width, image.height, |i| image.pixels[i], false, out)
 }
 
-/// Like [`encode`] after multiplying by `scale`; `fast` trades file size
+/// Like `encode` after multiplying by `scale`; `fast` trades file size
 /// for speed (live previews).
 pub fn encode_scaled(image: &Bitmap, scale: f32, fast: bool) -> Result<Vec<u8>, Malformed> {
     let mut out = Vec::new();
