@@ -318,42 +318,47 @@ impl LightChoice {
     /// computed once, for the emitter sample and for the MIS weight of the
     /// light a BSDF sample from the same point finds.
     pub fn at(&self, p: Vec3, n: Vec3) -> ChoicePoint {
-        let mut importance = [0.0f32; KEPT_IMPORTANCE];
-        // Four or eight lights at a time (bit for bit what
-        // `LightBounds::importance` gives), summed one by one in the
-        // lights' order.
-        let mut total = 0.0f32;
+        let mut at = ChoicePoint {
+            p,
+            n,
+            total: 0.0,
+            importance: [0.0f32; KEPT_IMPORTANCE],
+            facing: None,
+        };
+        if !self.lanes.is_empty() {
+            self.weigh(&mut at);
+        }
+        at
+    }
+
+    /// The bounded lights' importance at `at` and their sum: four or eight
+    /// lights at a time (bit for bit what `LightBounds::importance`
+    /// gives), summed one by one in the lights' order. Out of line: most
+    /// scenes have nothing to weigh, and their `at` stays small.
+    #[inline(never)]
+    fn weigh(&self, at: &mut ChoicePoint) {
+        let (p, n) = (at.p, at.n);
         let count = self.bounded.len();
         let mut keep = |first: usize, values: &[f32]| {
             for (k, &w) in (first..count).zip(values) {
-                if let Some(slot) = importance.get_mut(k) {
+                if let Some(slot) = at.importance.get_mut(k) {
                     *slot = w;
                 }
-                total += w;
+                at.total += w;
             }
         };
         // Eight at a time where the CPU has AVX2 (the same bits, half the
         // instructions for five to eight lights), else four.
         #[cfg(target_arch = "x86_64")]
-        let eight_done = !self.lanes8.is_empty();
-        #[cfg(not(target_arch = "x86_64"))]
-        let eight_done = false;
-        #[cfg(target_arch = "x86_64")]
-        for (g, lanes) in self.lanes8.iter().enumerate() {
-            // SAFETY: `lanes8` is filled only where the CPU has AVX2.
-            keep(8 * g, &unsafe { lanes.importance(p, n) });
-        }
-        if !eight_done {
-            for (g, lanes) in self.lanes.iter().enumerate() {
-                keep(4 * g, &lanes.importance(p, n).to_array());
+        if !self.lanes8.is_empty() {
+            for (g, lanes) in self.lanes8.iter().enumerate() {
+                // SAFETY: `lanes8` is filled only where the CPU has AVX2.
+                keep(8 * g, &unsafe { lanes.importance(p, n) });
             }
+            return;
         }
-        ChoicePoint {
-            p,
-            n,
-            total,
-            importance,
-            facing: None,
+        for (g, lanes) in self.lanes.iter().enumerate() {
+            keep(4 * g, &lanes.importance(p, n).to_array());
         }
     }
 
@@ -414,6 +419,12 @@ impl LightChoice {
     #[inline]
     pub fn choice_at_infinity(&self, u: f32) -> Option<usize> {
         if u < self.p_unbounded {
+            // One light at infinity (the common case: a sky or a probe) is
+            // the choice whatever `u`, without rescaling it for a choice
+            // among several.
+            if let [i] = self.unbounded[..] {
+                return Some(i as usize);
+            }
             self.sample_unbounded(u).map(|(i, _, _)| i)
         } else {
             None
@@ -558,25 +569,30 @@ mod tests {
             shapes: &shapes,
             scene_radius: 10.0,
         };
-        let emitters = [
-            Emitter::Constant(ConstantLight::new(Rgb::splat(0.5)).unwrap()),
-            Emitter::Area(AreaLight::new(0, Rgb::splat(5.0)).unwrap()),
-            Emitter::Point(PointLight::new(Vec3::new(-2.0, 1.0, 0.0), Rgb::splat(40.0)).unwrap()),
-            Emitter::Constant(ConstantLight::new(Rgb::splat(2.0)).unwrap()),
-        ];
-        let c = LightChoice::new(&emitters, &ctx).unwrap();
-        let mut picked = [0usize; 4];
-        for (p, n) in [(Vec3::ZERO, Vec3::Z), (Vec3::new(1.0, 2.0, -1.0), Vec3::X)] {
-            let at = c.at(p, n);
-            for k in 0..4096 {
-                let u = (k as f32 + 0.5) / 4096.0;
-                let (i, _, _) = c.sample(&at, u).unwrap();
-                picked[i] += 1;
-                let infinite = matches!(emitters[i], Emitter::Constant(_));
-                assert_eq!(c.choice_at_infinity(u), infinite.then_some(i), "u {u}");
+        let constant = |l: f32| Emitter::Constant(ConstantLight::new(Rgb::splat(l)).unwrap());
+        let area = || Emitter::Area(AreaLight::new(0, Rgb::splat(5.0)).unwrap());
+        let point = || {
+            Emitter::Point(PointLight::new(Vec3::new(-2.0, 1.0, 0.0), Rgb::splat(40.0)).unwrap())
+        };
+        // Two lights at infinity, then one (its own shortcut).
+        for emitters in [
+            vec![constant(0.5), area(), point(), constant(2.0)],
+            vec![area(), constant(0.5), point()],
+        ] {
+            let c = LightChoice::new(&emitters, &ctx).unwrap();
+            let mut picked = vec![0usize; emitters.len()];
+            for (p, n) in [(Vec3::ZERO, Vec3::Z), (Vec3::new(1.0, 2.0, -1.0), Vec3::X)] {
+                let at = c.at(p, n);
+                for k in 0..4096 {
+                    let u = (k as f32 + 0.5) / 4096.0;
+                    let (i, _, _) = c.sample(&at, u).unwrap();
+                    picked[i] += 1;
+                    let infinite = matches!(emitters[i], Emitter::Constant(_));
+                    assert_eq!(c.choice_at_infinity(u), infinite.then_some(i), "u {u}");
+                }
             }
+            assert!(picked.iter().all(|&k| k > 0), "{picked:?}");
         }
-        assert!(picked.iter().all(|&k| k > 0), "{picked:?}");
     }
 
     /// Past the lights whose importance a `ChoicePoint` keeps, `sample` and
