@@ -22,23 +22,15 @@ impl Diffuse {
     }
 
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            Rgb::ZERO
-        } else {
-            self.albedo * INV_PI
-        }
+        self.eval_pdf(wi, wo).0
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            0.0
-        } else {
-            warp::square_to_cosine_hemisphere_pdf(wo)
-        }
+        self.eval_pdf(wi, wo).1
     }
 
-    /// `(eval, pdf)` in one inlined call (the same values as the two):
-    /// the one BSDF of most scenes' next-event estimates, where two
+    /// `(eval, pdf)` in one inlined call, where both formulas live: the
+    /// one BSDF of most scenes' next-event estimates, where two
     /// out-of-line calls and their dispatch cost four times the work.
     #[inline]
     pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Rgb, f32) {

@@ -79,25 +79,16 @@ impl Plastic {
 
     /// The smooth lobe: (1 - F_i)(1 - F_o) kd' / (pi eta^2).
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let (f_i, _, _) = fresnel_dielectric(wi.z, self.eta);
-        let (f_o, _, _) = fresnel_dielectric(wo.z, self.eta);
-        self.diffuse_term() * (INV_PI / (self.eta * self.eta) * (1.0 - f_i) * (1.0 - f_o))
+        self.eval_pdf(wi, wo).0
     }
 
     /// Density of the smooth lobe's samples (times its selection probability).
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let (f_i, _, _) = fresnel_dielectric(wi.z, self.eta);
-        (1.0 - self.prob_specular(f_i)) * warp::square_to_cosine_hemisphere_pdf(wo)
+        self.eval_pdf(wi, wo).1
     }
 
-    /// `(eval, pdf)`, the incoming side's Fresnel term computed once (the
-    /// same values as the two calls).
+    /// `(eval, pdf)`, where both formulas live: the incoming side's Fresnel
+    /// term computed once.
     #[inline]
     pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {

@@ -295,8 +295,8 @@ impl LightChoice {
             Vec::new()
         };
         #[cfg(target_arch = "x86_64")]
-        let lanes8 = if !lanes.is_empty() && std::arch::is_x86_feature_detected!("avx2") {
-            BoundsLanes8::group(&bounded.iter().map(|(_, b)| *b).collect::<Vec<_>>())
+        let lanes8 = if std::arch::is_x86_feature_detected!("avx2") {
+            BoundsLanes8::pairs(&lanes)
         } else {
             Vec::new()
         };

@@ -119,10 +119,9 @@ pub(super) struct BoundsLanes8 {
 
 #[cfg(target_arch = "x86_64")]
 impl BoundsLanes8 {
-    /// The lanes of `lights` in groups of eight, the last padded: each
-    /// group is two groups of [`BoundsLanes::group`] side by side.
-    pub fn group(lights: &[LightBounds]) -> Vec<BoundsLanes8> {
-        let fours = BoundsLanes::group(lights);
+    /// The groups of four `fours` ([`BoundsLanes::group`]) two by two side
+    /// by side, the last padded.
+    pub fn pairs(fours: &[BoundsLanes]) -> Vec<BoundsLanes8> {
         let padding = BoundsLanes::new(&[]);
         fours
             .chunks(2)
@@ -322,8 +321,8 @@ mod tests {
         for round in 0..3000 {
             let count = 1 + round % 8;
             let lights: Vec<LightBounds> = (0..count).map(|_| random_bounds(&mut s)).collect();
-            let eight = BoundsLanes8::group(&lights);
             let four = BoundsLanes::group(&lights);
+            let eight = BoundsLanes8::pairs(&four);
             assert_eq!(eight.len(), 1);
             let p = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 6.0 - 3.0;
             let n = (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5).normalize();

@@ -142,17 +142,10 @@ impl FilmBlock {
         }
         let (px, py) = (pos.x - 0.5, pos.y - 0.5);
         let (fx, fy) = (floor_i32(px), floor_i32(py));
-        let (cx, cy) = (
-            (fx - 1).wrapping_sub(self.x0),
-            (fy - 1).wrapping_sub(self.y0),
-        );
-        if fx as f32 == px
-            || fy as f32 == py
-            || (cx as u32 as usize).saturating_add(4) > self.width
-            || (cy as u32 as usize).saturating_add(4) > self.height
-        {
+        if fx as f32 == px || fy as f32 == py {
             return None;
         }
+        let first = self.gaussian_first_cell(fx, fy)?;
         let offsets = |f0: i32, p: f32| {
             Vec4::new(
                 (f0 - 1) as f32 - p,
@@ -161,8 +154,22 @@ impl FilmBlock {
                 (f0 + 2) as f32 - p,
             )
         };
-        let first = cy as usize * self.width + cx as usize;
         Some((first, offsets(fx, px), offsets(fy, py)))
+    }
+
+    /// The first cell of the 4 x 4 window whose pixel (`fx`, `fy`) is
+    /// floor(p - 1/2): `None` where the window leaves the block (both
+    /// Gaussian paths' bounds, saturated or wrapped floors included).
+    #[inline(always)]
+    fn gaussian_first_cell(&self, fx: i32, fy: i32) -> Option<usize> {
+        let cx = fx.wrapping_sub(1).wrapping_sub(self.x0);
+        let cy = fy.wrapping_sub(1).wrapping_sub(self.y0);
+        if (cx as u32 as usize).saturating_add(4) > self.width
+            || (cy as u32 as usize).saturating_add(4) > self.height
+        {
+            return None;
+        }
+        Some(cy as usize * self.width + cx as usize)
     }
 
     /// The same block with room for `channels` AOV values per pixel.
@@ -250,16 +257,12 @@ impl FilmBlock {
         // bounds below refuse; within them the floor is floor_i32's.
         let i = _mm256_cvttps_epi32(floor);
         let (ix, iy) = (_mm256_extract_epi32::<0>(i), _mm256_extract_epi32::<4>(i));
-        let cx = ix.wrapping_sub(1).wrapping_sub(self.x0);
-        let cy = iy.wrapping_sub(1).wrapping_sub(self.y0);
-        if fx == px
-            || fy == py
-            || (cx as u32 as usize).saturating_add(4) > self.width
-            || (cy as u32 as usize).saturating_add(4) > self.height
-        {
+        if fx == px || fy == py {
             return false;
         }
-        let first = cy as usize * self.width + cx as usize;
+        let Some(first) = self.gaussian_first_cell(ix, iy) else {
+            return false;
+        };
         // (floor - 1) - p .. (floor + 2) - p: integers this small are exact
         // in f32, so these are gaussian_offsets' (f0 + k) as f32 - p.
         let steps = _mm256_setr_ps(-1.0, 0.0, 1.0, 2.0, -1.0, 0.0, 1.0, 2.0);
