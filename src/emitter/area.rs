@@ -154,9 +154,10 @@ impl AreaLight {
             Geometry::Sphere(sp) => match sp.visible_cone(p_ref) {
                 // Outside the sphere: sample the cone it subtends.
                 Some(cone) => {
-                    let (s, pdf) = sp.sample_cone(p_ref, &cone, u);
+                    let (s, pdf) = sp.sample_cone(&cone, u);
                     let to = s.p - p_ref;
-                    return Some(self.light_sample(ctx, &s, to.normalize(), to.length(), pdf));
+                    let dist = to.length();
+                    return Some(self.light_sample(ctx, &s, to / dist, dist, pdf));
                 }
                 None => sp.sample_area(u),
             },
