@@ -250,8 +250,7 @@ impl PathState {
             prev_at: ChoicePoint::default(),
             eta_scale: 1.0,
             depth: 0,
-            light_numbers: cfg
-                .nee
+            light_numbers: (cfg.nee && cfg.max_depth > 1)
                 .then(|| LightNumbers::draw_ahead(scene, sampler, cfg.which)),
             escape: None,
         }
@@ -565,9 +564,11 @@ impl PathState {
         self.ray = Ray::new(o, wo_world);
         // Located by the caller (`wants_escape_located`).
         self.escape = None;
-        if cfg.nee {
-            self.light_numbers = Some(LightNumbers::draw_ahead(scene, sampler, which));
-        }
+        // The next vertex takes a light sample only if the path may go
+        // on from it (`arrive`); at the last one nothing is drawn after
+        // this, so leaving its numbers undrawn changes no other number.
+        self.light_numbers = (cfg.nee && self.depth + 1 < cfg.max_depth)
+            .then(|| LightNumbers::draw_ahead(scene, sampler, which));
         true
     }
 }
