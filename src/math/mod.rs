@@ -14,7 +14,7 @@ pub use approx::{
 };
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
-pub use prefetch::prefetch;
+pub use prefetch::{prefetch, prefetch_at};
 pub use ray::{barycentric_error, gamma, offset_ray_origin, Ray};
 pub use transform::Transform;
 

@@ -3,7 +3,7 @@
 //! inverted CDF needs a binary search of O(log n) cache misses.
 
 use super::ONE_MINUS_EPSILON;
-use crate::math::prefetch;
+use crate::math::prefetch_at;
 
 /// One cell of the table: keep the cell with probability `keep`, else take
 /// `alias`.
@@ -175,9 +175,7 @@ impl AliasRows {
     /// with other work.
     #[inline]
     pub fn prefetch(&self, r: usize, cell: usize) {
-        if let Some(e) = self.entries.get(r * self.len + cell) {
-            prefetch(e);
-        }
+        prefetch_at(&self.entries, r * self.len + cell);
     }
 
     /// [`AliasTable::sample`] in row `r`.

@@ -18,7 +18,7 @@
 
 use super::EnvFilter;
 use crate::color::Rgb;
-use crate::math::{clamp_unit_lanes, floor_i32, prefetch, Vec2, Vec4};
+use crate::math::{clamp_unit_lanes, floor_i32, prefetch, prefetch_at, Vec2, Vec4};
 
 /// Where texel rows sit along v.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -275,13 +275,13 @@ impl TexelGrid {
     pub fn prefetch(&self, pixels: &[Rgb], col: usize, band: usize) {
         let w = self.width;
         match self.filter {
-            EnvFilter::Nearest => prefetch(&pixels[self.rows[band] * w + col]),
+            EnvFilter::Nearest => prefetch_at(pixels, self.rows[band] * w + col),
             EnvFilter::Bilinear => {
                 // Column col + 1 shares col's cache line or the next one.
                 let c1 = if col + 1 == w { 0 } else { col + 1 };
                 for r in [self.rows[band], self.rows[band + 1]] {
-                    prefetch(&pixels[r * w + col]);
-                    prefetch(&pixels[r * w + c1]);
+                    prefetch_at(pixels, r * w + col);
+                    prefetch_at(pixels, r * w + c1);
                 }
             }
         }

@@ -11,7 +11,7 @@
 
 use super::grid::{CellLanes, CellPoint, TexelGrid};
 use super::EnvFilter;
-use crate::math::{prefetch, Vec2, Vec4};
+use crate::math::{prefetch_at, Vec2, Vec4};
 use crate::sampling::{sample_linear, sample_linear_lanes, AliasRows, AliasTable};
 
 /// A cell picked by [`EnvWarp::pick`], with uniform numbers in [0, 1)
@@ -191,9 +191,9 @@ impl EnvWarp {
     #[inline]
     pub fn prefetch_cell(&self, col: usize, band: usize) {
         let w = self.width;
-        prefetch(&self.values[band * w + col]);
+        prefetch_at(&self.values, band * w + col);
         if self.bilinear {
-            prefetch(&self.values[(band + 1) * w + col]);
+            prefetch_at(&self.values, (band + 1) * w + col);
         }
     }
 
