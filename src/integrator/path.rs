@@ -172,18 +172,27 @@ pub struct PathConfig {
     strategy: Strategy,
     pub which: LightPdf,
     max_depth: u32,
-    /// Next-event estimation (not under `path_mats`).
-    nee: bool,
+    /// A vertex at a depth below this draws the next vertex's light-sample
+    /// numbers: `max_depth - 1` with next-event estimation (the vertex at
+    /// `max_depth` ends the path before it would sample a light), 0
+    /// without (`path_mats`). One comparison where a test of NEE and one
+    /// of the depth would be two.
+    light_numbers_below: u32,
     params: PathParams,
 }
 
 impl PathConfig {
     pub fn new(strategy: Strategy, params: &PathParams) -> PathConfig {
+        let max_depth = params.max_depth.unwrap_or(u32::MAX);
         PathConfig {
             strategy,
             which: strategy.light_pdf(),
-            max_depth: params.max_depth.unwrap_or(u32::MAX),
-            nee: strategy != Strategy::Mats,
+            max_depth,
+            light_numbers_below: if strategy == Strategy::Mats {
+                0
+            } else {
+                max_depth.saturating_sub(1)
+            },
             params: *params,
         }
     }
@@ -250,7 +259,7 @@ impl PathState {
             prev_at: ChoicePoint::default(),
             eta_scale: 1.0,
             depth: 0,
-            light_numbers: (cfg.nee && cfg.max_depth > 1)
+            light_numbers: (cfg.light_numbers_below > 0)
                 .then(|| LightNumbers::draw_ahead(scene, sampler, cfg.which)),
             escape: None,
         }
@@ -567,7 +576,7 @@ impl PathState {
         // The next vertex takes a light sample only if the path may go
         // on from it (`arrive`); at the last one nothing is drawn after
         // this, so leaving its numbers undrawn changes no other number.
-        self.light_numbers = (cfg.nee && self.depth + 1 < cfg.max_depth)
+        self.light_numbers = (self.depth < cfg.light_numbers_below)
             .then(|| LightNumbers::draw_ahead(scene, sampler, which));
         true
     }
