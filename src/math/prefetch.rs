@@ -6,15 +6,7 @@
 /// it changes no value, and on targets without one it does nothing.
 #[inline(always)]
 pub fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: SSE is part of the x86_64 baseline, and a prefetch neither
-    // reads the value nor faults, whatever the address.
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast::<i8>());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
+    prefetch_address(x as *const T);
 }
 
 /// [`prefetch`] of `items[i]` without a bounds check: prefetching any
@@ -24,13 +16,21 @@ pub fn prefetch<T>(x: &T) {
 /// instructions).
 #[inline(always)]
 pub fn prefetch_at<T>(items: &[T], i: usize) {
+    // `wrapping_add` forms the address without the in-bounds requirement
+    // of `add`; nothing is dereferenced.
+    prefetch_address(items.as_ptr().wrapping_add(i));
+}
+
+/// The hint itself, for any address (valid or not).
+#[inline(always)]
+fn prefetch_address<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: as for `prefetch`; `wrapping_add` forms the address without
-    // the in-bounds requirement of `add`, and nothing is dereferenced.
+    // SAFETY: SSE is part of the x86_64 baseline, and a prefetch neither
+    // reads the value nor faults, whatever the address.
     unsafe {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>(items.as_ptr().wrapping_add(i).cast::<i8>());
+        _mm_prefetch::<_MM_HINT_T0>(p.cast::<i8>());
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (items, i);
+    let _ = p;
 }
