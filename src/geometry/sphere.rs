@@ -424,7 +424,6 @@ mod tests {
     /// (a cone of 0.04 degrees, where sin^2 is tiny).
     #[test]
     fn cone_samples_are_uniform_over_the_cone_on_the_visible_cap() {
-        use glam::DVec3;
         let s = Sphere::new(Vec3::new(0.5, -1.0, 2.0), 1.5).unwrap();
         let c = s.center.as_dvec3();
         let r = s.radius as f64;
@@ -445,13 +444,7 @@ mod tests {
             let sin2 = r * r / to.length_squared();
             let omc = sin2 / (1.0 + (1.0 - sin2).sqrt());
             // A frame about the axis for the azimuth.
-            let side = if axis.x.abs() < 0.9 {
-                DVec3::X
-            } else {
-                DVec3::Y
-            };
-            let e1 = axis.cross(side).normalize();
-            let e2 = axis.cross(e1);
+            let (e1, e2) = axis.any_orthonormal_pair();
             let n = 100_000;
             let mut observed = vec![0.0f64; bins_a * bins_phi];
             for _ in 0..n {
