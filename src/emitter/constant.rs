@@ -39,4 +39,9 @@ impl ConstantLight {
     pub fn pdf(&self, wi: Vec3) -> f32 {
         warp::square_to_uniform_sphere_pdf(wi)
     }
+
+    /// [`ConstantLight::pdf`], the same for every direction.
+    pub fn uniform_pdf(&self) -> f32 {
+        self.pdf(Vec3::Z)
+    }
 }

@@ -440,13 +440,28 @@ impl LightChoice {
     }
 
     /// Probability that [`LightChoice::sample`] at `at` picks emitter `i`.
+    /// [`LightChoice::pdf`] of emitter `i` where it is the same at every
+    /// shading point (a light at infinity, or one never chosen); `None`
+    /// for a bounded light, whose choice depends on the point.
+    pub fn pdf_everywhere(&self, i: usize) -> Option<f32> {
+        match self.slot.get(i).copied().flatten() {
+            None => Some(0.0),
+            Some((false, k)) => Some(self.unbounded_pdf(k)),
+            Some((true, _)) => None,
+        }
+    }
+
+    /// The probability of choosing `unbounded[k]`.
+    fn unbounded_pdf(&self, k: u32) -> f32 {
+        self.unbounded_by_power
+            .as_ref()
+            .map_or(0.0, |d| self.p_unbounded * d.discrete_pdf(k as usize))
+    }
+
     pub fn pdf(&self, at: &ChoicePoint, i: usize) -> f32 {
         match self.slot.get(i).copied().flatten() {
             None => 0.0,
-            Some((false, k)) => self
-                .unbounded_by_power
-                .as_ref()
-                .map_or(0.0, |d| self.p_unbounded * d.discrete_pdf(k as usize)),
+            Some((false, k)) => self.unbounded_pdf(k),
             Some((true, k)) => {
                 let p_bounded = 1.0 - self.p_unbounded;
                 if let Some(d) = &self.bounded_by_power {

@@ -333,6 +333,21 @@ impl PathState {
         }
     }
 
+    /// [`PathState::escape`] where the only light at infinity is a
+    /// constant sky of radiance `le`, with `pl` its choice probability
+    /// times its direction density (the same everywhere): the sums and
+    /// products `add_infinite_emission` takes, without its search.
+    #[inline]
+    pub fn escape_to_constant(&mut self, cfg: &PathConfig, le: Rgb, pl: f32) {
+        if self.counts_escape(cfg) {
+            let w = match self.mis_vertex(cfg) {
+                Some(prev) => power_heuristic(prev.pdf, pl),
+                None => 1.0,
+            };
+            self.l += self.beta * le * w;
+        }
+    }
+
     /// Whether the path counts what its ray sees at infinity if it
     /// escapes (not a camera ray under `hide_emitters`, not after a
     /// diffuse bounce under `path_ems`).

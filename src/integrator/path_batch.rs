@@ -32,6 +32,23 @@ use crate::scene::Scene;
 /// bytes a path) stays in the L2 cache.
 pub const BATCH_PATHS: usize = 256;
 
+/// The radiance of the scene's only light at infinity if it is a constant
+/// sky, with its choice probability times its direction density: both
+/// the same for every path that escapes.
+fn constant_sky(scene: &Scene) -> Option<(Rgb, f32)> {
+    let [i] = scene.infinite[..] else {
+        return None;
+    };
+    let Emitter::Constant(sky) = &scene.emitters[i as usize] else {
+        return None;
+    };
+    let choice = match &scene.light_choice {
+        Some(c) => c.pdf_everywhere(i as usize)?,
+        None => 0.0,
+    };
+    Some((sky.radiance, choice * sky.uniform_pdf()))
+}
+
 /// The state of a batch of paths, its buffers kept from batch to batch
 /// (each rendering thread allocates them once).
 #[derive(Default)]
@@ -184,6 +201,12 @@ impl PathBatch {
             _ => None,
         };
         let Some((e, env)) = env else {
+            if let Some((le, pl)) = constant_sky(scene) {
+                for &i in &self.escaped_paths[..self.escaped] {
+                    self.paths[i as usize].escape_to_constant(cfg, le, pl);
+                }
+                return;
+            }
             for &i in &self.escaped_paths[..self.escaped] {
                 self.paths[i as usize].escape(scene, cfg);
             }
@@ -498,8 +521,9 @@ mod tests {
 
     /// A batch returns what `li` returns for each of its rays, bit for
     /// bit, whatever the batch size (lanes part-filled too), on scenes
-    /// with an environment map, area lights and a thin lens, under every
-    /// strategy, `direct`, hidden emitters and early roulette. All three
+    /// with an environment map, area lights, a thin lens and a constant
+    /// sky (the escape stage's own path for it), under every
+    /// strategy, `direct`, hidden emitters and early roulette. All four
     /// are small enough for the trace in packets, whose hits are the
     /// one-ray walk's (none of these rays meets two surfaces at exactly
     /// one distance).
@@ -530,6 +554,7 @@ mod tests {
             "scenes/cbox/cbox.xml",
             "scenes/envmap/envmap.xml",
             "scenes/dof/dof.xml",
+            "bench/speed/constant_cube.xml",
         ] {
             let (loaded, _) = load_scene(&root.join(file)).unwrap();
             let scene = Scene::new(loaded.scene).unwrap();
