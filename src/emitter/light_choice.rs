@@ -439,7 +439,6 @@ impl LightChoice {
         Some((self.unbounded[k] as usize, self.p_unbounded * pk, u))
     }
 
-    /// Probability that [`LightChoice::sample`] at `at` picks emitter `i`.
     /// [`LightChoice::pdf`] of emitter `i` where it is the same at every
     /// shading point (a light at infinity, or one never chosen); `None`
     /// for a bounded light, whose choice depends on the point.
@@ -458,6 +457,7 @@ impl LightChoice {
             .map_or(0.0, |d| self.p_unbounded * d.discrete_pdf(k as usize))
     }
 
+    /// Probability that [`LightChoice::sample`] at `at` picks emitter `i`.
     pub fn pdf(&self, at: &ChoicePoint, i: usize) -> f32 {
         match self.slot.get(i).copied().flatten() {
             None => 0.0,
