@@ -15,6 +15,11 @@
 # FUZZ_SANITIZER=address builds with AddressSanitizer (slower to build and
 # run; default none: lente has no unsafe code of its own, and panics,
 # aborts, timeouts and the memory limit are caught either way).
+#
+# FUZZ_JOBS targets run at once (default: one per CPU core; each libFuzzer
+# process is single-threaded), after one build of them all, so every
+# target still gets its SECONDS and the run takes a core count's fraction
+# of the time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SECONDS_EACH="${1:-60}"
@@ -65,18 +70,49 @@ seed_target() {
     esac
 }
 
-failed=()
+JOBS="${FUZZ_JOBS:-$(nproc)}"
 for t in "${TARGETS[@]}"; do
     seed_target "$t"
     mkdir -p "fuzz/artifacts/$t"
-    echo "== fuzz target $t: ${SECONDS_EACH} s"
-    log="fuzz/artifacts/$t/log.txt"
-    rc=0
+done
+# One build of the targets (all in one cargo call when none was named);
+# the runs below find it up to date.
+if [ $# -eq 0 ]; then
+    cargo +nightly fuzz build -O --sanitizer "$SANITIZER"
+else
+    for t in "${TARGETS[@]}"; do
+        cargo +nightly fuzz build -O --sanitizer "$SANITIZER" "$t"
+    done
+fi
+
+# fuzz_one TARGET: fuzzes it for SECONDS_EACH; its log and exit status go
+# under fuzz/artifacts/TARGET/.
+fuzz_one() {
+    local t="$1" rc=0
     cargo +nightly fuzz run -O --sanitizer "$SANITIZER" "$t" "fuzz/corpus/$t" -- \
         -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb=2048 \
-        -max_len=65536 -print_final_stats=1 >"$log" 2>&1 || rc=$?
+        -max_len=65536 -print_final_stats=1 >"fuzz/artifacts/$t/log.txt" 2>&1 || rc=$?
+    echo "$rc" >"fuzz/artifacts/$t/rc"
+}
+
+running=0
+for t in "${TARGETS[@]}"; do
+    echo "== fuzz target $t: ${SECONDS_EACH} s"
+    fuzz_one "$t" &
+    running=$((running + 1))
+    if [ "$running" -ge "$JOBS" ]; then
+        wait -n || true
+        running=$((running - 1))
+    fi
+done
+wait
+
+failed=()
+for t in "${TARGETS[@]}"; do
+    log="fuzz/artifacts/$t/log.txt"
+    echo "== $t"
     grep -E '^(stat::number_of_executed_units|stat::peak_rss_mb|==[0-9]+== ERROR|SUMMARY|Test unit written)|panicked' "$log" || true
-    if [ "$rc" -ne 0 ]; then
+    if [ "$(cat "fuzz/artifacts/$t/rc")" -ne 0 ]; then
         tail -n 30 "$log"
         failed+=("$t")
     fi
