@@ -25,6 +25,7 @@
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
+use std::time::Instant;
 
 use lente::image::{Bitmap, Filter};
 use lente::integrator::Integrator;
@@ -85,17 +86,28 @@ fn gpu_image(scene: &Scene, job: &RenderJob, seed: u64) -> Bitmap {
     .image
 }
 
-fn estimates(file: &str) -> (Estimate, Estimate) {
-    let (scene, job) = load(file);
+/// Both devices' estimates of `file` at `spp` samples per pixel.
+fn estimates(file: &str, spp: u32) -> (Estimate, Estimate) {
+    let (scene, mut job) = load(file);
+    job.spp = spp;
     let (w, h) = (
         scene.camera.width() as usize,
         scene.camera.height() as usize,
     );
+    let t = Instant::now();
     let cpu = Estimate::from_renders(w, h, RENDERS, |k| {
         let opts = RenderOptions::new(k as u64 + 1);
         render(&scene, &job, &opts, &AtomicBool::new(false)).image
     });
+    let t_cpu = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let gpu = Estimate::from_renders(w, h, RENDERS, |k| gpu_image(&scene, &job, k as u64 + 101));
+    // What this test's time goes to (lavapipe in CI).
+    eprintln!(
+        "{file}: {w}x{h}, {} spp x {RENDERS}: CPU {t_cpu:.1} s, GPU {:.1} s",
+        job.spp,
+        t.elapsed().as_secs_f64()
+    );
     (cpu, gpu)
 }
 
@@ -108,60 +120,69 @@ fn gpu_images_match_the_cpu_renderer() {
     if !gpu_here() {
         return;
     }
-    let files = [
-        "tests/gpu/diffuse_box.xml",
-        "tests/gpu/glass_env.xml",
-        "scenes/cbox/cbox.xml",
-        "tests/gpu/env_rows.xml",
-        "tests/gpu/env_sunset_nori.xml",
-        "tests/gpu/env_facing.xml",
-        "tests/gpu/glossy_delta_lights.xml",
-        "scenes/showcase/showcase-mirror.xml",
-        "tests/gpu/hidden_emitters.xml",
-        "tests/gpu/textured.xml",
-        "tests/gpu/instances.xml",
-        "tests/gpu/masks_and_sides.xml",
-        "tests/conformance/textured_area.xml",
-        "tests/conformance/spot.xml",
-        "tests/gpu/anisotropic.xml",
-        "tests/gpu/normal_map.xml",
-        "tests/gpu/bump_map.xml",
-        "tests/conformance/projector.xml",
-        "tests/gpu/conductor_textures.xml",
-        "tests/gpu/blends.xml",
-        "tests/conformance/blend_normalmap.xml",
-        "tests/conformance/principled.xml",
-        "tests/gpu/principled.xml",
-        "tests/conformance/principled_thin.xml",
-        "tests/gpu/principled_thin.xml",
-        "tests/gpu/many_lights.xml",
-        "bench/lights/near_light.xml",
-        "tests/gpu/stratified.xml",
-        "tests/gpu/path_ems_env.xml",
-        "tests/gpu/path_mats_light.xml",
-        "tests/gpu/nori_rough.xml",
-        "tests/conformance/media.xml",
-        "tests/gpu/volumes.xml",
-        "tests/conformance/hetero.xml",
-        "tests/conformance/pplastic.xml",
-        "tests/gpu/mesh_attribute.xml",
+    // Samples per pixel of each render, set by the power check below: in
+    // a run at 64 (32 under volpath) the blocks with sampling noise gave
+    // lente x1.05 a |z| of 8.0-16 (kept), 16-45 (halved) or more than 45
+    // (quartered, to no less than 16), which keeps it above 10 where it
+    // is least: this test is the longest of the suite on lavapipe.
+    let files: [(&str, u32); 36] = [
+        ("tests/gpu/diffuse_box.xml", 32),
+        ("tests/gpu/glass_env.xml", 16),
+        ("scenes/cbox/cbox.xml", 64),
+        ("tests/gpu/env_rows.xml", 16),
+        ("tests/gpu/env_sunset_nori.xml", 32),
+        ("tests/gpu/env_facing.xml", 16),
+        ("tests/gpu/glossy_delta_lights.xml", 32),
+        ("scenes/showcase/showcase-mirror.xml", 16),
+        ("tests/gpu/hidden_emitters.xml", 32),
+        ("tests/gpu/textured.xml", 32),
+        ("tests/gpu/instances.xml", 16),
+        ("tests/gpu/masks_and_sides.xml", 16),
+        ("tests/conformance/textured_area.xml", 32),
+        ("tests/conformance/spot.xml", 32),
+        ("tests/gpu/anisotropic.xml", 32),
+        ("tests/gpu/normal_map.xml", 16),
+        ("tests/gpu/bump_map.xml", 16),
+        ("tests/conformance/projector.xml", 32),
+        ("tests/gpu/conductor_textures.xml", 16),
+        ("tests/gpu/blends.xml", 16),
+        ("tests/conformance/blend_normalmap.xml", 16),
+        ("tests/conformance/principled.xml", 32),
+        ("tests/gpu/principled.xml", 16),
+        ("tests/conformance/principled_thin.xml", 16),
+        ("tests/gpu/principled_thin.xml", 32),
+        ("tests/gpu/many_lights.xml", 64),
+        ("bench/lights/near_light.xml", 64),
+        ("tests/gpu/stratified.xml", 16),
+        ("tests/gpu/path_ems_env.xml", 64),
+        ("tests/gpu/path_mats_light.xml", 16),
+        ("tests/gpu/nori_rough.xml", 32),
+        ("tests/conformance/media.xml", 32),
+        ("tests/gpu/volumes.xml", 16),
+        ("tests/conformance/hetero.xml", 16),
+        ("tests/conformance/pplastic.xml", 16),
+        ("tests/gpu/mesh_attribute.xml", 16),
     ];
     // LENTE_GPU_ONLY=text: only the scenes whose path contains it (while
     // working on one; the Sidak threshold then covers those alone).
     let only = std::env::var("LENTE_GPU_ONLY").unwrap_or_default();
     let pairs: Vec<_> = files
         .iter()
-        .filter(|f| f.contains(only.as_str()))
-        .map(|f| (*f, estimates(f)))
+        .filter(|(f, _)| f.contains(only.as_str()))
+        .map(|&(f, spp)| (f, estimates(f, spp)))
         .collect();
     let tests: usize = pairs.iter().map(|(_, (c, g))| compare(g, c).z.len()).sum();
     let threshold = sidak_threshold(tests);
     let mut failures = Vec::new();
     for (file, (cpu, gpu)) in &pairs {
         let c = compare(gpu, cpu);
+        // The test can fail: 5% more light must be noticed, and in the
+        // blocks with sampling noise, not only where a sky seen directly
+        // meets the rounding floor.
+        let off = compare(&gpu.scaled(1.05), cpu);
         eprintln!(
-            "{file}: max |z| {:.2} (threshold {threshold:.2})",
-            c.max_abs_z
+            "{file}: max |z| {:.2} (threshold {threshold:.2}); x1.05: {:.1}, {:.1} in sampled blocks",
+            c.max_abs_z, off.max_abs_z, off.max_abs_z_sampled
         );
         if std::env::var_os("LENTE_GPU_DEBUG").is_some() {
             let bw = cpu_width(cpu).div_ceil(8);
@@ -179,12 +200,10 @@ fn gpu_images_match_the_cpu_renderer() {
         if c.max_abs_z > threshold {
             failures.push(format!("{file}: max |z| {:.2}", c.max_abs_z));
         }
-        // The test can fail: 5% more light must be noticed.
-        let off = compare(&gpu.scaled(1.05), cpu);
         assert!(
-            off.max_abs_z > threshold,
-            "{file}: a 5% brighter GPU image passes (max |z| {:.2})",
-            off.max_abs_z
+            off.max_abs_z_sampled > threshold,
+            "{file}: a 5% brighter GPU image passes in the blocks with sampling noise (max |z| {:.2})",
+            off.max_abs_z_sampled
         );
     }
     assert!(failures.is_empty(), "GPU differs from CPU: {failures:?}");
