@@ -26,6 +26,7 @@ use crate::sampling::{warp, Sampler};
 use crate::scene::{BuildError, Scene};
 
 pub mod embree;
+pub mod machine;
 
 /// One scene of the suite: a file relative to the repository root and the
 /// Mitsuba `$parameters` it is rendered with.
@@ -437,6 +438,7 @@ pub fn geometric_mean(values: &[f64]) -> Option<f64> {
 /// core, Mitsuba's per core where measured, and lente's ratio to each;
 /// then the geometric means and the ray-query figures.
 pub fn run(opts: &BenchOptions) -> Result<(), BenchError> {
+    println!("{}", machine::Machine::detect().describe());
     if !opts.rays_only {
         run_suite(opts)?;
     }

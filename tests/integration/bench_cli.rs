@@ -24,6 +24,10 @@ fn bench_reports_every_scene_thread_count_and_the_ray_figures() {
     ]);
     assert!(out.status.success(), "{}", dump(&out));
     let report = text(&out.stdout);
+    assert!(
+        report.starts_with("machine: ") && report.lines().next().unwrap().contains("AVX-512F"),
+        "the machine comes first: {report}"
+    );
     for scene in ["cbox", "constant_cube"] {
         for threads in ["1", "2"] {
             let row = report
