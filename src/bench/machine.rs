@@ -1,10 +1,11 @@
 //! The machine a `lente bench` run measured: its CPU, how many logical
 //! CPUs it has, and which SIMD extensions the CPU reports. The ratios
-//! against Mitsuba's LLVM variant depend on the last: Dr.Jit vectorises
-//! every stage to the widest extension (16 lanes with AVX-512F, 8 with
-//! AVX2), while lente's hand-written lanes are AVX2 only, so the same
-//! build compares differently on two CPUs. Printed before the figures so
-//! that a table is never read without it.
+//! against Mitsuba's LLVM variant depend in part on the last: Dr.Jit
+//! vectorises every stage to the widest extension (16 lanes with
+//! AVX-512F, 8 with AVX2), while lente's hand-written lanes are AVX2 only
+//! (on an AVX2 CPU, 8 lanes instead of 4 made Dr.Jit 1.26x faster on the
+//! suite's geometric mean: `scripts/llvm_lanes.py`). Printed before the
+//! figures so that a table is never read without its machine.
 
 /// What a bench run prints about its machine.
 #[derive(Clone, Debug, PartialEq, Eq)]
