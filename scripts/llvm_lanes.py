@@ -17,9 +17,10 @@ import ctypes
 import json
 import os
 import sys
-import time
 
-os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
+from mitsuba_bench import parse_scene, time_render, use_libllvm
+
+use_libllvm()
 import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 
@@ -38,23 +39,17 @@ def main():
     vector_width.restype = ctypes.c_uint32
     cpu, features = target_cpu(), target_features()
     print(json.dumps({"cpu": cpu.decode(), "default_width": vector_width()}), flush=True)
-    dr.set_thread_count(2)
+    # Pinned before the pool is resized, so that its workers inherit the
+    # one core (pinning after it leaves them free to use every core).
     os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    dr.set_thread_count(2)
     for width in [int(w) for w in sys.argv[1].split(",")]:
         set_target(cpu, features, ctypes.c_uint32(width))
         for arg in sys.argv[2:]:
-            path, _, params = arg.partition("::")
-            kv = dict(p.split("=", 1) for p in params.split(",") if p)
-            scene = mi.load_file(path, **kv)
-
-            def timed(seed):
-                t0 = time.perf_counter()
-                dr.eval(mi.render(scene, spp=64, seed=seed))
-                dr.sync_thread()
-                return time.perf_counter() - t0
-
-            compile_s = timed(0)
-            best = min(timed(s) for s in range(1, 4))
+            path, params = parse_scene(arg)
+            scene = mi.load_file(path, **params)
+            compile_s = time_render(mi, dr, scene, 64, 0)
+            best = min(time_render(mi, dr, scene, 64, seed) for seed in range(1, 4))
             w, h = scene.sensors()[0].film().crop_size()
             print(json.dumps({
                 "width": vector_width(),

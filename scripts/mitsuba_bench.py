@@ -32,6 +32,16 @@ LLVM_CANDIDATES = [
 ]
 
 
+def use_libllvm():
+    """Points Dr.Jit at a libLLVM it can use (DRJIT_LIBLLVM_PATH) unless the
+    caller already did. Call before importing drjit."""
+    if "DRJIT_LIBLLVM_PATH" not in os.environ:
+        for c in LLVM_CANDIDATES:
+            if os.path.exists(c):
+                os.environ["DRJIT_LIBLLVM_PATH"] = c
+                break
+
+
 def parse_scene(arg):
     """'path::a=1,b=2' -> (path, {'a': '1', 'b': '2'})."""
     path, _, params = arg.partition("::")
@@ -60,11 +70,7 @@ def main():
     ap.add_argument("scenes", nargs="+")
     args = ap.parse_args()
 
-    if "DRJIT_LIBLLVM_PATH" not in os.environ:
-        for c in LLVM_CANDIDATES:
-            if os.path.exists(c):
-                os.environ["DRJIT_LIBLLVM_PATH"] = c
-                break
+    use_libllvm()
     import drjit as dr
     import mitsuba as mi
 

@@ -3,7 +3,7 @@
 //! against Mitsuba's LLVM variant depend in part on the last: Dr.Jit
 //! vectorises every stage to the widest extension (16 lanes with
 //! AVX-512F, 8 with AVX2), while lente's hand-written lanes are AVX2 only
-//! (on an AVX2 CPU, 8 lanes instead of 4 made Dr.Jit 1.26x faster on the
+//! (on an AVX2 CPU, 8 lanes instead of 4 made Dr.Jit 1.11x faster on the
 //! suite's geometric mean: `scripts/llvm_lanes.py`). Printed before the
 //! figures so that a table is never read without its machine.
 
