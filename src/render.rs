@@ -355,11 +355,11 @@ impl SampleBatch {
             &mut self.samplers,
             &mut self.radiance,
         );
-        for (k, (&film, &l)) in self.films.iter().zip(&self.radiance).enumerate() {
-            block.put(film, l);
-            if let Some(aovs) = self.aovs.get(k) {
-                block.put_aovs(film, aovs);
-            }
+        // The image and the AOVs are separate sums: splatting all of one,
+        // then all of the other, adds what sample-by-sample adds.
+        block.put_all(&self.films, &self.radiance);
+        for (&film, aovs) in self.films.iter().zip(&self.aovs) {
+            block.put_aovs(film, aovs);
         }
         self.films.clear();
         self.rays.clear();

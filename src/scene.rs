@@ -253,6 +253,13 @@ impl Scene {
 
     /// Whether [`Scene::intersect_packet_into`] traces its rays together
     /// (a small scene on a CPU with AVX2: [`Bvh::walks_packets`]).
+    /// Whether an environment map is among the emitters at infinity (the
+    /// only emitter [`Scene::locate_escape`] finds points on).
+    #[inline]
+    pub fn has_environment_map(&self) -> bool {
+        self.prefetches_light_samples
+    }
+
     pub fn walks_packets(&self) -> bool {
         self.bvh.walks_packets()
     }

@@ -202,6 +202,39 @@ impl FilmBlock {
         if self.avx2 && self.gaussian_4 && unsafe { self.put_gaussian_avx2(pos, value) } {
             return;
         }
+        self.put_general(pos, value);
+    }
+
+    /// [`FilmBlock::put`] of each sample `values[k]` at `positions[k]`, in
+    /// order (the same sums, so the same bits). With AVX2 and a Gaussian
+    /// the whole loop runs in one AVX2 function, where the splat inlines
+    /// (a call per sample was 30 of its 220 instructions).
+    pub fn put_all(&mut self, positions: &[Vec2], values: &[Rgb]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 && self.gaussian_4 {
+            // SAFETY: `avx2` says the CPU has AVX2.
+            unsafe { self.put_all_gaussian_avx2(positions, values) };
+            return;
+        }
+        for (&pos, &value) in positions.iter().zip(values) {
+            self.put(pos, value);
+        }
+    }
+
+    /// [`FilmBlock::put_all`]'s loop compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn put_all_gaussian_avx2(&mut self, positions: &[Vec2], values: &[Rgb]) {
+        for (&pos, &value) in positions.iter().zip(values) {
+            if !self.put_gaussian_avx2(pos, value) {
+                self.put_general(pos, value);
+            }
+        }
+    }
+
+    /// [`FilmBlock::put`] without its AVX2 fast path.
+    #[inline(never)]
+    fn put_general(&mut self, pos: Vec2, value: Rgb) {
         if !value.is_finite() {
             return;
         }
@@ -539,6 +572,10 @@ mod tests {
             // The four-lane loop, where `fast` takes the AVX2 splat.
             let mut four = fast.clone();
             four.avx2 = false;
+            // All the samples at once (`put_all`), the edge and
+            // non-finite ones left to the general path in the loop.
+            let mut all = fast.clone();
+            let (mut positions, mut values) = (Vec::new(), Vec::new());
             assert!(fast.gaussian_4);
             assert_eq!(fast.avx2, cpu_has_avx2());
             for i in 0..4000 {
@@ -549,7 +586,12 @@ mod tests {
                     2 => pos = Vec2::new(23.999, 16.0 + 1e-3),
                     _ => {}
                 }
-                let v = Rgb::new(s.next_1d() - 0.3, 2.0 * s.next_1d(), 0.0);
+                let mut v = Rgb::new(s.next_1d() - 0.3, 2.0 * s.next_1d(), 0.0);
+                if i % 7 == 3 {
+                    v.y = f32::NAN;
+                }
+                positions.push(pos);
+                values.push(v);
                 fast.put(pos, v);
                 four.put(pos, v);
                 general.put(pos, v);
@@ -562,7 +604,10 @@ mod tests {
                     .map(f32::to_bits)
                     .collect()
             };
+            all.put_all(&positions, &values);
+            let image = |b: &FilmBlock| bits(b)[..4 * b.data.len()].to_vec();
             assert_eq!(bits(&fast), bits(&general), "radius {radius}");
+            assert_eq!(image(&all), image(&general), "radius {radius}, all at once");
             assert_eq!(bits(&four).len(), bits(&general).len());
             assert_eq!(
                 bits(&four)[..4 * four.data.len()],

@@ -70,18 +70,26 @@ impl LightNumbers {
     /// Draws the numbers and prefetches what sampling an emitter at
     /// infinity with them reads (that choice does not depend on the
     /// shading point).
-    #[inline]
+    /// Inlined: most scenes have nothing to prefetch, and the draws are
+    /// a few instructions (the call and its spills cost as much).
+    #[inline(always)]
     fn draw_ahead(scene: &Scene, sampler: &mut Sampler, which: LightPdf) -> LightNumbers {
         let numbers = LightNumbers::draw(sampler);
-        if !scene.prefetches_light_samples {
-            return numbers;
-        }
-        if let Some(c) = &scene.light_choice {
-            if let Some(i) = c.choice_at_infinity(numbers.choice) {
-                scene.emitters[i].prefetch_sample(numbers.u, which);
-            }
+        if scene.prefetches_light_samples {
+            numbers.prefetch(scene, which);
         }
         numbers
+    }
+
+    /// Prefetches what sampling the emitter at infinity these numbers
+    /// choose (if they choose one) reads.
+    #[inline(never)]
+    fn prefetch(&self, scene: &Scene, which: LightPdf) {
+        if let Some(c) = &scene.light_choice {
+            if let Some(i) = c.choice_at_infinity(self.choice) {
+                scene.emitters[i].prefetch_sample(self.u, which);
+            }
+        }
     }
 }
 
