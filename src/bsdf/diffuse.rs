@@ -49,7 +49,14 @@ impl Diffuse {
         if wi.z <= 0.0 {
             return None;
         }
-        let wo = warp::square_to_cosine_hemisphere(u);
+        self.sample_toward(warp::square_to_cosine_hemisphere(u))
+    }
+
+    /// [`Diffuse::sample`] for a `wi` above the surface, given the
+    /// cosine-weighted direction `wo` its numbers map to (a batch maps
+    /// several in lanes: `warp::square_to_cosine_hemisphere_lanes`).
+    #[inline]
+    pub fn sample_toward(&self, wo: Vec3) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }

@@ -2,12 +2,14 @@
 //! BSDF sampling (mats), emitter sampling (ems), and both with MIS.
 
 use super::{sample_light_with, LightNumbers, PathParams, Strategy};
+use crate::bsdf::BsdfSample;
 use crate::color::{max_component, Rgb};
 use crate::emitter::{ChoicePoint, Emitter, EnvPoint, LightHit, LightPdf, LightSample};
 use crate::geometry::Intersection;
-use crate::math::{Ray, Vec3};
+use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
+use crate::texture::SurfacePoint;
 
 /// Power heuristic (beta = 2) weight of strategy `a` against `b`.
 #[inline]
@@ -141,6 +143,14 @@ pub(super) fn add_area_emission(
         None => 1.0,
     };
     *l += beta * light.radiance_at(its.surface_point()) * w;
+}
+
+/// The numbers of a BSDF sample (the direction's, then the lobe's),
+/// drawn after the vertex's light sample is weighed.
+#[inline]
+pub(super) fn bsdf_numbers(sampler: &mut Sampler) -> (Vec2, f32) {
+    let u = sampler.next_2d();
+    (u, sampler.next_1d())
 }
 
 /// Russian roulette from `rr_depth` on (survival probability the
@@ -521,13 +531,43 @@ impl PathState {
         sampler: &mut Sampler,
         shadow: &mut Option<ShadowTest>,
     ) -> bool {
-        let wi_world = -self.ray.d;
-        let which = cfg.which;
+        let sp = scene.surface_point(its);
+        let wi = self.local_wi(its);
+        self.weigh_light(scene, cfg, its, sp, wi, light, shadow);
+        // Continue the path by sampling the BSDF.
+        let (u, u_lobe) = bsdf_numbers(sampler);
+        let bs = scene.bsdfs[its.shape as usize].sample(sp, wi, u, u_lobe);
+        self.follow(scene, cfg, its, wi, bs, sampler)
+    }
+
+    /// The direction back along `ray` in the shading frame at `its`.
+    #[inline]
+    pub fn local_wi(&self, its: &Intersection) -> Vec3 {
+        its.shading.to_local(-self.ray.d)
+    }
+
+    /// [`PathState::scatter`]'s first part: the contribution of the light
+    /// sample `light` (with its emitter's choice probability) at `its`
+    /// (its texture point `sp`; `wi` is [`PathState::local_wi`]), if any
+    /// and not zero, set in `shadow` with the ray that must be unblocked
+    /// for it to count. A batch runs the three parts as steps over
+    /// several paths (see `path_batch.rs`): each path draws the same
+    /// numbers in the same order.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn weigh_light(
+        &self,
+        scene: &Scene,
+        cfg: &PathConfig,
+        its: &Intersection,
+        sp: SurfacePoint,
+        wi: Vec3,
+        light: Option<(LightSample, f32)>,
+        shadow: &mut Option<ShadowTest>,
+    ) {
         let strategy = cfg.strategy;
         let bsdf = &scene.bsdfs[its.shape as usize];
-        let sp = scene.surface_point(its);
         let frame = its.shading;
-        let wi = frame.to_local(wi_world);
 
         // Next-event estimation.
         if let Some((ls, pchoice)) = light {
@@ -552,13 +592,27 @@ impl PathState {
                 });
             }
         }
+    }
 
-        // Continue the path by sampling the BSDF.
-        let u = sampler.next_2d();
-        let u_lobe = sampler.next_1d();
-        let Some(bs) = bsdf.sample(sp, wi, u, u_lobe) else {
+    /// [`PathState::scatter`]'s last part: the path follows the BSDF
+    /// sample `bs` drawn at `its` for the local `wi` (none: it ends).
+    /// False if the path ends there.
+    #[inline]
+    pub fn follow(
+        &mut self,
+        scene: &Scene,
+        cfg: &PathConfig,
+        its: &Intersection,
+        wi: Vec3,
+        bs: Option<BsdfSample>,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let Some(bs) = bs else {
             return false;
         };
+        let wi_world = -self.ray.d;
+        let which = cfg.which;
+        let frame = its.shading;
         let wo_world = frame.to_world(bs.wo);
         // Reject samples that cross the geometric surface against the
         // shading normal's verdict (light leaks through shading normals).

@@ -18,14 +18,16 @@
 //! rays on the map (the last stage) run four paths at a time; the rest
 //! takes one path at a time.
 
-use super::path::{PathConfig, PathState};
+use super::path::{bsdf_numbers, PathConfig, PathState};
 use super::LightNumbers;
+use crate::bsdf::Bsdf;
 use crate::color::Rgb;
 use crate::emitter::{Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample};
 use crate::geometry::{Intersection, PACKET_LANES};
 use crate::math::{Ray, Vec2, Vec3};
-use crate::sampling::Sampler;
+use crate::sampling::{warp, Sampler};
 use crate::scene::Scene;
+use crate::texture::SurfacePoint;
 
 /// Paths traced together: big enough for lanes of 8 or 16 to stay full
 /// for several rounds, small enough that the batch's state (about 300
@@ -267,24 +269,45 @@ impl PathBatch {
         self.live.resize(self.arrived.len(), 0);
         self.shadow_rays.clear();
         self.shadow_paths.clear();
-        for (&k, light) in self.arrived.iter().zip(&self.lights) {
-            let (k, i) = (k as usize, self.hit_paths[k as usize] as usize);
-            let mut shadow = None;
-            let path = &mut self.paths[i];
-            let going = path.scatter(
-                scene,
-                cfg,
-                &self.hits[k],
-                *light,
-                &mut samplers[i],
-                &mut shadow,
-            );
-            if let Some(test) = shadow {
-                self.shadow_rays.push(test.ray);
-                self.shadow_paths.push((i as u32, test.l));
+        // `PathState::scatter` in its three parts, four paths at a time:
+        // each weighs its light sample and draws its BSDF numbers, then
+        // the diffuse ones map theirs to directions together in lanes,
+        // then each follows its sample (the same numbers in the same
+        // order per path, the same bits).
+        for (ks, lights) in self.arrived.chunks(4).zip(self.lights.chunks(4)) {
+            let mut wi = [Vec3::ZERO; 4];
+            let mut sp = [SurfacePoint::default(); 4];
+            let mut u = [Vec2::ZERO; 4];
+            let mut u_lobe = [0.0f32; 4];
+            let mut diffuse = false;
+            for (m, (&k, light)) in ks.iter().zip(lights).enumerate() {
+                let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
+                let path = &self.paths[i];
+                (sp[m], wi[m]) = (scene.surface_point(its), path.local_wi(its));
+                let mut shadow = None;
+                path.weigh_light(scene, cfg, its, sp[m], wi[m], *light, &mut shadow);
+                if let Some(test) = shadow {
+                    self.shadow_rays.push(test.ray);
+                    self.shadow_paths.push((i as u32, test.l));
+                }
+                (u[m], u_lobe[m]) = bsdf_numbers(&mut samplers[i]);
+                diffuse |= matches!(scene.bsdfs[its.shape as usize], Bsdf::Diffuse(_));
             }
-            self.live[kept] = i as u32;
-            kept += usize::from(going);
+            let cosine = diffuse.then(|| warp::square_to_cosine_hemisphere_lanes(&u));
+            for (m, &k) in ks.iter().enumerate() {
+                let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
+                let bsdf = &scene.bsdfs[its.shape as usize];
+                // `Diffuse::sample`, its map from the lanes.
+                let bs = match (bsdf, &cosine) {
+                    (Bsdf::Diffuse(b), Some(wo)) => {
+                        (wi[m].z > 0.0).then(|| b.sample_toward(wo[m])).flatten()
+                    }
+                    _ => bsdf.sample(sp[m], wi[m], u[m], u_lobe[m]),
+                };
+                let going = self.paths[i].follow(scene, cfg, its, wi[m], bs, &mut samplers[i]);
+                self.live[kept] = i as u32;
+                kept += usize::from(going);
+            }
         }
         self.live.truncate(kept);
         self.trace_shadows(scene);

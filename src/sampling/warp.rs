@@ -1,7 +1,11 @@
 //! Warps from the unit square to other domains, each with its pdf.
 //! Names follow Nori's warp tester.
 
-use crate::math::{select_bits, sin_cos_turns, Vec2, Vec3, INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
+use crate::math::{
+    select_bits, sin_cos_turns, sin_cos_turns_lanes, Vec2, Vec3, INV_FOUR_PI, INV_PI, INV_TWO_PI,
+    PI,
+};
+use glam::Vec4;
 
 pub fn square_to_uniform_square(s: Vec2) -> Vec2 {
     s
@@ -91,6 +95,30 @@ pub fn square_to_cosine_hemisphere(s: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, z)
 }
 
+/// [`square_to_cosine_hemisphere`] of four points in SIMD lanes, each
+/// lane the scalar routine's bits (tested): the same operations in the
+/// same order, its branches as masks. A batch of paths samples its
+/// diffuse bounces with it: the scalar map is one long chain of
+/// dependent operations (a division, the sine and cosine polynomials, a
+/// square root) that four lanes run once.
+pub fn square_to_cosine_hemisphere_lanes(s: &[Vec2; 4]) -> [Vec3; 4] {
+    let sx = Vec4::from_array(s.map(|s| s.x));
+    let sy = Vec4::from_array(s.map(|s| s.y));
+    let (ox, oy) = (2.0 * sx - Vec4::ONE, 2.0 * sy - Vec4::ONE);
+    let centre = ox.cmpeq(Vec4::ZERO) & oy.cmpeq(Vec4::ZERO);
+    let flat = ox.abs().cmpgt(oy.abs());
+    let r = Vec4::select(flat, ox, oy);
+    let q = Vec4::select(flat, oy, ox) / r;
+    let turns = Vec4::select(flat, 0.125 * q, Vec4::splat(0.25) - 0.125 * q);
+    let (sin, cos) = sin_cos_turns_lanes(turns);
+    let dx = Vec4::select(centre, Vec4::ZERO, r * cos);
+    let dy = Vec4::select(centre, Vec4::ZERO, r * sin);
+    let z = (Vec4::ONE - (dx * dx + dy * dy)).max(Vec4::ZERO);
+    let z = Vec4::from_array(z.to_array().map(f32::sqrt));
+    let (dx, dy, z) = (dx.to_array(), dy.to_array(), z.to_array());
+    std::array::from_fn(|k| Vec3::new(dx[k], dy[k], z[k]))
+}
+
 pub fn square_to_cosine_hemisphere_pdf(v: Vec3) -> f32 {
     if v.z >= 0.0 {
         v.z * INV_PI
@@ -144,4 +172,46 @@ pub fn beckmann_d(m: Vec3, alpha: f32) -> f32 {
 
 pub fn square_to_beckmann_pdf(m: Vec3, alpha: f32) -> f32 {
     beckmann_d(m, alpha) * m.z.max(0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lanes give the scalar map's bits: on a grid over the square
+    /// with its edges, at the centre (the scalar map's own case, which
+    /// the lanes' division turns into NaN before their mask), on the
+    /// diagonals (where the two halves of the map meet) and next to them.
+    #[test]
+    fn cosine_hemisphere_lanes_are_the_scalar_bit_for_bit() {
+        let mut points: Vec<Vec2> = Vec::new();
+        for i in 0..=200 {
+            for j in 0..=200 {
+                points.push(Vec2::new(i as f32 / 200.0, j as f32 / 200.0));
+            }
+        }
+        for k in 0..=1000 {
+            let t = k as f32 / 1000.0;
+            points.extend([
+                Vec2::new(t, t),
+                Vec2::new(t, 1.0 - t),
+                Vec2::new(t.next_up(), t),
+                Vec2::new(t, t.next_down()),
+            ]);
+        }
+        let below_one = 1.0f32.next_down();
+        points.extend([Vec2::splat(0.5), Vec2::new(0.5, below_one), Vec2::ZERO]);
+        while !points.len().is_multiple_of(4) {
+            points.push(Vec2::splat(0.5));
+        }
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for chunk in points.chunks(4) {
+            let s: [Vec2; 4] = chunk.try_into().unwrap();
+            let lanes = square_to_cosine_hemisphere_lanes(&s);
+            for (p, lane) in s.iter().zip(lanes) {
+                let scalar = square_to_cosine_hemisphere(*p);
+                assert_eq!(bits(lane), bits(scalar), "{p}: {lane} != {scalar}");
+            }
+        }
+    }
 }
