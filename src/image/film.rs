@@ -225,9 +225,20 @@ impl FilmBlock {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn put_all_gaussian_avx2(&mut self, positions: &[Vec2], values: &[Rgb]) {
-        for (&pos, &value) in positions.iter().zip(values) {
-            if !self.put_gaussian_avx2(pos, value) {
-                self.put_general(pos, value);
+        // Eight samples' weights first (independent work the CPU runs side
+        // by side), then their sums in order, the others' general path in
+        // its turn: the same sums in the same order as one at a time.
+        const GROUP: usize = 8;
+        for (pos, val) in positions.chunks(GROUP).zip(values.chunks(GROUP)) {
+            let splats: [Option<GaussianSplat>; GROUP] = std::array::from_fn(|k| {
+                let (p, v) = (pos.get(k)?, val.get(k)?);
+                self.gaussian_splat_avx2(*p, *v)
+            });
+            for (k, (&p, &v)) in pos.iter().zip(val).enumerate() {
+                match &splats[k] {
+                    Some(splat) => self.add_splat_avx2(splat),
+                    None => self.put_general(p, v),
+                }
             }
         }
     }
@@ -263,21 +274,38 @@ impl FilmBlock {
     /// [`FilmBlock::put`]'s 4 x 4 Gaussian splat in AVX lanes, for a finite
     /// sample whose window [`FilmBlock::gaussian_offsets`] takes (false,
     /// and nothing added, for the others: the caller's general path sees
-    /// to them). The window's floor and offsets in lanes, the eight weights
-    /// along x and y in one [`FilterEval::gaussian_8`], the sixteen
-    /// products wy_j wx_i in two multiplies, then two cells (eight floats)
-    /// per multiply and add. The same products and sums as the four-lane
-    /// loop, so the same bits (tested); half of its instructions.
+    /// to them): [`FilmBlock::gaussian_splat_avx2`], then
+    /// [`FilmBlock::add_splat_avx2`].
     #[cfg(target_arch = "x86_64")]
     #[inline]
     #[target_feature(enable = "avx2")]
     fn put_gaussian_avx2(&mut self, pos: Vec2, value: Rgb) -> bool {
+        match self.gaussian_splat_avx2(pos, value) {
+            Some(splat) => {
+                self.add_splat_avx2(&splat);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// What a Gaussian sample adds, in AVX lanes: the window's floor and
+    /// offsets, the eight weights along x and y in one
+    /// [`FilterEval::gaussian_8`], the sixteen products wy_j wx_i in two
+    /// multiplies. The same products as the four-lane loop, so the same
+    /// bits (tested); `None` where [`FilmBlock::put_gaussian_avx2`] is
+    /// false. Reads the block's shape only, so a batch computes several
+    /// before it adds them (their exponentials' chains overlap).
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn gaussian_splat_avx2(&self, pos: Vec2, value: Rgb) -> Option<GaussianSplat> {
         use std::arch::x86_64::*;
         // value.extend(1.0), finite in every lane (NaN compares false).
         let v = _mm_setr_ps(value.x, value.y, value.z, 1.0);
         let magnitude = _mm_andnot_ps(_mm_set1_ps(-0.0), v);
         if _mm_movemask_ps(_mm_cmplt_ps(magnitude, _mm_set1_ps(f32::INFINITY))) != 0xF {
-            return false;
+            return None;
         }
         let (px, py) = (pos.x - 0.5, pos.y - 0.5);
         let p = _mm256_setr_ps(px, px, px, px, py, py, py, py);
@@ -291,11 +319,9 @@ impl FilmBlock {
         let i = _mm256_cvttps_epi32(floor);
         let (ix, iy) = (_mm256_extract_epi32::<0>(i), _mm256_extract_epi32::<4>(i));
         if fx == px || fy == py {
-            return false;
+            return None;
         }
-        let Some(first) = self.gaussian_first_cell(ix, iy) else {
-            return false;
-        };
+        let first = self.gaussian_first_cell(ix, iy)?;
         // (floor - 1) - p .. (floor + 2) - p: integers this small are exact
         // in f32, so these are gaussian_offsets' (f0 + k) as f32 - p.
         let steps = _mm256_setr_ps(-1.0, 0.0, 1.0, 2.0, -1.0, 0.0, 1.0, 2.0);
@@ -311,27 +337,40 @@ impl FilmBlock {
             _mm256_mul_ps(wx, _mm256_permutevar8x32_ps(w, idx(4, 5))),
             _mm256_mul_ps(wx, _mm256_permutevar8x32_ps(w, idx(6, 7))),
         ];
-        let v = _mm256_set_m128(v, v);
+        Some(GaussianSplat {
+            first,
+            rows,
+            value: _mm256_set_m128(v, v),
+        })
+    }
+
+    /// Adds a [`GaussianSplat`]: two cells (eight floats) per multiply and
+    /// add, half of the four-lane loop's instructions.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add_splat_avx2(&mut self, splat: &GaussianSplat) {
+        use std::arch::x86_64::*;
+        let idx = |a: i32, b: i32| _mm256_setr_epi32(a, a, a, a, b, b, b, b);
         // Each cell's weight spread over its four floats: cells (0, 1) and
         // (2, 3) of a row, from lanes (4 r, 4 r + 1) and (4 r + 2, 4 r + 3).
         let spread = [idx(0, 1), idx(2, 3), idx(4, 5), idx(6, 7)];
         for j in 0..4 {
-            let start = first + j * self.width;
+            let start = splat.first + j * self.width;
             let row = &mut self.data[start..start + 4];
             let ptr = row.as_mut_ptr() as *mut f32;
-            let pair = rows[j / 2];
+            let pair = splat.rows[j / 2];
             for half in 0..2 {
                 let wij = _mm256_permutevar8x32_ps(pair, spread[2 * (j % 2) + half]);
                 // SAFETY: `row` holds four cells of four floats each: the
                 // eight floats at 8 x half are inside it.
                 unsafe {
                     let cell = ptr.add(8 * half);
-                    let sum = _mm256_add_ps(_mm256_loadu_ps(cell), _mm256_mul_ps(wij, v));
+                    let sum = _mm256_add_ps(_mm256_loadu_ps(cell), _mm256_mul_ps(wij, splat.value));
                     _mm256_storeu_ps(cell, sum);
                 }
             }
         }
-        true
     }
 
     /// The block's pixels a sample at film position `pos` reaches, with
@@ -364,6 +403,17 @@ impl FilmBlock {
             width: self.width,
         }
     }
+}
+
+/// A Gaussian sample's 4 x 4 window in a [`FilmBlock`]: its first cell,
+/// the weights of rows (0, 1) and (2, 3) (four per row), and the sample's
+/// (r, g, b, 1) twice.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct GaussianSplat {
+    first: usize,
+    rows: [std::arch::x86_64::__m256; 2],
+    value: std::arch::x86_64::__m256,
 }
 
 /// The cells one sample reaches in a [`FilmBlock`] (see
