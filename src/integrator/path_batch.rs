@@ -20,7 +20,7 @@
 
 use super::path::{bsdf_numbers, PathConfig, PathState};
 use super::LightNumbers;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfSample};
 use crate::color::Rgb;
 use crate::emitter::{Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample};
 use crate::geometry::{Intersection, PACKET_LANES};
@@ -294,16 +294,21 @@ impl PathBatch {
                 diffuse |= matches!(scene.bsdfs[its.shape as usize], Bsdf::Diffuse(_));
             }
             let cosine = diffuse.then(|| warp::square_to_cosine_hemisphere_lanes(&u));
-            for (m, &k) in ks.iter().enumerate() {
-                let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
+            // The samples side by side (independent work the CPU overlaps),
+            // then each path follows its own.
+            let samples: [Option<BsdfSample>; 4] = std::array::from_fn(|m| {
+                let its = &self.hits[*ks.get(m)? as usize];
                 let bsdf = &scene.bsdfs[its.shape as usize];
                 // `Diffuse::sample`, its map from the lanes.
-                let bs = match (bsdf, &cosine) {
+                match (bsdf, &cosine) {
                     (Bsdf::Diffuse(b), Some(wo)) => {
                         (wi[m].z > 0.0).then(|| b.sample_toward(wo[m])).flatten()
                     }
                     _ => bsdf.sample(sp[m], wi[m], u[m], u_lobe[m]),
-                };
+                }
+            });
+            for (m, (&k, bs)) in ks.iter().zip(samples).enumerate() {
+                let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
                 let going = self.paths[i].follow(scene, cfg, its, wi[m], bs, &mut samplers[i]);
                 self.live[kept] = i as u32;
                 kept += usize::from(going);
