@@ -60,11 +60,13 @@ pub struct Scene {
     pub infinite: Vec<u32>,
     /// Chooses the emitter to sample from a shading point.
     pub light_choice: Option<LightChoice>,
-    /// Some emitter at infinity is an environment map, whose light samples
-    /// are worth prefetching when their numbers are drawn
-    /// (`LightNumbers::draw_ahead`): elsewhere there is nothing to fetch,
-    /// and finding which emitter the numbers choose was wasted.
-    pub prefetches_light_samples: bool,
+    /// Some emitter at infinity is an environment map. Only then are light
+    /// samples worth prefetching when their numbers are drawn
+    /// (`LightNumbers::draw_ahead`; elsewhere there is nothing to fetch,
+    /// and finding which emitter the numbers choose was wasted), and only
+    /// then do new rays have a point to be located at
+    /// ([`Scene::locate_escape`], the batch's last stage).
+    pub has_environment_map: bool,
     pub bvh: Bvh,
     pub bounds: Aabb,
     pub scene_radius: f32,
@@ -165,7 +167,7 @@ impl Scene {
             scene_radius,
         };
         let light_choice = LightChoice::new(&emitters, &ctx);
-        let prefetches_light_samples = (infinite.iter())
+        let has_environment_map = (infinite.iter())
             .any(|&i: &u32| matches!(emitters[i as usize], Emitter::Environment(_)));
         let camera = if desc.camera.autofocus {
             Camera::new(autofocus(desc.camera, &bvh, &geometry)?)?
@@ -183,7 +185,7 @@ impl Scene {
             emitters,
             infinite,
             light_choice,
-            prefetches_light_samples,
+            has_environment_map,
             bvh,
             bounds,
             scene_radius,
@@ -253,13 +255,6 @@ impl Scene {
 
     /// Whether [`Scene::intersect_packet_into`] traces its rays together
     /// (a small scene on a CPU with AVX2: [`Bvh::walks_packets`]).
-    /// Whether an environment map is among the emitters at infinity (the
-    /// only emitter [`Scene::locate_escape`] finds points on).
-    #[inline]
-    pub fn has_environment_map(&self) -> bool {
-        self.prefetches_light_samples
-    }
-
     pub fn walks_packets(&self) -> bool {
         self.bvh.walks_packets()
     }

@@ -234,8 +234,8 @@ impl FilmBlock {
                 let (p, v) = (pos.get(k)?, val.get(k)?);
                 self.gaussian_splat_avx2(*p, *v)
             });
-            for (k, (&p, &v)) in pos.iter().zip(val).enumerate() {
-                match &splats[k] {
+            for ((&p, &v), splat) in pos.iter().zip(val).zip(&splats) {
+                match splat {
                     Some(splat) => self.add_splat_avx2(splat),
                     None => self.put_general(p, v),
                 }

@@ -69,13 +69,12 @@ impl LightNumbers {
 
     /// Draws the numbers and prefetches what sampling an emitter at
     /// infinity with them reads (that choice does not depend on the
-    /// shading point).
-    /// Inlined: most scenes have nothing to prefetch, and the draws are
+    /// shading point). Inlined: most scenes have nothing to prefetch, and the draws are
     /// a few instructions (the call and its spills cost as much).
     #[inline(always)]
     fn draw_ahead(scene: &Scene, sampler: &mut Sampler, which: LightPdf) -> LightNumbers {
         let numbers = LightNumbers::draw(sampler);
-        if scene.prefetches_light_samples {
+        if scene.has_environment_map {
             numbers.prefetch(scene, which);
         }
         numbers

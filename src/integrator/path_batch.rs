@@ -392,7 +392,7 @@ impl PathBatch {
         // Without an environment map every point is `None`, which every
         // path holds from its start: nothing to locate (1.2% of a
         // constant-lit scene's instructions went to finding that out).
-        if !scene.has_environment_map() {
+        if !scene.has_environment_map {
             return;
         }
         let mut chunk = [0usize; 4];
