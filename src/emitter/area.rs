@@ -181,7 +181,7 @@ impl AreaLight {
 
     /// The light sample reaching the point `s` along the unit `wi` at
     /// distance `dist`, with solid-angle density `pdf`.
-    fn light_sample(
+    pub(crate) fn light_sample(
         &self,
         ctx: &EmitterContext,
         s: &SurfaceSample,

@@ -15,6 +15,7 @@ mod rectangle;
 mod serialized;
 mod shapes;
 mod sphere;
+mod sphere_lanes;
 mod triangle;
 mod wide_bvh;
 
@@ -35,6 +36,7 @@ pub use shapes::{
     cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
 };
 pub use sphere::{Sphere, SphereError, SphereUv};
+pub use sphere_lanes::{sample_cones_lanes, ConeSample};
 pub use triangle::{intersect_triangle, PackedTriangle, RayShear};
 
 use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};

@@ -14,16 +14,16 @@
 //! It is the frame for stages that work on many paths at once (SIMD lanes
 //! across paths, issue 15): the trace of a small scene runs eight rays at
 //! a time in AVX2 lanes; the environment map's lookups of escaped paths,
-//! its light samples (within the bounce stage) and the location of new
-//! rays on the map (the last stage) run four paths at a time; the rest
-//! takes one path at a time.
+//! its light samples and the cone samples of sphere lights (within the
+//! bounce stage) and the location of new rays on the map (the last stage)
+//! run four paths at a time; the rest takes one path at a time.
 
 use super::path::{bsdf_numbers, PathConfig, PathState};
 use super::LightNumbers;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::color::Rgb;
-use crate::emitter::{Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample};
-use crate::geometry::{Intersection, PACKET_LANES};
+use crate::emitter::{AreaLight, Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample};
+use crate::geometry::{sample_cones_lanes, Geometry, Intersection, Sphere, PACKET_LANES};
 use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::{warp, Sampler};
 use crate::scene::Scene;
@@ -341,7 +341,9 @@ impl PathBatch {
     /// Stage 3's light samples: `lights[j]` is what `sample_light_with`
     /// gives for `requests[j]` at its path's hit, bit for bit. Samples of
     /// one environment map are gathered four at a time and drawn in lanes
-    /// ([`EnvMap::sample_lanes`]); other emitters sample one at a time.
+    /// ([`EnvMap::sample_lanes`]); so are the cone samples of sphere
+    /// lights, any mix of them ([`sample_cones_lanes`]); other emitters
+    /// sample one at a time.
     fn sample_lights(&mut self, scene: &Scene, which: LightPdf) {
         self.lights.clear();
         self.lights.resize(self.arrived.len(), None);
@@ -350,6 +352,7 @@ impl PathBatch {
         };
         let ctx = scene.emitter_context();
         let mut group = EnvGroup::default();
+        let mut spheres = SphereGroup::default();
         for (j, (&k, numbers)) in self.arrived.iter().zip(&self.requests).enumerate() {
             let Some(numbers) = numbers else {
                 continue;
@@ -374,6 +377,25 @@ impl PathBatch {
                         group.flush(&ctx, which, &mut self.lights);
                     }
                 }
+                Emitter::Area(area) => match &ctx.shapes[area.shape as usize] {
+                    Geometry::Sphere(sphere) => {
+                        let m = spheres.n;
+                        spheres.slot[m] = j;
+                        spheres.light[m] = Some((area, sphere));
+                        spheres.p[m] = its.p;
+                        spheres.u[m] = numbers.u;
+                        spheres.u1[m] = u1;
+                        spheres.pchoice[m] = pchoice;
+                        spheres.n += 1;
+                        if spheres.n == 4 {
+                            spheres.flush(&ctx, &mut self.lights);
+                        }
+                    }
+                    _ => {
+                        let ls = area.sample(&ctx, its.p, numbers.u, u1);
+                        self.lights[j] = ls.map(|ls| (ls, pchoice));
+                    }
+                },
                 emitter => {
                     let ls = emitter.sample(&ctx, its.p, numbers.u, u1, which, at.facing);
                     self.lights[j] = ls.map(|ls| (ls, pchoice));
@@ -382,6 +404,9 @@ impl PathBatch {
         }
         if group.n > 0 {
             group.flush(&ctx, which, &mut self.lights);
+        }
+        if spheres.n > 0 {
+            spheres.flush(&ctx, &mut self.lights);
         }
     }
 
@@ -459,6 +484,46 @@ impl EnvGroup<'_> {
                     self.pchoice[m],
                 )
             });
+        }
+        self.n = 0;
+    }
+}
+
+/// Up to four light samples of sphere lights (any mix of them) waiting
+/// to be drawn together: where each goes in `lights`, its light and
+/// sphere, shading point, numbers and choice probability.
+#[derive(Default)]
+struct SphereGroup<'a> {
+    n: usize,
+    slot: [usize; 4],
+    light: [Option<(&'a AreaLight, &'a Sphere)>; 4],
+    p: [Vec3; 4],
+    u: [Vec2; 4],
+    u1: [f32; 4],
+    pchoice: [f32; 4],
+}
+
+impl SphereGroup<'_> {
+    /// Draws the waiting samples (at least one) into their slots of
+    /// `lights`: the cones in lanes ([`sample_cones_lanes`]; unused lanes
+    /// repeat the last one and are dropped), a point inside its sphere by
+    /// the scalar [`AreaLight::sample`], as `sample_light_with` would; and
+    /// empties the group.
+    fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<(LightSample, f32)>]) {
+        let n = self.n;
+        let light = |k: usize| self.light[k.min(n - 1)].expect("a filled lane has its light");
+        let cones = sample_cones_lanes(
+            std::array::from_fn(|k| light(k).1),
+            std::array::from_fn(|k| self.p[k.min(n - 1)]),
+            std::array::from_fn(|k| self.u[k.min(n - 1)]),
+        );
+        for (m, cone) in cones.iter().enumerate().take(n) {
+            let area = light(m).0;
+            let ls = match cone {
+                Some(c) => Some(area.light_sample(ctx, &c.s, c.wi, c.dist, c.pdf)),
+                None => area.sample(ctx, self.p[m], self.u[m], self.u1[m]),
+            };
+            lights[self.slot[m]] = ls.map(|ls| (ls, self.pchoice[m]));
         }
         self.n = 0;
     }
@@ -589,6 +654,8 @@ mod tests {
             "scenes/envmap/envmap.xml",
             "scenes/dof/dof.xml",
             "bench/speed/constant_cube.xml",
+            // Five sphere lights: their samples drawn in lanes.
+            "bench/lights/veach_mis.xml",
         ] {
             let (loaded, _) = load_scene(&root.join(file)).unwrap();
             let scene = Scene::new(loaded.scene).unwrap();
