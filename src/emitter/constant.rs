@@ -25,15 +25,16 @@ impl ConstantLight {
     }
 
     pub fn sample(&self, ctx: &EmitterContext, p_ref: Vec3, u: Vec2) -> Option<LightSample> {
-        let wi = warp::square_to_uniform_sphere(u);
+        Some(self.sample_toward(ctx, p_ref, warp::square_to_uniform_sphere(u)))
+    }
+
+    /// [`ConstantLight::sample`] whose uniform direction `wi` is drawn
+    /// (a batch draws four at a time:
+    /// [`warp::square_to_uniform_sphere_lanes`]).
+    #[inline]
+    pub fn sample_toward(&self, ctx: &EmitterContext, p_ref: Vec3, wi: Vec3) -> LightSample {
         let pdf = warp::square_to_uniform_sphere_pdf(wi);
-        Some(LightSample::at_infinity(
-            ctx,
-            p_ref,
-            wi,
-            self.radiance / pdf,
-            pdf,
-        ))
+        LightSample::at_infinity(ctx, p_ref, wi, self.radiance / pdf, pdf)
     }
 
     pub fn pdf(&self, wi: Vec3) -> f32 {

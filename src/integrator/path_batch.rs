@@ -14,15 +14,17 @@
 //! It is the frame for stages that work on many paths at once (SIMD lanes
 //! across paths, issue 15): the trace of a small scene runs eight rays at
 //! a time in AVX2 lanes; the environment map's lookups of escaped paths,
-//! its light samples and the cone samples of sphere lights (within the
-//! bounce stage) and the location of new rays on the map (the last stage)
+//! its light samples, the cone samples of sphere lights and the
+//! directions of constant skies' samples (within the bounce stage) and the location of new rays on the map (the last stage)
 //! run four paths at a time; the rest takes one path at a time.
 
 use super::path::{bsdf_numbers, PathConfig, PathState};
 use super::LightNumbers;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::color::Rgb;
-use crate::emitter::{AreaLight, Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample};
+use crate::emitter::{
+    AreaLight, ConstantLight, Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample,
+};
 use crate::geometry::{sample_cones_lanes, Geometry, Intersection, Sphere, PACKET_LANES};
 use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::{warp, Sampler};
@@ -342,8 +344,9 @@ impl PathBatch {
     /// gives for `requests[j]` at its path's hit, bit for bit. Samples of
     /// one environment map are gathered four at a time and drawn in lanes
     /// ([`EnvMap::sample_lanes`]); so are the cone samples of sphere
-    /// lights, any mix of them ([`sample_cones_lanes`]); other emitters
-    /// sample one at a time.
+    /// lights, any mix of them ([`sample_cones_lanes`]), and constant
+    /// skies' samples ([`ConstantGroup`]); other emitters sample one at a
+    /// time.
     fn sample_lights(&mut self, scene: &Scene, which: LightPdf) {
         self.lights.clear();
         self.lights.resize(self.arrived.len(), None);
@@ -353,6 +356,7 @@ impl PathBatch {
         let ctx = scene.emitter_context();
         let mut group = EnvGroup::default();
         let mut spheres = SphereGroup::default();
+        let mut constants = ConstantGroup::default();
         for (j, (&k, numbers)) in self.arrived.iter().zip(&self.requests).enumerate() {
             let Some(numbers) = numbers else {
                 continue;
@@ -396,6 +400,18 @@ impl PathBatch {
                         self.lights[j] = ls.map(|ls| (ls, pchoice));
                     }
                 },
+                Emitter::Constant(sky) => {
+                    let m = constants.n;
+                    constants.slot[m] = j;
+                    constants.sky[m] = Some(sky);
+                    constants.p[m] = its.p;
+                    constants.u[m] = numbers.u;
+                    constants.pchoice[m] = pchoice;
+                    constants.n += 1;
+                    if constants.n == 4 {
+                        constants.flush(&ctx, &mut self.lights);
+                    }
+                }
                 emitter => {
                     let ls = emitter.sample(&ctx, its.p, numbers.u, u1, which, at.facing);
                     self.lights[j] = ls.map(|ls| (ls, pchoice));
@@ -407,6 +423,9 @@ impl PathBatch {
         }
         if spheres.n > 0 {
             spheres.flush(&ctx, &mut self.lights);
+        }
+        if constants.n > 0 {
+            constants.flush(&ctx, &mut self.lights);
         }
     }
 
@@ -524,6 +543,37 @@ impl SphereGroup<'_> {
                 None => area.sample(ctx, self.p[m], self.u[m], self.u1[m]),
             };
             lights[self.slot[m]] = ls.map(|ls| (ls, self.pchoice[m]));
+        }
+        self.n = 0;
+    }
+}
+
+/// Up to four light samples of constant skies waiting to be drawn
+/// together: where each goes in `lights`, its sky, shading point, numbers
+/// and choice probability.
+#[derive(Default)]
+struct ConstantGroup<'a> {
+    n: usize,
+    slot: [usize; 4],
+    sky: [Option<&'a ConstantLight>; 4],
+    p: [Vec3; 4],
+    u: [Vec2; 4],
+    pchoice: [f32; 4],
+}
+
+impl ConstantGroup<'_> {
+    /// Draws the waiting samples (at least one) into their slots of
+    /// `lights`: the directions in lanes
+    /// ([`warp::square_to_uniform_sphere_lanes`]; unused lanes repeat the
+    /// last one and are dropped), the rest as [`ConstantLight::sample`];
+    /// and empties the group.
+    fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<(LightSample, f32)>]) {
+        let n = self.n;
+        let wi =
+            warp::square_to_uniform_sphere_lanes(&std::array::from_fn(|k| self.u[k.min(n - 1)]));
+        for (m, &wi) in wi.iter().enumerate().take(n) {
+            let sky = self.sky[m].expect("a filled lane has its sky");
+            lights[self.slot[m]] = Some((sky.sample_toward(ctx, self.p[m], wi), self.pchoice[m]));
         }
         self.n = 0;
     }

@@ -69,6 +69,21 @@ pub fn square_to_uniform_sphere(s: Vec2) -> Vec3 {
     Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
+/// [`square_to_uniform_sphere`] of four points in SIMD lanes, each lane
+/// the scalar routine's bits (tested): a constant sky's light samples
+/// drawn four at a time by a batch of paths, whose angle polynomials and
+/// square roots would otherwise run as one dependent chain per path.
+pub fn square_to_uniform_sphere_lanes(s: &[Vec2; 4]) -> [Vec3; 4] {
+    let sx = Vec4::from_array(s.map(|s| s.x));
+    let sy = Vec4::from_array(s.map(|s| s.y));
+    let z = Vec4::ONE - 2.0 * sy;
+    let r = (Vec4::ONE - z * z).max(Vec4::ZERO);
+    let r = Vec4::from_array(r.to_array().map(f32::sqrt));
+    let (sin, cos) = sin_cos_turns_lanes(sx);
+    let (x, y, z) = ((r * cos).to_array(), (r * sin).to_array(), z.to_array());
+    std::array::from_fn(|k| Vec3::new(x[k], y[k], z[k]))
+}
+
 pub fn square_to_uniform_sphere_pdf(_v: Vec3) -> f32 {
     INV_FOUR_PI
 }
@@ -177,6 +192,32 @@ pub fn square_to_beckmann_pdf(m: Vec3, alpha: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The uniform sphere's lanes give the scalar map's bits, on a grid
+    /// over the square with its edges and next to them.
+    #[test]
+    fn uniform_sphere_lanes_are_the_scalar_bit_for_bit() {
+        let mut points: Vec<Vec2> = Vec::new();
+        for i in 0..=300 {
+            for j in 0..=300 {
+                let (x, y) = (i as f32 / 300.0, j as f32 / 300.0);
+                points.extend([Vec2::new(x, y), Vec2::new(x.next_up(), y.next_down())]);
+            }
+        }
+        points.push(Vec2::splat(1.0f32.next_down()));
+        while !points.len().is_multiple_of(4) {
+            points.push(Vec2::splat(0.5));
+        }
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for chunk in points.chunks(4) {
+            let s: [Vec2; 4] = chunk.try_into().unwrap();
+            let lanes = square_to_uniform_sphere_lanes(&s);
+            for (p, lane) in s.iter().zip(lanes) {
+                let scalar = square_to_uniform_sphere(*p);
+                assert_eq!(bits(lane), bits(scalar), "{p}: {lane} != {scalar}");
+            }
+        }
+    }
 
     /// The lanes give the scalar map's bits: on a grid over the square
     /// with its edges, at the centre (the scalar map's own case, which
