@@ -268,6 +268,10 @@ pub struct Camera {
     pub params: CameraParams,
     tan_half_x: f32,
     inv_aspect: f32,
+    /// `params.to_world.point(Vec3::ZERO)`: a pinhole's every ray starts
+    /// there (the same bits, without a matrix product and a division per
+    /// camera ray).
+    pinhole_origin: Vec3,
 }
 
 impl Camera {
@@ -282,6 +286,7 @@ impl Camera {
         let tan_half_x = (params.fov_x_deg.to_radians() * 0.5).tan();
         let inv_aspect = params.height as f32 / params.width as f32;
         Camera {
+            pinhole_origin: params.to_world.point(Vec3::ZERO),
             params,
             tan_half_x,
             inv_aspect,
@@ -333,16 +338,15 @@ impl Camera {
             return self.orthographic_ray(film);
         }
         let d = self.camera_direction(film);
-        let (o, d) = if self.params.lens_radius > 0.0 {
+        let (wo, d) = if self.params.lens_radius > 0.0 {
             let lens = self.lens_point(aperture);
             let focus = d * self.params.focal_distance;
             let o = Vec3::new(lens.x, lens.y, 0.0);
-            (o, (focus - o).normalize())
+            (self.params.to_world.point(o), (focus - o).normalize())
         } else {
-            (Vec3::ZERO, d.normalize())
+            (self.pinhole_origin, d.normalize())
         };
         let inv_z = 1.0 / d.z;
-        let wo = self.params.to_world.point(o);
         let wd = self.params.to_world.vector(d).normalize();
         Ray::with_range(
             wo,
