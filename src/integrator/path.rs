@@ -259,7 +259,9 @@ impl PathState {
         camera_ray: &Ray,
         sampler: &mut Sampler,
     ) -> PathState {
-        PathState {
+        // Every field is set again by `restart`, the one place that says
+        // how a path starts.
+        let mut path = PathState {
             ray: *camera_ray,
             l: Rgb::ZERO,
             beta: Rgb::ONE,
@@ -269,10 +271,52 @@ impl PathState {
             prev_at: ChoicePoint::default(),
             eta_scale: 1.0,
             depth: 0,
-            light_numbers: (cfg.light_numbers_below > 0)
-                .then(|| LightNumbers::draw_ahead(scene, sampler, cfg.which)),
+            light_numbers: None,
             escape: None,
-        }
+        };
+        path.restart(scene, cfg, camera_ray, sampler);
+        path
+    }
+
+    /// This path started again with `camera_ray`, field by field in
+    /// place: a batch keeps its paths from batch to batch, and a whole
+    /// new state assigned or pushed was built elsewhere and copied in (a
+    /// `memcpy` call per sample).
+    #[inline]
+    pub fn restart(
+        &mut self,
+        scene: &Scene,
+        cfg: &PathConfig,
+        camera_ray: &Ray,
+        sampler: &mut Sampler,
+    ) {
+        // Destructured without `..`: a field added to the path is a
+        // compile error here until it is started too.
+        let PathState {
+            ray,
+            l,
+            beta,
+            specular,
+            prev_pdf,
+            prev_p,
+            prev_at,
+            eta_scale,
+            depth,
+            light_numbers,
+            escape,
+        } = self;
+        *ray = *camera_ray;
+        *l = Rgb::ZERO;
+        *beta = Rgb::ONE;
+        *specular = true;
+        *prev_pdf = 0.0;
+        *prev_p = camera_ray.o;
+        *prev_at = ChoicePoint::default();
+        *eta_scale = 1.0;
+        *depth = 0;
+        *light_numbers = (cfg.light_numbers_below > 0)
+            .then(|| LightNumbers::draw_ahead(scene, sampler, cfg.which));
+        *escape = None;
     }
 
     /// Whether `ray` is a camera ray under `hide_emitters`: it passes

@@ -57,6 +57,8 @@ fn constant_sky(scene: &Scene) -> Option<(Rgb, f32)> {
 /// (each rendering thread allocates them once).
 #[derive(Default)]
 pub struct PathBatch {
+    /// The batch's paths: the first `rays.len()` of them (any beyond are
+    /// a larger batch's, kept to be started again).
     paths: Vec<PathState>,
     /// The surfaces the live paths' rays reached, written in place by the
     /// trace (not copied about as `Option`s): `hits[k]` is path
@@ -99,7 +101,6 @@ impl PathBatch {
         out: &mut [Rgb],
     ) {
         assert!(rays.len() == samplers.len() && rays.len() == out.len());
-        self.paths.clear();
         self.live.clear();
         // At most every path arrives in the bounce stage: room for all of
         // them now, so that no later round of a batch this size allocates.
@@ -115,7 +116,12 @@ impl PathBatch {
         self.shadow_rays.reserve(n);
         self.shadow_paths.reserve(n);
         for (k, (ray, sampler)) in rays.iter().zip(samplers.iter_mut()).enumerate() {
-            self.paths.push(PathState::new(scene, cfg, ray, sampler));
+            // Each thread's batch keeps its paths from batch to batch and
+            // starts them again where they lie (`PathState::restart`).
+            match self.paths.get_mut(k) {
+                Some(path) => path.restart(scene, cfg, ray, sampler),
+                None => self.paths.push(PathState::new(scene, cfg, ray, sampler)),
+            }
             self.live.push(k as u32);
         }
         while !self.live.is_empty() {
