@@ -197,17 +197,27 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
         )
     };
     let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
-    // One vertex relative to the origins and sheared: (x', y', z').
-    let sheared = |vx: f32, vy: f32, vz: f32| {
-        let x = sub(_mm256_set1_ps(vx), o[0]);
-        let y = sub(_mm256_set1_ps(vy), o[1]);
-        let z = sub(_mm256_set1_ps(vz), o[2]);
-        let row = |k: usize| add(add(mul(x, r[k]), mul(y, r[k + 1])), mul(z, r[k + 2]));
-        (row(0), row(3), row(6))
+    // The vertices relative to the origins; a sheared row of one of them
+    // (`row(x, y, z, k)`: row k / 3 of the shear): x' and y' first, for
+    // the edge functions; z' only for lanes still in the running.
+    let relative = |vx: f32, vy: f32, vz: f32| {
+        [
+            sub(_mm256_set1_ps(vx), o[0]),
+            sub(_mm256_set1_ps(vy), o[1]),
+            sub(_mm256_set1_ps(vz), o[2]),
+        ]
     };
-    let (xa, ya, za) = sheared(tri.xs.x, tri.ys.x, tri.zs.x);
-    let (xb, yb, zb) = sheared(tri.xs.y, tri.ys.y, tri.zs.y);
-    let (xc, yc, zc) = sheared(tri.xs.z, tri.ys.z, tri.zs.z);
+    let row = |[x, y, z]: [__m256; 3], k: usize| {
+        add(add(mul(x, r[k]), mul(y, r[k + 1])), mul(z, r[k + 2]))
+    };
+    let (ra, rb, rc) = (
+        relative(tri.xs.x, tri.ys.x, tri.zs.x),
+        relative(tri.xs.y, tri.ys.y, tri.zs.y),
+        relative(tri.xs.z, tri.ys.z, tri.zs.z),
+    );
+    let (xa, ya) = (row(ra, 0), row(ra, 3));
+    let (xb, yb) = (row(rb, 0), row(rb, 3));
+    let (xc, yc) = (row(rc, 0), row(rc, 3));
     // `yt.cross(xt)`'s products and differences.
     let u = sub(mul(yb, xc), mul(xb, yc));
     let v = sub(mul(yc, xa), mul(xc, ya));
@@ -234,6 +244,18 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
         ),
         _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero),
     );
+    let outside = _mm256_and_ps(below, above);
+    // Every lane passes the triangle by (the scalar test's first `None`),
+    // and none needs the scalar test: no hit, and the rest (depths,
+    // division, error bounds) is skipped. Most tests of a packet end here.
+    let missed = |m: __m256| bits_of(m) & lanes == 0 && zero_edge == 0;
+    if missed(_mm256_andnot_ps(
+        outside,
+        _mm256_castsi256_ps(_mm256_set1_epi32(-1)),
+    )) {
+        return (0, zero, zero, zero);
+    }
+    let (za, zb, zc) = (row(ra, 6), row(rb, 6), row(rc, 6));
     let det = add(add(u, v), w);
     let t_scaled = add(add(mul(u, za), mul(v, zb)), mul(w, zc));
     let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
@@ -244,6 +266,15 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
         _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
         _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
     );
+    let candidate = _mm256_andnot_ps(
+        _mm256_or_ps(outside, _mm256_cmp_ps::<_CMP_EQ_OQ>(det, zero)),
+        in_range,
+    );
+    // No lane in range (the scalar test's second and third `None`): the
+    // error bounds are not needed.
+    if missed(candidate) {
+        return (0, zero, zero, zero);
+    }
     let max3 = |a, b, c| max(max(abs(a), abs(b)), abs(c));
     let (max_xt, max_yt, max_zt) = (max3(xa, xb, xc), max3(ya, yb, yc), max3(za, zb, zc));
     let g = |n: i32| _mm256_set1_ps(gamma(n));
@@ -268,13 +299,7 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
         ),
         abs(inv_det),
     );
-    let hit = _mm256_andnot_ps(
-        _mm256_or_ps(
-            _mm256_and_ps(below, above),
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(det, zero),
-        ),
-        _mm256_and_ps(in_range, _mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t)),
-    );
+    let hit = _mm256_and_ps(candidate, _mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t));
     let mut bits = bits_of(hit) & lanes & !zero_edge;
     let (mut t, mut b1, mut b2) = (t, mul(v, inv_det), mul(w, inv_det));
     if zero_edge != 0 {
