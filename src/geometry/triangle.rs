@@ -198,8 +198,8 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
     };
     let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
     // The vertices relative to the origins; a sheared row of one of them
-    // (`row(x, y, z, k)`: row k / 3 of the shear): x' and y' first, for
-    // the edge functions; z' only for lanes still in the running.
+    // (`row(v, k)`: row k / 3 of the shear): x' and y' first, for the
+    // edge functions; z' only for lanes still in the running.
     let relative = |vx: f32, vy: f32, vz: f32| {
         [
             sub(_mm256_set1_ps(vx), o[0]),
@@ -245,14 +245,11 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
         _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero),
     );
     let outside = _mm256_and_ps(below, above);
-    // Every lane passes the triangle by (the scalar test's first `None`),
-    // and none needs the scalar test: no hit, and the rest (depths,
-    // division, error bounds) is skipped. Most tests of a packet end here.
-    let missed = |m: __m256| bits_of(m) & lanes == 0 && zero_edge == 0;
-    if missed(_mm256_andnot_ps(
-        outside,
-        _mm256_castsi256_ps(_mm256_set1_epi32(-1)),
-    )) {
+    // Every live lane passes the triangle by (the scalar test's first
+    // `None`), and none needs the scalar test: no hit, and the rest
+    // (depths, division, error bounds) is skipped. Most tests of a packet
+    // end here.
+    if !bits_of(outside) & lanes == 0 && zero_edge == 0 {
         return (0, zero, zero, zero);
     }
     let (za, zb, zc) = (row(ra, 6), row(rb, 6), row(rc, 6));
@@ -272,7 +269,7 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
     );
     // No lane in range (the scalar test's second and third `None`): the
     // error bounds are not needed.
-    if missed(candidate) {
+    if bits_of(candidate) & lanes == 0 && zero_edge == 0 {
         return (0, zero, zero, zero);
     }
     let max3 = |a, b, c| max(max(abs(a), abs(b)), abs(c));
