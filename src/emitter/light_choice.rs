@@ -318,17 +318,25 @@ impl LightChoice {
     /// computed once, for the emitter sample and for the MIS weight of the
     /// light a BSDF sample from the same point finds.
     pub fn at(&self, p: Vec3, n: Vec3) -> ChoicePoint {
-        let mut at = ChoicePoint {
+        let mut at = ChoicePoint::default();
+        self.set_at(&mut at, p, n, None);
+        at
+    }
+
+    /// [`LightChoice::at`] with [`ChoicePoint::facing`], stored into `at`
+    /// field by field (a path keeps its point: building one on the stack
+    /// and copying it in made loads that waited on the stores just made).
+    pub fn set_at(&self, at: &mut ChoicePoint, p: Vec3, n: Vec3, facing: Option<Vec3>) {
+        *at = ChoicePoint {
             p,
             n,
             total: 0.0,
             importance: [0.0f32; KEPT_IMPORTANCE],
-            facing: None,
+            facing,
         };
         if !self.lanes.is_empty() {
-            self.weigh(&mut at);
+            self.weigh(at);
         }
-        at
     }
 
     /// The bounded lights' importance at `at` and their sum: four or eight

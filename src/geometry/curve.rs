@@ -258,7 +258,8 @@ impl Curve {
 
     /// The surface point of a BVH hit (`hit.index` the segment, `hit.b1`
     /// the parameter along it), with Mitsuba's uv, normal and tangent.
-    pub fn intersection(&self, ray: &Ray, hit: &BvhHit) -> Intersection {
+    /// Stored into `out`.
+    pub fn intersection_into(&self, ray: &Ray, hit: &BvhHit, out: &mut Intersection) {
         let s = hit.index as usize;
         let v = hit.b1.clamp(0.0, 1.0);
         let p = ray.at(hit.t);
@@ -284,7 +285,7 @@ impl Curve {
         let count = self.segments.len() as f32;
         let dpdu = centre.dpdu(radial);
         let r_max = self.max_radius(s);
-        Intersection {
+        *out = Intersection {
             t: hit.t,
             p,
             // The hit is solved for, not interpolated: a generous bound
@@ -297,7 +298,7 @@ impl Curve {
             shape: 0,
             instance: BvhHit::NO_INSTANCE,
             prim: s as u32,
-        }
+        };
     }
 
     /// dp/du and dp/dv at a hit (Mitsuba's, so normal and bump maps agree):
@@ -935,7 +936,8 @@ mod tests {
             b2: 0.0,
             instance: BvhHit::NO_INSTANCE,
         };
-        let its = c.intersection(&ray, &hit);
+        let mut its = Intersection::UNSET;
+        c.intersection_into(&ray, &hit, &mut its);
         assert!((its.ng - Vec3::X).length() < 1e-5, "{:?}", its.ng);
         // Tangent +z is parallel to the guide: rot = y, rad = y x z = x.
         assert!(its.uv.x.abs() < 1e-5 || (its.uv.x - 1.0).abs() < 1e-5);

@@ -354,9 +354,9 @@ impl TriangleMesh {
         (dp0 * duv1.y - dp1 * duv0.y) / det
     }
 
-    /// The surface point at barycentrics (b1, b2) of triangle `hit.index`
-    /// (shape index left 0 for the caller).
-    pub fn intersection(&self, hit: &BvhHit) -> Intersection {
+    /// The surface point at barycentrics (b1, b2) of triangle `hit.index`,
+    /// stored into `out` (shape index left 0 for the caller).
+    pub fn intersection_into(&self, hit: &BvhHit, out: &mut Intersection) {
         let tri = hit.index as usize;
         // The vertices, edges and normal once, for every quantity below.
         let [a, b, c] = self.vertices(tri);
@@ -365,7 +365,7 @@ impl TriangleMesh {
         let (ns, uv) = self.shading_with(tri, ng, hit.b1, hit.b2);
         // Recompute the point from barycentrics: more precise than o + t d.
         let (p, err) = TriangleMesh::barycentric_point([a, b, c], hit.b1, hit.b2);
-        Intersection {
+        *out = Intersection {
             t: hit.t,
             p,
             err,
@@ -376,7 +376,7 @@ impl TriangleMesh {
             shape: 0,
             instance: super::BvhHit::NO_INSTANCE,
             prim: hit.index,
-        }
+        };
     }
 
     /// A triangle chosen in proportion to its area, and the probability.

@@ -87,20 +87,30 @@ impl Geometry {
     /// The surface point of a BVH hit on this shape, in the shape's own
     /// space (the group's, for an instance: see [`Instance::to_world`]).
     pub fn intersection(&self, ray: &Ray, hit: &BvhHit) -> Intersection {
-        let mut its = match self {
-            Geometry::Mesh(m) => m.intersection(hit),
-            Geometry::Sphere(s) => s.intersection(ray, hit.t),
-            Geometry::Disk(d) => d.intersection(hit),
-            Geometry::Rectangle(r) => r.intersection(hit),
-            Geometry::Curve(c) => c.intersection(ray, hit),
-        };
-        its.shape = hit.shape;
+        let mut its = Intersection::UNSET;
+        self.intersection_into(ray, hit, &mut its);
+        its
+    }
+
+    /// [`Geometry::intersection`] written into `out`: each shape stores
+    /// its record there field by field. (Returned by value, a record was
+    /// built on the stack and copied in 16-byte pieces whose loads of the
+    /// smaller stores just made could not be forwarded: a stall `perf` put
+    /// at several percent of a Cornell box render.)
+    pub fn intersection_into(&self, ray: &Ray, hit: &BvhHit, out: &mut Intersection) {
+        match self {
+            Geometry::Mesh(m) => m.intersection_into(hit, out),
+            Geometry::Sphere(s) => s.intersection_into(ray, hit.t, out),
+            Geometry::Disk(d) => d.intersection_into(hit, out),
+            Geometry::Rectangle(r) => r.intersection_into(hit, out),
+            Geometry::Curve(c) => c.intersection_into(ray, hit, out),
+        }
+        out.shape = hit.shape;
         // The geometric normal defines the front side; orient it to agree
         // with the shading normal so emission and shading see one surface.
-        if its.ng.dot(its.shading.n) < 0.0 {
-            its.ng = -its.ng;
+        if out.ng.dot(out.shading.n) < 0.0 {
+            out.ng = -out.ng;
         }
-        its
     }
 
     /// dp/du and dp/dv at a hit on this shape (world space).

@@ -115,12 +115,12 @@ impl Rectangle {
     }
 
     /// The surface point of a BVH hit, whose `b1`, `b2` hold the object
-    /// coordinates [`Rectangle::intersect`] found.
-    pub fn intersection(&self, hit: &BvhHit) -> Intersection {
+    /// coordinates [`Rectangle::intersect`] found, stored into `out`.
+    pub fn intersection_into(&self, hit: &BvhHit, out: &mut Intersection) {
         let l = Vec2::new(hit.b1, hit.b2);
         let (p, err) = self.frame.point(l);
         let n = self.frame.n;
-        Intersection {
+        *out = Intersection {
             t: hit.t,
             p,
             err,
@@ -131,7 +131,7 @@ impl Rectangle {
             shape: 0,
             instance: BvhHit::NO_INSTANCE,
             prim: 0,
-        }
+        };
     }
 
     /// A point uniform over the rectangle.

@@ -284,11 +284,12 @@ impl Sphere {
         (n, uv)
     }
 
-    /// The surface point at parameter `t` of `ray` (shape index left 0 for
-    /// the caller).
-    pub fn intersection(&self, ray: &Ray, t: f32) -> Intersection {
+    /// The surface point at parameter `t` of `ray`, stored into `out`
+    /// (shape index left 0 for the caller; see
+    /// [`super::Geometry::intersection_into`]).
+    pub fn intersection_into(&self, ray: &Ray, t: f32, out: &mut Intersection) {
         let (n, uv) = self.normal_uv(ray.at(t));
-        Intersection {
+        *out = Intersection {
             t,
             // Reprojected onto the surface to remove the error of o + t d.
             p: self.center + n * self.radius,
@@ -300,7 +301,7 @@ impl Sphere {
             shape: 0,
             instance: super::BvhHit::NO_INSTANCE,
             prim: 0,
-        }
+        };
     }
 
     /// Error bound of the point `center + radius * n`.

@@ -548,7 +548,7 @@ impl PathState {
                 frame.n
             }
         });
-        self.prev_at = scene.choice_point(its.p, frame.n).facing(facing);
+        scene.set_choice_point(&mut self.prev_at, its.p, frame.n, facing);
         Some(numbers)
     }
 
@@ -577,7 +577,9 @@ impl PathState {
     ) -> bool {
         let sp = scene.surface_point(its);
         let wi = self.local_wi(its);
-        self.weigh_light(scene, cfg, its, sp, wi, light, shadow);
+        self.weigh_light(scene, cfg, its, sp, wi, light.as_ref(), |t| {
+            *shadow = Some(t)
+        });
         // Continue the path by sampling the BSDF.
         let (u, u_lobe) = bsdf_numbers(sampler);
         let bs = scene.bsdfs[its.shape as usize].sample(sp, wi, u, u_lobe);
@@ -593,8 +595,10 @@ impl PathState {
     /// [`PathState::scatter`]'s first part: the contribution of the light
     /// sample `light` (with its emitter's choice probability) at `its`
     /// (its texture point `sp`; `wi` is [`PathState::local_wi`]), if any
-    /// and not zero, set in `shadow` with the ray that must be unblocked
-    /// for it to count. A batch runs the three parts as steps over
+    /// and not zero, handed to `shadow` with the ray that must be
+    /// unblocked for it to count (a batch stores it where it stays: a
+    /// test returned through memory was copied by loads that waited on
+    /// the stores just made). A batch runs the three parts as steps over
     /// several paths (see `path_batch.rs`): each path draws the same
     /// numbers in the same order.
     #[allow(clippy::too_many_arguments)]
@@ -606,15 +610,15 @@ impl PathState {
         its: &Intersection,
         sp: SurfacePoint,
         wi: Vec3,
-        light: Option<(LightSample, f32)>,
-        shadow: &mut Option<ShadowTest>,
+        light: Option<&(LightSample, f32)>,
+        shadow: impl FnOnce(ShadowTest),
     ) {
         let strategy = cfg.strategy;
         let bsdf = &scene.bsdfs[its.shape as usize];
         let frame = its.shading;
 
         // Next-event estimation.
-        if let Some((ls, pchoice)) = light {
+        if let Some(&(ref ls, pchoice)) = light {
             let wo = frame.to_local(ls.wi);
             // The BSDF's density only where MIS weighs with it, and then
             // with its value in one call (they share work).
@@ -630,8 +634,8 @@ impl PathState {
                 } else {
                     1.0
                 };
-                *shadow = Some(ShadowTest {
-                    ray: Scene::shadow_ray(its, &ls),
+                shadow(ShadowTest {
+                    ray: Scene::shadow_ray(its, ls),
                     l: self.beta * f * wo.z.abs() * ls.weight * (w / pchoice),
                 });
             }

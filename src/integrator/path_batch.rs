@@ -292,12 +292,11 @@ impl PathBatch {
                 let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
                 let path = &self.paths[i];
                 (sp[m], wi[m]) = (scene.surface_point(its), path.local_wi(its));
-                let mut shadow = None;
-                path.weigh_light(scene, cfg, its, sp[m], wi[m], *light, &mut shadow);
-                if let Some(test) = shadow {
-                    self.shadow_rays.push(test.ray);
-                    self.shadow_paths.push((i as u32, test.l));
-                }
+                let (rays, paths) = (&mut self.shadow_rays, &mut self.shadow_paths);
+                path.weigh_light(scene, cfg, its, sp[m], wi[m], light.as_ref(), |test| {
+                    rays.push(test.ray);
+                    paths.push((i as u32, test.l));
+                });
                 (u[m], u_lobe[m]) = bsdf_numbers(&mut samplers[i]);
                 diffuse |= matches!(scene.bsdfs[its.shape as usize], Bsdf::Diffuse(_));
             }
