@@ -583,7 +583,7 @@ impl PathState {
         // Continue the path by sampling the BSDF.
         let (u, u_lobe) = bsdf_numbers(sampler);
         let bs = scene.bsdfs[its.shape as usize].sample(sp, wi, u, u_lobe);
-        self.follow(scene, cfg, its, wi, bs, sampler)
+        self.follow(scene, cfg, its, wi, bs.as_ref(), sampler)
     }
 
     /// The direction back along `ray` in the shading frame at `its`.
@@ -652,7 +652,7 @@ impl PathState {
         cfg: &PathConfig,
         its: &Intersection,
         wi: Vec3,
-        bs: Option<BsdfSample>,
+        bs: Option<&BsdfSample>,
         sampler: &mut Sampler,
     ) -> bool {
         let Some(bs) = bs else {

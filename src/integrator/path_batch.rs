@@ -302,20 +302,24 @@ impl PathBatch {
             }
             let cosine = diffuse.then(|| warp::square_to_cosine_hemisphere_lanes(&u));
             // The samples side by side (independent work the CPU overlaps),
-            // then each path follows its own.
-            let samples: [Option<BsdfSample>; 4] = std::array::from_fn(|m| {
-                let its = &self.hits[*ks.get(m)? as usize];
+            // then each path follows its own, reading it where it was
+            // written (copied whole, its fields just stored were loaded
+            // back in wider pieces that waited on the stores).
+            let mut samples: [Option<BsdfSample>; 4] = [None; 4];
+            for (m, (&k, bs)) in ks.iter().zip(&mut samples).enumerate() {
+                let its = &self.hits[k as usize];
                 let bsdf = &scene.bsdfs[its.shape as usize];
                 // `Diffuse::sample`, its map from the lanes.
-                match (bsdf, &cosine) {
+                *bs = match (bsdf, &cosine) {
                     (Bsdf::Diffuse(b), Some(wo)) => {
                         (wi[m].z > 0.0).then(|| b.sample_toward(wo[m])).flatten()
                     }
                     _ => bsdf.sample(sp[m], wi[m], u[m], u_lobe[m]),
-                }
-            });
-            for (m, (&k, bs)) in ks.iter().zip(samples).enumerate() {
+                };
+            }
+            for (m, (&k, bs)) in ks.iter().zip(&samples).enumerate() {
                 let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
+                let bs = bs.as_ref();
                 let going = self.paths[i].follow(scene, cfg, its, wi[m], bs, &mut samplers[i]);
                 self.live[kept] = i as u32;
                 kept += usize::from(going);
