@@ -141,12 +141,29 @@ impl AreaLight {
         u: Vec2,
         u1: f32,
     ) -> Option<LightSample> {
+        let mut out = None;
+        self.sample_into(ctx, p_ref, u, u1, &mut out);
+        out
+    }
+
+    /// [`AreaLight::sample`] stored into `out` field by field, where the
+    /// caller keeps it (a batch's light samples: returned by value, each
+    /// was copied in wide loads that waited on the stores just made).
+    pub fn sample_into(
+        &self,
+        ctx: &EmitterContext,
+        p_ref: Vec3,
+        u: Vec2,
+        u1: f32,
+        out: &mut Option<LightSample>,
+    ) {
         let s = match &ctx.shapes[self.shape as usize] {
             Geometry::Mesh(m) => {
                 let (tri, p_tri) = m.choose_triangle(u1);
                 let t = self.triangle(m, tri);
                 if let Some((dirs, omega)) = spherical(&t, p_ref) {
-                    return self.sample_spherical(ctx, m, (tri, &t), p_ref, dirs, p_tri / omega, u);
+                    let pdf = p_tri / omega;
+                    return self.sample_spherical(ctx, m, (tri, &t), p_ref, (dirs, pdf), u, out);
                 }
                 let b = crate::sampling::warp::square_to_uniform_triangle(u);
                 t.surface_point(m, tri, b.x, b.y)
@@ -157,39 +174,41 @@ impl AreaLight {
                     let (s, pdf) = sp.sample_cone(&cone, u);
                     let to = s.p - p_ref;
                     let dist = to.length();
-                    return Some(self.light_sample(ctx, &s, to / dist, dist, pdf));
+                    return self.set_light_sample(ctx, &s, to / dist, dist, pdf, out);
                 }
                 None => sp.sample_area(u),
             },
             Geometry::Disk(d) => d.sample_area(u),
             Geometry::Rectangle(r) => r.sample_area(u),
-            Geometry::Curve(_) => return None,
+            Geometry::Curve(_) => return *out = None,
         };
         let to = s.p - p_ref;
         let d2 = to.length_squared();
         if d2 <= 0.0 {
-            return None;
+            return *out = None;
         }
         let dist = d2.sqrt();
         let wi = to / dist;
         let cos_l = -wi.dot(s.n);
         if cos_l <= 0.0 {
-            return None;
+            return *out = None;
         }
-        Some(self.light_sample(ctx, &s, wi, dist, s.pdf_area * d2 / cos_l))
+        self.set_light_sample(ctx, &s, wi, dist, s.pdf_area * d2 / cos_l, out);
     }
 
     /// The light sample reaching the point `s` along the unit `wi` at
-    /// distance `dist`, with solid-angle density `pdf`.
-    pub(crate) fn light_sample(
+    /// distance `dist`, with solid-angle density `pdf`, stored into `out`.
+    #[inline]
+    pub(crate) fn set_light_sample(
         &self,
         ctx: &EmitterContext,
         s: &SurfaceSample,
         wi: Vec3,
         dist: f32,
         pdf: f32,
-    ) -> LightSample {
-        LightSample {
+        out: &mut Option<LightSample>,
+    ) {
+        *out = Some(LightSample {
             wi,
             p: s.p,
             err: s.err,
@@ -198,12 +217,13 @@ impl AreaLight {
             weight: self.radiance_of(ctx, s) / pdf,
             pdf,
             delta: false,
-        }
+        });
     }
 
     /// A direction uniform over the solid angle of triangle `tri` (unit
     /// vertex directions `dirs` from `p_ref`), the point it reaches, and
-    /// the solid-angle density `pdf` (triangle choice included).
+    /// the solid-angle density `pdf` (triangle choice included), into
+    /// `out`.
     #[allow(clippy::too_many_arguments)]
     fn sample_spherical(
         &self,
@@ -211,20 +231,25 @@ impl AreaLight {
         m: &TriangleMesh,
         (tri, t): (usize, &LightTriangle),
         p_ref: Vec3,
-        dirs: [Vec3; 3],
-        pdf: f32,
+        (dirs, pdf): ([Vec3; 3], f32),
         u: Vec2,
-    ) -> Option<LightSample> {
-        let d = spherical_triangle::sample(dirs[0], dirs[1], dirs[2], u)?;
-        let (b1, b2) = m.barycentrics_along(tri, p_ref, d)?;
+        out: &mut Option<LightSample>,
+    ) {
+        *out = None;
+        let Some(d) = spherical_triangle::sample(dirs[0], dirs[1], dirs[2], u) else {
+            return;
+        };
+        let Some((b1, b2)) = m.barycentrics_along(tri, p_ref, d) else {
+            return;
+        };
         let s = t.surface_point(m, tri, b1, b2);
         let to = s.p - p_ref;
         let dist = to.length();
         // The emitting side faces p_ref, or nothing arrives.
         if dist <= 0.0 || to.dot(s.n) >= 0.0 || !(pdf > 0.0 && pdf.is_finite()) {
-            return None;
+            return;
         }
-        Some(self.light_sample(ctx, &s, to / dist, dist, pdf))
+        self.set_light_sample(ctx, &s, to / dist, dist, pdf, out);
     }
 
     /// Solid-angle density of [`AreaLight::sample`] from `p_ref` reaching

@@ -577,9 +577,8 @@ impl PathState {
     ) -> bool {
         let sp = scene.surface_point(its);
         let wi = self.local_wi(its);
-        self.weigh_light(scene, cfg, its, sp, wi, light.as_ref(), |t| {
-            *shadow = Some(t)
-        });
+        let light = light.as_ref().map(|(ls, pchoice)| (ls, *pchoice));
+        self.weigh_light(scene, cfg, its, sp, wi, light, |t| *shadow = Some(t));
         // Continue the path by sampling the BSDF.
         let (u, u_lobe) = bsdf_numbers(sampler);
         let bs = scene.bsdfs[its.shape as usize].sample(sp, wi, u, u_lobe);
@@ -610,7 +609,7 @@ impl PathState {
         its: &Intersection,
         sp: SurfacePoint,
         wi: Vec3,
-        light: Option<&(LightSample, f32)>,
+        light: Option<(&LightSample, f32)>,
         shadow: impl FnOnce(ShadowTest),
     ) {
         let strategy = cfg.strategy;
@@ -618,7 +617,7 @@ impl PathState {
         let frame = its.shading;
 
         // Next-event estimation.
-        if let Some(&(ref ls, pchoice)) = light {
+        if let Some((ls, pchoice)) = light {
             let wo = frame.to_local(ls.wi);
             // The BSDF's density only where MIS weighs with it, and then
             // with its value in one call (they share work).

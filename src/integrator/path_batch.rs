@@ -75,10 +75,12 @@ pub struct PathBatch {
     live: Vec<u32>,
     /// The bounce stage's paths that arrived and go on (indices into
     /// `hits`), each with its light sample's numbers (if it takes one),
-    /// then the light sample taken and its emitter's choice probability.
+    /// then the light sample taken (written in place by the emitter) and
+    /// its emitter's choice probability.
     arrived: Vec<u32>,
     requests: Vec<Option<LightNumbers>>,
-    lights: Vec<Option<(LightSample, f32)>>,
+    lights: Vec<Option<LightSample>>,
+    light_pchoice: Vec<f32>,
     /// The bounce stage's shadow rays, and the path and contribution of
     /// each (added where the ray is unblocked).
     shadow_rays: Vec<Ray>,
@@ -108,9 +110,11 @@ impl PathBatch {
         self.arrived.clear();
         self.requests.clear();
         self.lights.clear();
+        self.light_pchoice.clear();
         self.arrived.reserve(n);
         self.requests.reserve(n);
         self.lights.reserve(n);
+        self.light_pchoice.reserve(n);
         self.shadow_rays.clear();
         self.shadow_paths.clear();
         self.shadow_rays.reserve(n);
@@ -282,18 +286,22 @@ impl PathBatch {
         // the diffuse ones map theirs to directions together in lanes,
         // then each follows its sample (the same numbers in the same
         // order per path, the same bits).
-        for (ks, lights) in self.arrived.chunks(4).zip(self.lights.chunks(4)) {
+        for ((ks, lights), pchoices) in (self.arrived.chunks(4))
+            .zip(self.lights.chunks(4))
+            .zip(self.light_pchoice.chunks(4))
+        {
             let mut wi = [Vec3::ZERO; 4];
             let mut sp = [SurfacePoint::default(); 4];
             let mut u = [Vec2::ZERO; 4];
             let mut u_lobe = [0.0f32; 4];
             let mut diffuse = false;
-            for (m, (&k, light)) in ks.iter().zip(lights).enumerate() {
+            for (m, ((&k, light), &pchoice)) in ks.iter().zip(lights).zip(pchoices).enumerate() {
                 let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
                 let path = &self.paths[i];
                 (sp[m], wi[m]) = (scene.surface_point(its), path.local_wi(its));
                 let (rays, paths) = (&mut self.shadow_rays, &mut self.shadow_paths);
-                path.weigh_light(scene, cfg, its, sp[m], wi[m], light.as_ref(), |test| {
+                let light = light.as_ref().map(|ls| (ls, pchoice));
+                path.weigh_light(scene, cfg, its, sp[m], wi[m], light, |test| {
                     rays.push(test.ray);
                     paths.push((i as u32, test.l));
                 });
@@ -349,8 +357,9 @@ impl PathBatch {
         }
     }
 
-    /// Stage 3's light samples: `lights[j]` is what `sample_light_with`
-    /// gives for `requests[j]` at its path's hit, bit for bit. Samples of
+    /// Stage 3's light samples: `lights[j]` and `light_pchoice[j]` are
+    /// what `sample_light_with` gives for `requests[j]` at its path's hit,
+    /// bit for bit. Samples of
     /// one environment map are gathered four at a time and drawn in lanes
     /// ([`EnvMap::sample_lanes`]); so are the cone samples of sphere
     /// lights, any mix of them ([`sample_cones_lanes`]), and constant
@@ -359,6 +368,8 @@ impl PathBatch {
     fn sample_lights(&mut self, scene: &Scene, which: LightPdf) {
         self.lights.clear();
         self.lights.resize(self.arrived.len(), None);
+        self.light_pchoice.clear();
+        self.light_pchoice.resize(self.arrived.len(), 0.0);
         let Some(choice) = scene.light_choice.as_ref() else {
             return;
         };
@@ -375,6 +386,7 @@ impl PathBatch {
             let Some((e, pchoice, u1)) = choice.sample(at, numbers.choice) else {
                 continue;
             };
+            self.light_pchoice[j] = pchoice;
             match &scene.emitters[e] {
                 Emitter::Environment(env) if group.n == 0 || group.emitter == e => {
                     let m = group.n;
@@ -384,7 +396,6 @@ impl PathBatch {
                     group.p[m] = its.p;
                     group.u[m] = numbers.u;
                     group.facing[m] = at.facing;
-                    group.pchoice[m] = pchoice;
                     group.n += 1;
                     if group.n == 4 {
                         group.flush(&ctx, which, &mut self.lights);
@@ -398,16 +409,12 @@ impl PathBatch {
                         spheres.p[m] = its.p;
                         spheres.u[m] = numbers.u;
                         spheres.u1[m] = u1;
-                        spheres.pchoice[m] = pchoice;
                         spheres.n += 1;
                         if spheres.n == 4 {
                             spheres.flush(&ctx, &mut self.lights);
                         }
                     }
-                    _ => {
-                        let ls = area.sample(&ctx, its.p, numbers.u, u1);
-                        self.lights[j] = ls.map(|ls| (ls, pchoice));
-                    }
+                    _ => area.sample_into(&ctx, its.p, numbers.u, u1, &mut self.lights[j]),
                 },
                 Emitter::Constant(sky) => {
                     let m = constants.n;
@@ -415,15 +422,13 @@ impl PathBatch {
                     constants.sky[m] = Some(sky);
                     constants.p[m] = its.p;
                     constants.u[m] = numbers.u;
-                    constants.pchoice[m] = pchoice;
                     constants.n += 1;
                     if constants.n == 4 {
                         constants.flush(&ctx, &mut self.lights);
                     }
                 }
                 emitter => {
-                    let ls = emitter.sample(&ctx, its.p, numbers.u, u1, which, at.facing);
-                    self.lights[j] = ls.map(|ls| (ls, pchoice));
+                    self.lights[j] = emitter.sample(&ctx, its.p, numbers.u, u1, which, at.facing);
                 }
             }
         }
@@ -475,7 +480,7 @@ impl PathBatch {
 
 /// Up to four light samples of one environment map (`env`, emitter
 /// `emitter`) waiting to be drawn together: where each goes in `lights`,
-/// its shading point, numbers, facing normal and choice probability.
+/// its shading point, numbers and facing normal.
 #[derive(Default)]
 struct EnvGroup<'a> {
     n: usize,
@@ -485,19 +490,13 @@ struct EnvGroup<'a> {
     p: [Vec3; 4],
     u: [Vec2; 4],
     facing: [Option<Vec3>; 4],
-    pchoice: [f32; 4],
 }
 
 impl EnvGroup<'_> {
     /// Draws the waiting samples (at least one) into their slots of
     /// `lights` (unused lanes repeat the last one and are dropped), and
     /// empties the group.
-    fn flush(
-        &mut self,
-        ctx: &EmitterContext,
-        which: LightPdf,
-        lights: &mut [Option<(LightSample, f32)>],
-    ) {
+    fn flush(&mut self, ctx: &EmitterContext, which: LightPdf, lights: &mut [Option<LightSample>]) {
         let (n, Some(env)) = (self.n, self.env) else {
             unreachable!("a group with samples has its map");
         };
@@ -506,12 +505,8 @@ impl EnvGroup<'_> {
         let facing = std::array::from_fn(|k| self.facing[lane(k)]);
         let drawn = env.sample_lanes(&u, which, &facing);
         for (m, d) in drawn.iter().enumerate().take(n) {
-            lights[self.slot[m]] = d.map(|(wi, weight, pdf)| {
-                (
-                    LightSample::at_infinity(ctx, self.p[m], wi, weight, pdf),
-                    self.pchoice[m],
-                )
-            });
+            lights[self.slot[m]] = d
+                .map(|(wi, weight, pdf)| LightSample::at_infinity(ctx, self.p[m], wi, weight, pdf));
         }
         self.n = 0;
     }
@@ -519,7 +514,7 @@ impl EnvGroup<'_> {
 
 /// Up to four light samples of sphere lights (any mix of them) waiting
 /// to be drawn together: where each goes in `lights`, its light and
-/// sphere, shading point, numbers and choice probability.
+/// sphere, shading point and numbers.
 #[derive(Default)]
 struct SphereGroup<'a> {
     n: usize,
@@ -528,7 +523,6 @@ struct SphereGroup<'a> {
     p: [Vec3; 4],
     u: [Vec2; 4],
     u1: [f32; 4],
-    pchoice: [f32; 4],
 }
 
 impl SphereGroup<'_> {
@@ -537,7 +531,7 @@ impl SphereGroup<'_> {
     /// repeat the last one and are dropped), a point inside its sphere by
     /// the scalar [`AreaLight::sample`], as `sample_light_with` would; and
     /// empties the group.
-    fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<(LightSample, f32)>]) {
+    fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<LightSample>]) {
         let n = self.n;
         let light = |k: usize| self.light[k.min(n - 1)].expect("a filled lane has its light");
         let cones = sample_cones_lanes(
@@ -547,19 +541,19 @@ impl SphereGroup<'_> {
         );
         for (m, cone) in cones.iter().enumerate().take(n) {
             let area = light(m).0;
-            let ls = match cone {
-                Some(c) => Some(area.light_sample(ctx, &c.s, c.wi, c.dist, c.pdf)),
-                None => area.sample(ctx, self.p[m], self.u[m], self.u1[m]),
-            };
-            lights[self.slot[m]] = ls.map(|ls| (ls, self.pchoice[m]));
+            let out = &mut lights[self.slot[m]];
+            match cone {
+                Some(c) => area.set_light_sample(ctx, &c.s, c.wi, c.dist, c.pdf, out),
+                None => area.sample_into(ctx, self.p[m], self.u[m], self.u1[m], out),
+            }
         }
         self.n = 0;
     }
 }
 
 /// Up to four light samples of constant skies waiting to be drawn
-/// together: where each goes in `lights`, its sky, shading point, numbers
-/// and choice probability.
+/// together: where each goes in `lights`, its sky, shading point and
+/// numbers.
 #[derive(Default)]
 struct ConstantGroup<'a> {
     n: usize,
@@ -567,7 +561,6 @@ struct ConstantGroup<'a> {
     sky: [Option<&'a ConstantLight>; 4],
     p: [Vec3; 4],
     u: [Vec2; 4],
-    pchoice: [f32; 4],
 }
 
 impl ConstantGroup<'_> {
@@ -576,13 +569,13 @@ impl ConstantGroup<'_> {
     /// ([`warp::square_to_uniform_sphere_lanes`]; unused lanes repeat the
     /// last one and are dropped), the rest as [`ConstantLight::sample`];
     /// and empties the group.
-    fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<(LightSample, f32)>]) {
+    fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<LightSample>]) {
         let n = self.n;
         let wi =
             warp::square_to_uniform_sphere_lanes(&std::array::from_fn(|k| self.u[k.min(n - 1)]));
         for (m, &wi) in wi.iter().enumerate().take(n) {
             let sky = self.sky[m].expect("a filled lane has its sky");
-            lights[self.slot[m]] = Some((sky.sample_toward(ctx, self.p[m], wi), self.pchoice[m]));
+            lights[self.slot[m]] = Some(sky.sample_toward(ctx, self.p[m], wi));
         }
         self.n = 0;
     }
