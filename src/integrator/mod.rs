@@ -75,18 +75,21 @@ impl LightNumbers {
     fn draw_ahead(scene: &Scene, sampler: &mut Sampler, which: LightPdf) -> LightNumbers {
         let numbers = LightNumbers::draw(sampler);
         if scene.has_environment_map {
-            numbers.prefetch(scene, which);
+            LightNumbers::prefetch(numbers.choice, numbers.u, scene, which);
         }
         numbers
     }
 
-    /// Prefetches what sampling the emitter at infinity these numbers
-    /// choose (if they choose one) reads.
+    /// Prefetches what sampling the emitter at infinity the numbers
+    /// `choice` and `u` choose (if they choose one) reads. (The numbers
+    /// one by one, in registers: a `LightNumbers` went to the stack for
+    /// the call, and the path's copy of it was loaded back from there
+    /// before those stores had landed.)
     #[inline(never)]
-    fn prefetch(&self, scene: &Scene, which: LightPdf) {
+    fn prefetch(choice: f32, u: Vec2, scene: &Scene, which: LightPdf) {
         if let Some(c) = &scene.light_choice {
-            if let Some(i) = c.choice_at_infinity(self.choice) {
-                scene.emitters[i].prefetch_sample(self.u, which);
+            if let Some(i) = c.choice_at_infinity(choice) {
+                scene.emitters[i].prefetch_sample(u, which);
             }
         }
     }

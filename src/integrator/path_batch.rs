@@ -317,13 +317,14 @@ impl PathBatch {
             for (m, (&k, bs)) in ks.iter().zip(&mut samples).enumerate() {
                 let its = &self.hits[k as usize];
                 let bsdf = &scene.bsdfs[its.shape as usize];
-                // `Diffuse::sample`, its map from the lanes.
-                *bs = match (bsdf, &cosine) {
+                // `Diffuse::sample`, its map from the lanes. (Stored in each
+                // arm: a value of the match went through a temporary.)
+                match (bsdf, &cosine) {
                     (Bsdf::Diffuse(b), Some(wo)) => {
-                        (wi[m].z > 0.0).then(|| b.sample_toward(wo[m])).flatten()
+                        *bs = (wi[m].z > 0.0).then(|| b.sample_toward(wo[m])).flatten()
                     }
-                    _ => bsdf.sample(sp[m], wi[m], u[m], u_lobe[m]),
-                };
+                    _ => *bs = bsdf.sample(sp[m], wi[m], u[m], u_lobe[m]),
+                }
             }
             for (m, (&k, bs)) in ks.iter().zip(&samples).enumerate() {
                 let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
