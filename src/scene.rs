@@ -200,25 +200,40 @@ impl Scene {
     /// normal in the shading frame.
     #[inline]
     pub fn surface_point(&self, its: &Intersection) -> crate::texture::SurfacePoint {
-        let mut at = its.surface_point();
-        if self.differentials[its.shape as usize] {
-            let shape = &self.geometry[its.shape as usize];
-            let (dp_du, dp_dv) = if its.instance == BvhHit::NO_INSTANCE {
-                shape.dpdu_dpdv(its)
-            } else {
-                let to_world = self.bvh.instance(its.instance).to_world;
-                let local = Intersection {
-                    p: to_world.inverse().point(its.p),
-                    ..*its
-                };
-                let (du, dv) = shape.dpdu_dpdv(&local);
-                (to_world.vector(du), to_world.vector(dv))
-            };
-            at.dp_du = its.shading.to_local(dp_du);
-            at.dp_dv = its.shading.to_local(dp_dv);
-            at.ng = its.shading.to_local(its.ng);
-        }
+        let mut at = crate::texture::SurfacePoint::default();
+        self.set_surface_point(&mut at, its);
         at
+    }
+
+    /// [`Scene::surface_point`] stored into `at`, where the caller keeps
+    /// it. (Returned, the point was built on the stack and copied by
+    /// loads that straddled the stores just made: a stall per bounce.)
+    #[inline(always)]
+    pub fn set_surface_point(&self, at: &mut crate::texture::SurfacePoint, its: &Intersection) {
+        *at = its.surface_point();
+        if self.differentials[its.shape as usize] {
+            self.add_differentials(its, at);
+        }
+    }
+
+    /// The bump-map part of [`Scene::surface_point`].
+    #[inline(never)]
+    fn add_differentials(&self, its: &Intersection, at: &mut crate::texture::SurfacePoint) {
+        let shape = &self.geometry[its.shape as usize];
+        let (dp_du, dp_dv) = if its.instance == BvhHit::NO_INSTANCE {
+            shape.dpdu_dpdv(its)
+        } else {
+            let to_world = self.bvh.instance(its.instance).to_world;
+            let local = Intersection {
+                p: to_world.inverse().point(its.p),
+                ..*its
+            };
+            let (du, dv) = shape.dpdu_dpdv(&local);
+            (to_world.vector(du), to_world.vector(dv))
+        };
+        at.dp_du = its.shading.to_local(dp_du);
+        at.dp_dv = its.shading.to_local(dp_dv);
+        at.ng = its.shading.to_local(its.ng);
     }
 
     /// The shading point `p` with normal `n` as the light choice sees it.

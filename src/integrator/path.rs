@@ -578,7 +578,7 @@ impl PathState {
         let sp = scene.surface_point(its);
         let wi = self.local_wi(its);
         let light = light.as_ref().map(|(ls, pchoice)| (ls, *pchoice));
-        self.weigh_light(scene, cfg, its, sp, wi, light, |t| *shadow = Some(t));
+        self.weigh_light(scene, cfg, its, &sp, wi, light, |t| *shadow = Some(t));
         // Continue the path by sampling the BSDF.
         let (u, u_lobe) = bsdf_numbers(sampler);
         let bs = scene.bsdfs[its.shape as usize].sample(sp, wi, u, u_lobe);
@@ -607,7 +607,7 @@ impl PathState {
         scene: &Scene,
         cfg: &PathConfig,
         its: &Intersection,
-        sp: SurfacePoint,
+        sp: &SurfacePoint,
         wi: Vec3,
         light: Option<(&LightSample, f32)>,
         shadow: impl FnOnce(ShadowTest),
@@ -623,9 +623,9 @@ impl PathState {
             // with its value in one call (they share work).
             let mis = strategy == Strategy::Mis && !ls.delta;
             let (f, bsdf_pdf) = if mis {
-                bsdf.eval_pdf(sp, wi, wo)
+                bsdf.eval_pdf(*sp, wi, wo)
             } else {
-                (bsdf.eval(sp, wi, wo), 0.0)
+                (bsdf.eval(*sp, wi, wo), 0.0)
             };
             if f != Rgb::ZERO && ls.weight != Rgb::ZERO {
                 let w = if mis {

@@ -298,10 +298,11 @@ impl PathBatch {
             for (m, ((&k, light), &pchoice)) in ks.iter().zip(lights).zip(pchoices).enumerate() {
                 let (its, i) = (&self.hits[k as usize], self.hit_paths[k as usize] as usize);
                 let path = &self.paths[i];
-                (sp[m], wi[m]) = (scene.surface_point(its), path.local_wi(its));
+                scene.set_surface_point(&mut sp[m], its);
+                wi[m] = path.local_wi(its);
                 let (rays, paths) = (&mut self.shadow_rays, &mut self.shadow_paths);
                 let light = light.as_ref().map(|ls| (ls, pchoice));
-                path.weigh_light(scene, cfg, its, sp[m], wi[m], light, |test| {
+                path.weigh_light(scene, cfg, its, &sp[m], wi[m], light, |test| {
                     rays.push(test.ray);
                     paths.push((i as u32, test.l));
                 });
