@@ -386,7 +386,7 @@ impl Scene {
     #[inline]
     pub fn locate_escape_lanes(
         &self,
-        d: &[Vec3; 4],
+        d: [&Vec3; 4],
         which: LightPdf,
     ) -> [Option<(u32, EnvPoint)>; 4] {
         let first_map = self
@@ -406,7 +406,7 @@ impl Scene {
                 Some((i, at))
             }
             // Bad input: whatever the scalar search makes of it.
-            None => self.locate_escape(d[k], which),
+            None => self.locate_escape(*d[k], which),
         })
     }
 

@@ -30,7 +30,11 @@ struct Lanes3 {
 }
 
 impl Lanes3 {
-    fn gather(v: [Vec3; 4]) -> Lanes3 {
+    /// Four points' coordinates in lanes, read where the points lie:
+    /// copied into an array first, they were loaded back in 16-byte
+    /// pieces across the 8- and 4-byte stores just made, which could not
+    /// be forwarded.
+    fn gather(v: [&Vec3; 4]) -> Lanes3 {
         Lanes3 {
             x: Vec4::from_array(v.map(|v| v.x)),
             y: Vec4::from_array(v.map(|v| v.y)),
@@ -68,10 +72,10 @@ fn sqrt(v: Vec4) -> Vec4 {
 /// those by area, as the scalar routine does).
 pub fn sample_cones_lanes(
     spheres: [&Sphere; 4],
-    p: [Vec3; 4],
+    p: [&Vec3; 4],
     u: [Vec2; 4],
 ) -> [Option<ConeSample>; 4] {
-    let centre = Lanes3::gather(spheres.map(|s| s.center));
+    let centre = Lanes3::gather(spheres.map(|s| &s.center));
     let radius = Vec4::from_array(spheres.map(|s| s.radius));
     let at = Lanes3::gather(p);
     // `visible_cone`.
@@ -223,7 +227,7 @@ mod tests {
                 }
             });
             let refs = [&spheres[0], &spheres[1], &spheres[2], &spheres[3]];
-            let lanes = sample_cones_lanes(refs, p, u);
+            let lanes = sample_cones_lanes(refs, p.each_ref(), u);
             for k in 0..4 {
                 let want = scalar(&spheres[k], p[k], u[k]);
                 assert_eq!(bits(&lanes[k]), bits(&want), "round {round}, lane {k}");

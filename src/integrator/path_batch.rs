@@ -458,8 +458,9 @@ impl PathBatch {
         let mut chunk = [0usize; 4];
         let mut n = 0;
         let flush = |paths: &mut [PathState], chunk: &[usize; 4], n: usize| {
-            let d = std::array::from_fn(|k| paths[chunk[k.min(n - 1)]].ray.d);
-            let at = scene.locate_escape_lanes(&d, cfg.which);
+            // The directions read where they lie (see `Lanes3::gather`).
+            let d = std::array::from_fn(|k| &paths[chunk[k.min(n - 1)]].ray.d);
+            let at = scene.locate_escape_lanes(d, cfg.which);
             for k in 0..n {
                 paths[chunk[k]].set_escape(at[k]);
             }
@@ -538,7 +539,7 @@ impl SphereGroup<'_> {
         let light = |k: usize| self.light[k.min(n - 1)].expect("a filled lane has its light");
         let cones = sample_cones_lanes(
             std::array::from_fn(|k| light(k).1),
-            std::array::from_fn(|k| self.p[k.min(n - 1)]),
+            std::array::from_fn(|k| &self.p[k.min(n - 1)]),
             std::array::from_fn(|k| self.u[k.min(n - 1)]),
         );
         for (m, cone) in cones.iter().enumerate().take(n) {
@@ -652,8 +653,8 @@ impl<'a> EscapeGroup<'a> {
         cfg: &PathConfig,
         paths: &mut [PathState],
     ) {
-        let d = std::array::from_fn(|k| paths[unlocated[k.min(n - 1)]].ray.d);
-        let at = self.env.locate_lanes(&d);
+        let d = std::array::from_fn(|k| &paths[unlocated[k.min(n - 1)]].ray.d);
+        let at = self.env.locate_lanes(d);
         for (k, &i) in unlocated.iter().enumerate().take(n) {
             paths[i].set_escape(at[k].map(|at| (self.e, at)));
             match paths[i].escape_point(cfg, self.e) {

@@ -520,7 +520,7 @@ impl EnvMap {
     /// [`EnvMap::locate`] of four directions in SIMD lanes: the same
     /// points bit for bit (tested).
     #[inline]
-    pub fn locate_lanes(&self, d: &[Vec3; 4]) -> [Option<EnvPoint>; 4] {
+    pub fn locate_lanes(&self, d: [&Vec3; 4]) -> [Option<EnvPoint>; 4] {
         let (dx, dy, dz) = (
             Vec4::from_array(d.map(|d| d.x)),
             Vec4::from_array(d.map(|d| d.y)),
@@ -534,7 +534,7 @@ impl EnvMap {
         let len2 = lx * lx + ly * ly + lz * lz;
         let common = len2.cmpgt(Vec4::splat(1e-20)) & len2.cmplt(Vec4::splat(1e20));
         if !common.all() {
-            return d.map(|d| self.locate(d));
+            return d.map(|d| self.locate(*d));
         }
         let len = len2.sqrt();
         let (u, v, sin_theta) = unit_dir_to_uv_sin_lanes(lx / len, ly / len, lz / len);

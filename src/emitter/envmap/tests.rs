@@ -1234,7 +1234,7 @@ fn locating_four_at_once_is_locating_one_at_a_time() {
                 let env = EnvMap::new(gradient(37, 19), 1.0, to_world, filter, rows).unwrap();
                 for four in dirs.chunks(4) {
                     let d: [Vec3; 4] = std::array::from_fn(|k| four[k % four.len()]);
-                    let lanes = env.locate_lanes(&d);
+                    let lanes = env.locate_lanes(d.each_ref());
                     for k in 0..4 {
                         let one = env.locate(d[k]);
                         let key = |p: Option<EnvPoint>| {
