@@ -178,7 +178,9 @@ unsafe fn slab_test_avx2(node: &WideNode, r: &SlabRay, tmax: f32) -> (u32, [f32;
 /// fit (`WideBvh::fixed_stack`, set by [`WideBvh::from_nodes`]) are walked
 /// with this stack and no bounds check; deeper ones, which no sane scene
 /// builds, with [`VecStack`].
-/// The packet walks keep their entries (`PacketEntry`) in one too.
+/// The packet walks keep their entries (`PacketEntry`) in one too: they
+/// push every child met, up to eight after a pop, so they hold at most
+/// `7 d + 1` entries, which fits as well.
 struct FixedStack<E = Entry> {
     fixed: [MaybeUninit<E>; FIXED_ENTRIES],
     len: usize,
@@ -518,12 +520,14 @@ impl WideBvh {
 }
 
 /// A subtree a packet is still to visit, with the lanes whose rays meet
-/// its box and where each enters it.
+/// its box and where each enters it. The walks push every child met and
+/// pop each entry field by field (no entry is copied whole: a 32-byte
+/// load over the three 4-byte fields just stored could not be forwarded
+/// from them, which the entry held back for the next visit did).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
-#[repr(C, align(32))]
 struct PacketEntry {
-    tnear: [f32; 8],
+    tnear: std::arch::x86_64::__m256,
     index: u32,
     count: u32,
     lanes: u32,
@@ -532,9 +536,11 @@ struct PacketEntry {
 #[cfg(target_arch = "x86_64")]
 impl PacketEntry {
     /// The root, for the lanes `live`.
+    #[target_feature(enable = "avx2")]
     fn root(live: u32) -> PacketEntry {
+        use std::arch::x86_64::_mm256_set1_ps;
         PacketEntry {
-            tnear: [f32::NEG_INFINITY; 8],
+            tnear: _mm256_set1_ps(f32::NEG_INFINITY),
             index: ROOT.index,
             count: 0,
             lanes: live,
@@ -633,8 +639,8 @@ impl WideBvh {
         let tmax = unsafe { super::packet::load(&p.tmax) };
         let mut stack = FixedStack::<PacketEntry>::new();
         let mut open = p.live;
-        let mut next = Some(PacketEntry::root(p.live));
-        while let Some(e) = next.take().or_else(|| stack.pop()) {
+        stack.push(PacketEntry::root(p.live));
+        while let Some(e) = stack.pop() {
             let lanes = e.lanes & open;
             if lanes == 0 {
                 continue;
@@ -658,15 +664,13 @@ impl WideBvh {
                 if meets == 0 {
                     continue;
                 }
-                let child = PacketEntry {
-                    tnear: [0.0; 8],
+                // Pushed last to first, popped in slot order.
+                stack.push(PacketEntry {
+                    tnear: std::arch::x86_64::_mm256_setzero_ps(),
                     index: node.child[slot],
                     count: node.count[slot] as u32,
                     lanes: meets,
-                };
-                if let Some(later) = next.replace(child) {
-                    stack.push(later);
-                }
+                });
             }
         }
         p.live & !open
@@ -688,7 +692,7 @@ impl WideBvh {
         tmax: &mut std::arch::x86_64::__m256,
         mut hit: F,
     ) {
-        use super::packet::{bits_of, load};
+        use super::packet::bits_of;
         use std::arch::x86_64::*;
         assert!(self.fixed_stack);
         if self.nodes.is_empty() {
@@ -697,14 +701,12 @@ impl WideBvh {
         let slabs = PacketSlabs::new(p);
         let scale = _mm256_set1_ps(FAR_SCALE);
         let mut stack = FixedStack::<PacketEntry>::new();
-        let mut next = Some(PacketEntry::root(p.live));
-        while let Some(e) = next.take().or_else(|| stack.pop()) {
+        stack.push(PacketEntry::root(p.live));
+        while let Some(e) = stack.pop() {
             // As the one-ray walk: a box entered a rounding error beyond
             // the closest hit may still hold a hit as close.
             let reach = _mm256_mul_ps(*tmax, scale);
-            // SAFETY: the entry's row is aligned.
-            let tnear = unsafe { load(&e.tnear) };
-            let lanes = e.lanes & bits_of(_mm256_cmp_ps::<_CMP_LE_OQ>(tnear, reach));
+            let lanes = e.lanes & bits_of(_mm256_cmp_ps::<_CMP_LE_OQ>(e.tnear, reach));
             if lanes == 0 {
                 continue;
             }
@@ -721,17 +723,13 @@ impl WideBvh {
                 if meets == 0 {
                     continue;
                 }
-                let mut child = PacketEntry {
-                    tnear: [0.0; 8],
+                // Pushed last to first, popped in slot order.
+                stack.push(PacketEntry {
+                    tnear: lo,
                     index: node.child[slot],
                     count: node.count[slot] as u32,
                     lanes: meets,
-                };
-                // SAFETY: the entry's row is aligned.
-                unsafe { _mm256_store_ps(child.tnear.as_mut_ptr(), lo) };
-                if let Some(later) = next.replace(child) {
-                    stack.push(later);
-                }
+                });
             }
         }
     }
