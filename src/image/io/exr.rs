@@ -12,7 +12,6 @@
 
 use super::Malformed;
 use std::io::Cursor;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use exr::prelude::{
     AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, ReadChannels,
@@ -149,13 +148,10 @@ const MAX_TILE_BYTES_BEYOND_LAYER: u64 = 1 << 24;
 /// Runs one call into the exr crate: its errors, and any panic of its on
 /// hostile input (caught so it cannot take lente down), become messages.
 fn guarded<T>(part: &str, f: impl FnOnce() -> exr::error::Result<T>) -> Result<T, Malformed> {
-    match catch_unwind(AssertUnwindSafe(f)) {
-        Ok(Ok(value)) => Ok(value),
-        Ok(Err(e)) => Err(Malformed::from(format!("cannot decode OpenEXR: {e}"))),
-        Err(_) => Err(Malformed::from(format!(
-            "cannot decode OpenEXR: the decoder failed on this file's {part}"
-        ))),
-    }
+    super::catching_panics(
+        || f().map_err(|e| Malformed::from(format!("cannot decode OpenEXR: {e}"))),
+        || format!("cannot decode OpenEXR: the decoder failed on this file's {part}"),
+    )
 }
 
 /// Every layer's channels and attributes, the headers checked first.

@@ -58,6 +58,33 @@ impl From<&str> for Malformed {
     }
 }
 
+thread_local! {
+    /// Whether this thread is inside [`catching_panics`].
+    static IN_GUARDED_DECODER: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// True while this thread runs a third-party decoder under
+/// [`catching_panics`]: a panic there becomes an error message, so a
+/// panic hook need not report it (the CLI's and the fuzz targets' hooks
+/// leave such panics to the guard).
+pub fn in_guarded_decoder() -> bool {
+    IN_GUARDED_DECODER.with(std::cell::Cell::get)
+}
+
+/// Runs a third-party decoder on untrusted bytes: a panic of its, a bug a
+/// hostile file can reach (zune-jpeg 0.5.15's AVX2 IDCT stores past its
+/// output on some files, found by fuzzing), becomes `failed`'s message
+/// instead of taking lente down.
+pub(super) fn catching_panics<T>(
+    decode: impl FnOnce() -> Result<T, Malformed>,
+    failed: impl FnOnce() -> String,
+) -> Result<T, Malformed> {
+    let outer = IN_GUARDED_DECODER.with(|g| g.replace(true));
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(decode));
+    IN_GUARDED_DECODER.with(|g| g.set(outer));
+    outcome.unwrap_or_else(|_| Err(Malformed(failed())))
+}
+
 /// Checks a decoder's header size before any pixel memory is allocated:
 /// neither empty nor above [`crate::limits::max_image_pixels`].
 pub(crate) fn check_size(width: usize, height: usize) -> Result<(), Malformed> {

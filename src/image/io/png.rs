@@ -29,19 +29,36 @@ fn limits() -> image::Limits {
 }
 
 pub(super) fn decode(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
-    let decoder = image::codecs::png::PngDecoder::with_limits(Cursor::new(bytes), limits())
-        .map_err(|e| format!("cannot decode PNG: {e}"))?;
-    finish_ldr(decoder, "PNG", transfer)
+    guarded("PNG", || {
+        let decoder = image::codecs::png::PngDecoder::with_limits(Cursor::new(bytes), limits())
+            .map_err(|e| format!("cannot decode PNG: {e}"))?;
+        finish_ldr(decoder, "PNG", transfer)
+    })
 }
 
 pub(super) fn decode_jpeg(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
-    let decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes));
-    finish_limited(decoder, "JPEG", transfer)
+    guarded("JPEG", || {
+        let decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes));
+        finish_limited(decoder, "JPEG", transfer)
+    })
 }
 
 pub(super) fn decode_bmp(bytes: &[u8], transfer: Transfer) -> Result<RawImage, Malformed> {
-    let decoder = image::codecs::bmp::BmpDecoder::new(Cursor::new(bytes));
-    finish_limited(decoder, "BMP", transfer)
+    guarded("BMP", || {
+        let decoder = image::codecs::bmp::BmpDecoder::new(Cursor::new(bytes));
+        finish_limited(decoder, "BMP", transfer)
+    })
+}
+
+/// The `image` crate's decoder for `format` run under
+/// [`super::catching_panics`], as the exr crate's are.
+fn guarded(
+    format: &str,
+    decode: impl FnOnce() -> Result<RawImage, Malformed>,
+) -> Result<RawImage, Malformed> {
+    super::catching_panics(decode, || {
+        format!("cannot decode {format}: the decoder failed on this file")
+    })
 }
 
 /// A decoder whose limits are set after it is made (JPEG, BMP): sets them,
