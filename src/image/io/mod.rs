@@ -64,7 +64,7 @@ thread_local! {
 }
 
 /// True while this thread runs a third-party decoder under
-/// [`catching_panics`]: a panic there becomes an error message, so a
+/// `catching_panics`: a panic there becomes an error message, so a
 /// panic hook need not report it (the CLI's and the fuzz targets' hooks
 /// leave such panics to the guard).
 pub fn in_guarded_decoder() -> bool {
