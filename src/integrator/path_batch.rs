@@ -361,12 +361,11 @@ impl PathBatch {
 
     /// Stage 3's light samples: `lights[j]` and `light_pchoice[j]` are
     /// what `sample_light_with` gives for `requests[j]` at its path's hit,
-    /// bit for bit. Samples of
-    /// one environment map are gathered four at a time and drawn in lanes
-    /// ([`EnvMap::sample_lanes`]); so are the cone samples of sphere
-    /// lights, any mix of them ([`sample_cones_lanes`]), and constant
-    /// skies' samples ([`ConstantGroup`]); other emitters sample one at a
-    /// time.
+    /// bit for bit. Samples of one environment map are gathered four at a
+    /// time and drawn in lanes ([`EnvMap::sample_lanes`]); so are the cone
+    /// samples of sphere lights, any mix of them ([`sample_cones_lanes`]),
+    /// and constant skies' samples ([`ConstantGroup`]); other emitters
+    /// sample one at a time.
     fn sample_lights(&mut self, scene: &Scene, which: LightPdf) {
         self.lights.clear();
         self.lights.resize(self.arrived.len(), None);
