@@ -92,15 +92,9 @@ pub const FUZZ_IMAGE_PIXELS: u64 = 1 << 20;
 pub fn configure() {
     crate::limits::set_max_image_pixels(FUZZ_IMAGE_PIXELS);
     // libFuzzer's hook aborts at any panic, even one lente catches and
-    // reports: a third-party decoder's, under `catching_panics`, is left
-    // to the guard (it becomes the file's error); every other panic still
-    // aborts.
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        if !crate::image::io::in_guarded_decoder() {
-            hook(info);
-        }
-    }));
+    // reports: a third-party decoder's is left to its guard (it becomes
+    // the file's error); every other panic still aborts.
+    crate::image::io::quiet_panics_in_guarded_decoders();
 }
 
 /// The repository root (scene targets resolve file names below it).

@@ -356,14 +356,8 @@ fn quit_quietly_on_closed_pipe() {}
 fn main() -> ExitCode {
     quit_quietly_on_closed_pipe();
     // A panic inside a third-party image decoder is caught and reported as
-    // that file's error: the default report of it would be a second,
-    // confusing message.
-    let report = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        if !lente::image::io::in_guarded_decoder() {
-            report(info);
-        }
-    }));
+    // that file's error, without the default report beside it.
+    lente::image::io::quiet_panics_in_guarded_decoders();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args),

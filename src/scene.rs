@@ -238,9 +238,9 @@ impl Scene {
 
     /// The shading point `p` with normal `n` as the light choice sees it.
     pub fn choice_point(&self, p: Vec3, n: Vec3) -> crate::emitter::ChoicePoint {
-        self.light_choice
-            .as_ref()
-            .map_or_else(Default::default, |c| c.at(p, n))
+        let mut at = crate::emitter::ChoicePoint::default();
+        self.set_choice_point(&mut at, p, n, None);
+        at
     }
 
     /// [`Scene::choice_point`] with its `facing` normal, stored into `at`
@@ -455,14 +455,9 @@ pub enum BuildError {
 /// The world-space surface point of a BVH hit (through its instance's
 /// transform if it has one).
 fn hit_intersection(bvh: &Bvh, geometry: &[Geometry], ray: &Ray, hit: &BvhHit) -> Intersection {
-    let shape = &geometry[hit.shape as usize];
-    if hit.instance == BvhHit::NO_INSTANCE {
-        shape.intersection(ray, hit)
-    } else {
-        let instance = bvh.instance(hit.instance);
-        let local = shape.intersection(&instance.to_local(ray), hit);
-        instance.to_world(&local, hit.instance)
-    }
+    let mut its = Intersection::UNSET;
+    hit_intersection_into(bvh, geometry, ray, hit, &mut its);
+    its
 }
 
 /// [`hit_intersection`] written into `out` by the shape itself: the
@@ -482,7 +477,9 @@ fn hit_intersection_into(
     if hit.instance == BvhHit::NO_INSTANCE {
         shape.intersection_into(ray, hit, out);
     } else {
-        *out = hit_intersection(bvh, geometry, ray, hit);
+        let instance = bvh.instance(hit.instance);
+        let local = shape.intersection(&instance.to_local(ray), hit);
+        *out = instance.to_world(&local, hit.instance);
     }
 }
 

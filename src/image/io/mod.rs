@@ -65,10 +65,26 @@ thread_local! {
 
 /// True while this thread runs a third-party decoder under
 /// `catching_panics`: a panic there becomes an error message, so a
-/// panic hook need not report it (the CLI's and the fuzz targets' hooks
-/// leave such panics to the guard).
+/// panic hook need not report it ([`quiet_panics_in_guarded_decoders`]).
 pub fn in_guarded_decoder() -> bool {
     IN_GUARDED_DECODER.with(std::cell::Cell::get)
+}
+
+/// Wraps the process's panic hook so that it stays quiet for a panic
+/// `catching_panics` catches (that panic becomes the file's error message,
+/// and a report of it would be a second, confusing one, or, under
+/// libFuzzer, an abort); every other panic reaches the hook as before.
+/// Installed once, however often it is called.
+pub fn quiet_panics_in_guarded_decoders() {
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let hook = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !in_guarded_decoder() {
+                hook(info);
+            }
+        }));
+    });
 }
 
 /// Runs a third-party decoder on untrusted bytes: a panic of its, a bug a
