@@ -29,12 +29,29 @@ const COLS: usize = 64;
 
 /// x and y slopes of a visible normal for `u` in [0, 1)^2.
 pub fn beckmann_visible_slopes(cos_theta_i: f32, u: Vec2) -> Vec2 {
+    Vec2::new(
+        beckmann_visible_slope_x(cos_theta_i, u.x),
+        beckmann_visible_slope_y(u.y),
+    )
+}
+
+/// The y slope of [`beckmann_visible_slopes`]: a Gaussian's, from `uy`
+/// alone (the two slopes are drawn independently, which the coating
+/// tables' quadrature uses to compute each once per grid line).
+#[inline]
+pub fn beckmann_visible_slope_y(uy: f32) -> f32 {
+    let uy = (uy as f64).clamp(1e-6, 1.0 - 1e-6);
+    erfinv(2.0 * uy - 1.0) as f32
+}
+
+/// The x slope of [`beckmann_visible_slopes`], from the elevation and `ux`
+/// alone.
+pub fn beckmann_visible_slope_x(cos_theta_i: f32, ux: f32) -> f32 {
     let cos = (cos_theta_i as f64).clamp(1e-6, 1.0);
     let sin = (1.0 - cos * cos).max(0.0).sqrt();
     let tan = sin / cos;
     let (max_x, gauss_cot) = erf_and_gauss(cos / sin);
-    let ux = (u.x as f64).clamp(1e-6, 1.0 - 1e-6);
-    let uy = (u.y as f64).clamp(1e-6, 1.0 - 1e-6);
+    let ux = (ux as f64).clamp(1e-6, 1.0 - 1e-6);
     let target = ux * (1.0 + max_x + INV_SQRT_PI * tan * gauss_cot);
     let t = guess(sin, 1.0 - (1.0 - ux).sqrt());
     let mut x = (t * (1.0 + max_x) - 1.0).clamp(-1.0, max_x);
@@ -48,7 +65,7 @@ pub fn beckmann_visible_slopes(cos_theta_i: f32, u: Vec2) -> Vec2 {
     if denominator > 0.0 {
         x = (x - 2.0 * f * d1 / denominator).clamp(-1.0, max_x);
     }
-    Vec2::new(erfinv(x) as f32, erfinv(2.0 * uy - 1.0) as f32)
+    erfinv(x) as f32
 }
 
 /// The table of guesses, `ROWS` rows (sin(theta_i) from 0 to 1) of `COLS`

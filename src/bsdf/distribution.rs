@@ -8,7 +8,9 @@
 //! Directions are in the local shading frame: x = tangent (the `alpha_u`
 //! axis), y = bitangent (`alpha_v`), z = normal.
 
-use super::beckmann_slopes::beckmann_visible_slopes;
+use super::beckmann_slopes::{
+    beckmann_visible_slope_x, beckmann_visible_slope_y, beckmann_visible_slopes,
+};
 use super::params::{self, BsdfError, BsdfParam};
 use crate::math::{sin_cos_turns, Vec2, Vec3, PI};
 use crate::sampling::warp;
@@ -246,22 +248,67 @@ impl MicrofacetDistribution {
     }
 
     fn sample_visible_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
-        let (au, av) = (self.alpha_u, self.alpha_v);
-        // 1. Stretch wi into the configuration of alpha = 1.
-        let wi_p = Vec3::new(au * wi.x, av * wi.y, wi.z).normalize();
+        let (cos_theta, sin_phi, cos_phi) = self.stretched(wi);
+        // 2. Sample the slopes of visible normals for alpha = 1.
+        let s = self.sample_visible_11(cos_theta, u);
+        self.normal_of_slopes(sin_phi, cos_phi, s)
+    }
+
+    /// Step 1 of visible-normal sampling: `wi` stretched into the
+    /// configuration of alpha = 1, as its elevation's cosine and its
+    /// azimuth's sine and cosine.
+    #[inline]
+    fn stretched(&self, wi: Vec3) -> (f32, f32, f32) {
+        let wi_p = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z).normalize();
         let r = (wi_p.x * wi_p.x + wi_p.y * wi_p.y).sqrt();
         let (sin_phi, cos_phi) = if r <= 1e-7 {
             (0.0, 1.0)
         } else {
             ((wi_p.y / r).clamp(-1.0, 1.0), (wi_p.x / r).clamp(-1.0, 1.0))
         };
-        // 2. Sample the slopes of visible normals for alpha = 1.
-        let s = self.sample_visible_11(wi_p.z, u);
-        // 3. Rotate back and unstretch.
-        let sx = (cos_phi * s.x - sin_phi * s.y) * au;
-        let sy = (sin_phi * s.x + cos_phi * s.y) * av;
-        // 4. Slopes to a normal.
+        (wi_p.z, sin_phi, cos_phi)
+    }
+
+    /// Steps 3 and 4: the alpha = 1 slopes `s` rotated back to the
+    /// azimuth, unstretched, and made a normal.
+    #[inline]
+    fn normal_of_slopes(&self, sin_phi: f32, cos_phi: f32, s: Vec2) -> Vec3 {
+        let sx = (cos_phi * s.x - sin_phi * s.y) * self.alpha_u;
+        let sy = (sin_phi * s.x + cos_phi * s.y) * self.alpha_v;
         Vec3::new(-sx, -sy, 1.0).normalize()
+    }
+
+    /// [`MicrofacetDistribution::sample_normal`] at every point `(us[i],
+    /// us[j])` of a grid, `j` the outer loop, handed to `f(i, j, normal)`:
+    /// the same normals bit for bit. Visible Beckmann normals draw their two
+    /// slopes apart ([`beckmann_visible_slope_x`] and `_y`), so each is
+    /// computed once per grid line instead of once per point: the rough
+    /// plastic's coating tables, 16,384 points a row, went from about a
+    /// second of CPU per material to a few milliseconds.
+    pub fn sample_normal_grid(&self, wi: Vec3, us: &[f32], mut f: impl FnMut(usize, usize, Vec3)) {
+        if !(self.sample_visible && self.kind == MicrofacetType::Beckmann) {
+            for (j, &uy) in us.iter().enumerate() {
+                for (i, &ux) in us.iter().enumerate() {
+                    f(i, j, self.sample_normal(wi, Vec2::new(ux, uy)));
+                }
+            }
+            return;
+        }
+        let (cos_theta, sin_phi, cos_phi) = self.stretched(wi);
+        let xs: Vec<f32> = us
+            .iter()
+            .map(|&ux| beckmann_visible_slope_x(cos_theta, ux))
+            .collect();
+        for (j, &uy) in us.iter().enumerate() {
+            let sy = beckmann_visible_slope_y(uy);
+            for (i, &sx) in xs.iter().enumerate() {
+                f(
+                    i,
+                    j,
+                    self.normal_of_slopes(sin_phi, cos_phi, Vec2::new(sx, sy)),
+                );
+            }
+        }
     }
 
     /// Slopes of visible normals of the alpha = 1 distribution seen from
@@ -288,6 +335,44 @@ impl MicrofacetDistribution {
 mod tests {
     use super::*;
     use crate::sampling::Sampler;
+
+    /// The grid gives `sample_normal`'s normals bit for bit, in its order,
+    /// for both distributions, visible normals or all, isotropic or not,
+    /// from normal and grazing incidence (the Beckmann visible case
+    /// computes its slopes once per grid line; the others are the plain
+    /// calls).
+    #[test]
+    fn normal_grid_is_sample_normal_bit_for_bit() {
+        let us: Vec<f32> = (0..37)
+            .map(|k| (k as f32 + 0.37) / 37.0)
+            .chain([0.0, 0.9999999])
+            .collect();
+        for kind in [MicrofacetType::Beckmann, MicrofacetType::Ggx] {
+            for visible in [true, false] {
+                for (au, av) in [(0.05f32, 0.05f32), (0.3, 0.3), (0.2, 0.6)] {
+                    let d = MicrofacetDistribution::new(kind, au, av, visible);
+                    for wi in [
+                        Vec3::Z,
+                        Vec3::new(0.5, 0.3, 0.6).normalize(),
+                        Vec3::new(0.999, 0.0, 0.02).normalize(),
+                    ] {
+                        let mut seen = 0;
+                        d.sample_normal_grid(wi, &us, |i, j, m| {
+                            assert_eq!(i + us.len() * j, seen, "grid order");
+                            let want = d.sample_normal(wi, Vec2::new(us[i], us[j]));
+                            assert_eq!(
+                                m.to_array().map(f32::to_bits),
+                                want.to_array().map(f32::to_bits),
+                                "{kind:?} {visible} {au} {av} {wi} {i} {j}"
+                            );
+                            seen += 1;
+                        });
+                        assert_eq!(seen, us.len() * us.len());
+                    }
+                }
+            }
+        }
+    }
 
     /// D(m) cos theta_m integrates to one, and so does the visible-normal
     /// density, for both distributions, isotropic and not.

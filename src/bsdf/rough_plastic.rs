@@ -72,33 +72,31 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 fn coating_integral(distr: &MicrofacetDistribution, wi: Vec3, eta: f32, transmit: bool) -> f32 {
     let res = if eta > 1.0 { 32 } else { 128 };
     let nodes = gauss_legendre(res);
+    let us: Vec<f32> = nodes.iter().map(|&(n, _)| (n * 0.5 + 0.5) as f32).collect();
     let mut acc = 0.0f64;
-    for &(ny, wy) in &nodes {
-        for &(nx, wx) in &nodes {
-            let u = Vec2::new((nx * 0.5 + 0.5) as f32, (ny * 0.5 + 0.5) as f32);
-            let m = distr.sample_normal(wi, u);
-            let dim = wi.dot(m);
-            let (f, cos_t, eta_ti) = fresnel_dielectric(dim, eta);
-            let value = if transmit {
-                let inv = 1.0 / eta_ti;
-                let ct = if dim >= 0.0 { -cos_t } else { cos_t };
-                let wo = m * (dim * inv + ct) - wi * inv;
-                if wo.z * wi.z >= 0.0 {
-                    0.0
-                } else {
-                    distr.smith_g1(wo, m) * (1.0 - f)
-                }
+    distr.sample_normal_grid(wi, &us, |i, j, m| {
+        let (wx, wy) = (nodes[i].1, nodes[j].1);
+        let dim = wi.dot(m);
+        let (f, cos_t, eta_ti) = fresnel_dielectric(dim, eta);
+        let value = if transmit {
+            let inv = 1.0 / eta_ti;
+            let ct = if dim >= 0.0 { -cos_t } else { cos_t };
+            let wo = m * (dim * inv + ct) - wi * inv;
+            if wo.z * wi.z >= 0.0 {
+                0.0
             } else {
-                let wo = reflect(wi, m);
-                if wo.z <= 0.0 || wi.z <= 0.0 {
-                    0.0
-                } else {
-                    distr.smith_g1(wo, m) * f
-                }
-            };
-            acc += value as f64 * wx * wy * 0.25;
-        }
-    }
+                distr.smith_g1(wo, m) * (1.0 - f)
+            }
+        } else {
+            let wo = reflect(wi, m);
+            if wo.z <= 0.0 || wi.z <= 0.0 {
+                0.0
+            } else {
+                distr.smith_g1(wo, m) * f
+            }
+        };
+        acc += value as f64 * wx * wy * 0.25;
+    });
     acc as f32
 }
 
