@@ -9,7 +9,7 @@ use super::{Intersection, SurfaceSample};
 #[derive(Clone, Copy, Debug)]
 pub struct Cone {
     pub axis: Vec3,
-    pub cos_max: f32,
+    /// 1 - cos of the half-angle.
     pub one_minus_cos: f32,
     /// sin^2 of the half-angle (radius^2 / distance^2 for a sphere's cone).
     pub sin2_max: f32,
@@ -322,7 +322,6 @@ impl Sphere {
         let cos_max = (1.0 - sin2).max(0.0).sqrt();
         Some(Cone {
             axis: to / d2.sqrt(),
-            cos_max,
             // 1 - cos, computed without cancellation for small cones.
             one_minus_cos: sin2 / (1.0 + cos_max),
             sin2_max: sin2,
