@@ -6,10 +6,13 @@
 use std::time::{Duration, Instant};
 
 use glam::{Vec3A, Vec4};
+use obvhs::bvh2::builder::build_bvh2;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
+#[cfg(target_arch = "x86_64")]
+use super::triangle::{watertight_lanes, WatertightLanes};
 use super::wide_bvh::WideBvh;
 use super::{CurveSegment, Disk, Geometry, Instance, Rectangle, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
@@ -154,6 +157,10 @@ pub struct Bvh {
     /// One BVH per shape group, in the space its instances map from.
     groups: Vec<Bvh>,
     bounds: Aabb,
+    /// Whether the one-ray walks test a leaf's triangles together in AVX2
+    /// lanes ([`Bvh::leaf_triangles_lanes`]): trees too big for packets,
+    /// whose leaves hold up to eight primitives, on CPUs with AVX2.
+    leaf_lanes: bool,
     /// Wall time spent building.
     pub build_time: Duration,
 }
@@ -299,6 +306,7 @@ impl Bvh {
                 instances,
                 groups,
                 bounds,
+                leaf_lanes: false,
                 build_time: start.elapsed(),
             };
         }
@@ -318,25 +326,33 @@ impl Bvh {
             .collect();
         let oboxes = build_boxes(&padded);
         let mut core = Duration::default();
-        let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
-        // Reorder primitives into leaf order so the traversal id indexes directly.
-        let prims: Vec<Prim> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| prims[i as usize])
-            .collect();
-        let refs: Vec<PrimRef> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| refs[i as usize])
-            .collect();
-        let leaf_boxes: Vec<Aabb> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| padded[i as usize])
-            .collect();
+        let prims_count = prims.len();
+        // Trees too big for packets are walked one ray at a time, their
+        // leaves' triangles tested together in lanes: those collapse
+        // obvhs's binary tree into leaves of up to `LEAF_LANES`
+        // primitives (`WideBvh::from_bvh2`); the others keep obvhs's wide
+        // tree, whose leaves of up to three suit the packet walks.
+        let wide_leaves = (prims.len() > PACKET_MAX_PRIMITIVES)
+            .then(|| {
+                let params = BvhBuildParams {
+                    max_prims_per_leaf: 1,
+                    ..BvhBuildParams::medium_build()
+                };
+                let bvh2 = build_bvh2(&oboxes, params, &mut core);
+                WideBvh::from_bvh2(&bvh2, &padded, LEAF_LANES as u32)
+            })
+            .flatten();
+        let (wide, order) = wide_leaves.unwrap_or_else(|| {
+            let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
+            let order = bvh.primitive_indices.clone();
+            let leaf_boxes: Vec<Aabb> = order.iter().map(|&i| padded[i as usize]).collect();
+            (WideBvh::from_cwbvh(&bvh, &leaf_boxes), order)
+        });
+        // Primitives in leaf order, so the traversal's ids index them.
+        let prims: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
+        let refs: Vec<PrimRef> = order.iter().map(|&i| refs[i as usize]).collect();
         Bvh {
-            bvh: Some(WideBvh::from_cwbvh(&bvh, &leaf_boxes)),
+            bvh: Some(wide),
             prims,
             spheres,
             disks,
@@ -346,6 +362,7 @@ impl Bvh {
             instances,
             groups,
             bounds,
+            leaf_lanes: leaf_lanes(prims_count),
             build_time: start.elapsed(),
         }
     }
@@ -381,48 +398,90 @@ impl Bvh {
         let mut shear: Option<RayShear> = None;
         let mut best = BvhHit::none(ray.tmax);
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
-        let found = bvh.closest(
+        // One primitive's hit, as the scalar loop tests it.
+        let one = |id: usize, tmax: f32, shear: &mut Option<RayShear>| -> Option<BvhHit> {
+            let prim = &self.prims[id];
+            match prim.kind() {
+                PrimKind::Triangle => {
+                    let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
+                    intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).map(
+                        |(t, b1, b2)| BvhHit {
+                            t,
+                            shape: self.refs[id].shape,
+                            index: self.refs[id].index,
+                            b1,
+                            b2,
+                            instance: BvhHit::NO_INSTANCE,
+                        },
+                    )
+                }
+                PrimKind::Sphere(si) => {
+                    self.spheres[si]
+                        .intersect(o, d, tmin, tmax)
+                        .map(|t| BvhHit {
+                            t,
+                            shape: self.refs[id].shape,
+                            ..BvhHit::none(t)
+                        })
+                }
+                PrimKind::Disk(di) => self.disks[di]
+                    .intersect(o, d, tmin, tmax)
+                    .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
+                PrimKind::Rectangle(ri) => self.rectangles[ri]
+                    .intersect(o, d, tmin, tmax)
+                    .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
+                PrimKind::Curve(_) | PrimKind::Instance(_) => {
+                    self.primitive_hit(id, &Ray::with_range(o, d, tmin, tmax))
+                }
+            }
+        };
+        let found = bvh.closest_leaves(
             ray,
             #[inline(always)]
-            |id, tmax| {
-                let prim = &self.prims[id];
-                let found = match prim.kind() {
-                    PrimKind::Triangle => {
-                        let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
-                        intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).map(
-                            |(t, b1, b2)| BvhHit {
-                                t,
-                                shape: self.refs[id].shape,
-                                index: self.refs[id].index,
-                                b1,
-                                b2,
-                                instance: BvhHit::NO_INSTANCE,
-                            },
-                        )
+            |first, count, mut tmax| {
+                #[cfg(target_arch = "x86_64")]
+                if self.leaf_lanes && (2..=LEAF_LANES as u32).contains(&count) {
+                    let sh = shear.get_or_insert_with(|| RayShear::new(o, d));
+                    // SAFETY: `leaf_lanes` is set only where the CPU has AVX2.
+                    let lanes = unsafe { self.leaf_triangles_lanes(first, count, sh, tmin, tmax) };
+                    if let Some(lanes) = lanes {
+                        let w = lanes?;
+                        if w.hits == 0 {
+                            return None;
+                        }
+                        let ts = super::packet::to_array_plain(w.t);
+                        // The nearest, the first of equals: the one the
+                        // primitive loop keeps (it needs t < tmax).
+                        let mut each = w.hits;
+                        let mut lane = each.trailing_zeros() as usize;
+                        while each != 0 {
+                            let l = each.trailing_zeros() as usize;
+                            each &= each - 1;
+                            if ts[l] < ts[lane] {
+                                lane = l;
+                            }
+                        }
+                        let id = first as usize + lane;
+                        best = BvhHit {
+                            t: ts[lane],
+                            shape: self.refs[id].shape,
+                            index: self.refs[id].index,
+                            b1: super::packet::to_array_plain(w.b1)[lane],
+                            b2: super::packet::to_array_plain(w.b2)[lane],
+                            instance: BvhHit::NO_INSTANCE,
+                        };
+                        return Some(best.t);
                     }
-                    PrimKind::Sphere(si) => {
-                        self.spheres[si]
-                            .intersect(o, d, tmin, tmax)
-                            .map(|t| BvhHit {
-                                t,
-                                shape: self.refs[id].shape,
-                                ..BvhHit::none(t)
-                            })
+                }
+                let mut found = None;
+                for id in first..first + count {
+                    if let Some(h) = one(id as usize, tmax, &mut shear) {
+                        best = h;
+                        tmax = h.t;
+                        found = Some(h.t);
                     }
-                    PrimKind::Disk(di) => self.disks[di]
-                        .intersect(o, d, tmin, tmax)
-                        .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
-                    PrimKind::Rectangle(ri) => self.rectangles[ri]
-                        .intersect(o, d, tmin, tmax)
-                        .map(|(t, l)| planar_hit(t, l, self.refs[id].shape)),
-                    PrimKind::Curve(_) | PrimKind::Instance(_) => {
-                        self.primitive_hit(id, &Ray::with_range(o, d, tmin, tmax))
-                    }
-                };
-                found.map(|h| {
-                    best = h;
-                    h.t
-                })
+                }
+                found
             },
         );
         if found {
@@ -439,30 +498,134 @@ impl Bvh {
         };
         let mut shear: Option<RayShear> = None;
         let (o, d, tmin) = (ray.o, ray.d, ray.tmin);
-        bvh.any(
+        let one = |id: usize, tmax: f32, shear: &mut Option<RayShear>| -> bool {
+            let prim = &self.prims[id];
+            match prim.kind() {
+                PrimKind::Triangle => {
+                    let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
+                    intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).is_some()
+                }
+                PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
+                PrimKind::Disk(di) => self.disks[di].intersect(o, d, tmin, tmax).is_some(),
+                PrimKind::Rectangle(ri) => {
+                    self.rectangles[ri].intersect(o, d, tmin, tmax).is_some()
+                }
+                PrimKind::Curve(ci) => self.curves[ci].intersect(o, d, tmin, tmax).is_some(),
+                PrimKind::Instance(ii) => {
+                    let inst = &self.instances[ii];
+                    let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
+                    self.groups[inst.group as usize].occluded(&local)
+                }
+            }
+        };
+        bvh.any_leaves(
             ray,
             #[inline(always)]
-            |id, tmax| {
-                let prim = &self.prims[id];
-                match prim.kind() {
-                    PrimKind::Triangle => {
-                        let shear = shear.get_or_insert_with(|| RayShear::new(o, d));
-                        intersect_triangle(shear, &prim.packed_triangle(), tmin, tmax).is_some()
-                    }
-                    PrimKind::Sphere(si) => self.spheres[si].intersect(o, d, tmin, tmax).is_some(),
-                    PrimKind::Disk(di) => self.disks[di].intersect(o, d, tmin, tmax).is_some(),
-                    PrimKind::Rectangle(ri) => {
-                        self.rectangles[ri].intersect(o, d, tmin, tmax).is_some()
-                    }
-                    PrimKind::Curve(ci) => self.curves[ci].intersect(o, d, tmin, tmax).is_some(),
-                    PrimKind::Instance(ii) => {
-                        let inst = &self.instances[ii];
-                        let local = inst.to_local(&Ray::with_range(o, d, tmin, tmax));
-                        self.groups[inst.group as usize].occluded(&local)
+            |first, count, tmax| {
+                #[cfg(target_arch = "x86_64")]
+                if self.leaf_lanes && (2..=LEAF_LANES as u32).contains(&count) {
+                    let sh = shear.get_or_insert_with(|| RayShear::new(o, d));
+                    // SAFETY: `leaf_lanes` is set only where the CPU has AVX2.
+                    let lanes = unsafe { self.leaf_triangles_lanes(first, count, sh, tmin, tmax) };
+                    if let Some(lanes) = lanes {
+                        return lanes.is_some_and(|w| w.hits != 0);
                     }
                 }
+                (first..first + count).any(|id| one(id as usize, tmax, &mut shear))
             },
         )
+    }
+
+    /// Primitives `first..first + count` (2 to 8 of them) against one ray
+    /// (its shear, range `tmin`..`tmax`) in AVX2 lanes, a triangle a lane,
+    /// by the scalar test's operations ([`watertight_lanes`]): the same
+    /// hits bit for bit. `None` where the primitive loop must test them
+    /// instead: a primitive that is not a triangle, or a lane whose edge
+    /// function is exactly zero (the scalar test redoes it in double
+    /// precision).
+    ///
+    /// # Safety
+    /// Call only from functions compiled for AVX2 (the walks' AVX2 copies,
+    /// into which it is inlined).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn leaf_triangles_lanes(
+        &self,
+        first: u32,
+        count: u32,
+        shear: &RayShear,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Option<WatertightLanes>> {
+        use std::arch::x86_64::*;
+        let (first, count) = (first as usize, count as usize);
+        let leaf = &self.prims[first..first + count];
+        // Lanes beyond the leaf repeat its last triangle and are left out.
+        let rec = |i: usize| &leaf[i.min(count - 1)];
+        // Each coordinate's four-float rows (three vertices and the tag)
+        // of triangles k and k + 4, transposed to rows of eight triangles.
+        let rows = |pick: fn(&Prim) -> Vec4| {
+            let r: [__m256; 4] = std::array::from_fn(|k| {
+                _mm256_set_m128(__m128::from(pick(rec(k + 4))), __m128::from(pick(rec(k))))
+            });
+            let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+            let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+            let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+            let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+            [
+                _mm256_shuffle_ps::<0x44>(t0, t2),
+                _mm256_shuffle_ps::<0xEE>(t0, t2),
+                _mm256_shuffle_ps::<0x44>(t1, t3),
+                _mm256_shuffle_ps::<0xEE>(t1, t3),
+            ]
+        };
+        let [x0, x1, x2, tags] = rows(|p| p.xs);
+        let [y0, y1, y2, _] = rows(|p| p.ys);
+        let [z0, z1, z2, _] = rows(|p| p.zs);
+        let lanes = (1u32 << count) - 1;
+        // Triangles carry a zero tag; anything else goes to the loop.
+        let tagged = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_castps_si256(tags),
+            _mm256_setzero_si256(),
+        ))) as u32;
+        if tagged & lanes != lanes {
+            return None;
+        }
+        let o = shear.origin();
+        let [rx, ry, rz] = shear.rows();
+        let r = [rx.x, rx.y, rx.z, ry.x, ry.y, ry.z, rz.x, rz.y, rz.z].map(|c| _mm256_set1_ps(c));
+        let found = unsafe {
+            watertight_lanes(
+                [
+                    _mm256_set1_ps(o.x),
+                    _mm256_set1_ps(o.y),
+                    _mm256_set1_ps(o.z),
+                ],
+                r,
+                [[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]],
+                _mm256_set1_ps(tmin),
+                _mm256_set1_ps(tmax),
+                lanes,
+            )
+        };
+        match found {
+            Some(w) if w.zero_edge & lanes != 0 => None,
+            found => Some(found),
+        }
+    }
+}
+
+/// Whether a tree of `prims` primitives tests its leaves' triangles in
+/// lanes: too big for packets, on a CPU with AVX2.
+fn leaf_lanes(prims: usize) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        prims > PACKET_MAX_PRIMITIVES && std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = prims;
+        false
     }
 }
 
@@ -474,6 +637,10 @@ impl Bvh {
 /// Cornell box (31) -5%, a mirror sphere on a stand (770) -2%; the
 /// 102,401-triangle blob +37%.
 pub const PACKET_MAX_PRIMITIVES: usize = 1024;
+
+/// The most primitives in a leaf of a tree walked one ray at a time
+/// (`WideBvh::from_bvh2`): AVX2's eight lanes, which test them together.
+pub const LEAF_LANES: usize = 8;
 
 /// Rays in a packet: AVX2's eight lanes.
 pub const PACKET_LANES: usize = 8;
@@ -789,6 +956,103 @@ mod tests {
             size = size % PACKET_LANES + 1;
         }
         hit
+    }
+
+    /// A tree too big for packets tests its leaves' triangles in lanes;
+    /// it finds what the primitive loop finds, bit for bit (hit record
+    /// and occlusion): on a grid of 3,200 triangles whose shared edges and
+    /// vertices rays pass exactly through (the lanes hand those leaves to
+    /// the loop), a random soup, and spheres, a disk, a rectangle and a
+    /// curve among them (leaves of mixed kinds).
+    #[test]
+    fn leaf_lanes_find_what_the_primitive_loop_finds() {
+        use crate::geometry::{Curve, CurveBasis, Disk, Rectangle, Sphere};
+        use crate::math::{Mat4, Transform};
+        use crate::sampling::Sampler;
+        let mut s = Sampler::for_pixel_sample(21, 4, 5, 0);
+        let mut v = |scale: f32| (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
+        let (mut p, mut tris) = (Vec::new(), Vec::new());
+        let n = 41u32;
+        for j in 0..n {
+            for i in 0..n {
+                p.push(Vec3::new(i as f32 - 20.0, j as f32 - 20.0, 0.0));
+            }
+        }
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let a = j * n + i;
+                tris.extend([[a, a + 1, a + n + 1], [a, a + n + 1, a + n]]);
+            }
+        }
+        for _ in 0..1000 {
+            let c = v(30.0) + Vec3::new(0.0, 0.0, 6.0);
+            let k = p.len() as u32;
+            p.extend([c, c + v(3.0), c + v(3.0)]);
+            tris.push([k, k + 1, k + 2]);
+        }
+        let t = |m: Mat4| Transform::new(m).unwrap();
+        let curve = Curve::parse(
+            "-3 0 4 0.3\n0 2 4 0.3\n3 0 5 0.2\n",
+            CurveBasis::Linear,
+            &Transform::IDENTITY,
+        )
+        .unwrap();
+        let shapes = vec![
+            Geometry::Mesh(TriangleMesh::new(p, vec![], vec![], tris).unwrap()),
+            Geometry::Sphere(Sphere::new(Vec3::new(1.5, 0.5, 2.0), 1.5).unwrap()),
+            Geometry::Sphere(Sphere::new(Vec3::new(-4.0, -1.0, 1.0), 0.5).unwrap()),
+            Geometry::Disk(
+                Disk::new(&t(Mat4::from_translation(Vec3::new(5.0, 5.0, 3.0)))).unwrap(),
+            ),
+            Geometry::Rectangle(
+                Rectangle::new(&t(Mat4::from_translation(Vec3::new(-5.0, 5.0, 2.0)))).unwrap(),
+            ),
+            Geometry::Curve(curve),
+        ];
+        let lanes = Bvh::build(&shapes);
+        let mut plain = Bvh::build(&shapes);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            assert!(
+                lanes.leaf_lanes,
+                "a tree of 4,205 primitives tests leaves in lanes"
+            );
+        }
+        plain.leaf_lanes = false;
+        let mut s = Sampler::for_pixel_sample(22, 0, 1, 0);
+        let (mut hit, mut edges) = (0, 0);
+        for i in 0..30_000 {
+            let mut u = || s.next_1d();
+            let ray = match i % 4 {
+                // Straight down through a vertex or along an edge of the grid.
+                0 | 1 => {
+                    let (x, y) = ((u() * 40.0).floor() - 20.0, (u() * 40.0).floor() - 20.0);
+                    let x = if i % 4 == 1 { x + 0.5 } else { x };
+                    Ray::new(Vec3::new(x, y, 9.0), Vec3::new(0.0, 0.0, -1.0))
+                }
+                // Random, some with a short range.
+                _ => {
+                    let o = (Vec3::new(u(), u(), u()) - 0.5) * 40.0 + Vec3::new(0.0, 0.0, 8.0);
+                    let d = (Vec3::new(u(), u(), u()) - 0.5).normalize();
+                    let tmax = if i % 7 == 0 { 5.0 } else { f32::INFINITY };
+                    Ray::with_range(o, d, 0.0, tmax)
+                }
+            };
+            let found = lanes.intersect(&ray);
+            assert_eq!(bits(found), bits(plain.intersect(&ray)), "ray {i} {ray:?}");
+            assert_eq!(
+                lanes.occluded(&ray),
+                plain.occluded(&ray),
+                "ray {i} {ray:?}"
+            );
+            hit += usize::from(found.is_some());
+            edges += usize::from(i % 4 < 2 && found.is_some_and(|h| h.shape == 0 && h.t == 9.0));
+        }
+        assert!(hit > 15_000, "{hit} of 30,000 rays hit");
+        assert!(
+            edges > 5_000,
+            "{edges} rays through the grid's edges and vertices"
+        );
     }
 
     /// Triangles (a random soup and a quad's two halves), spheres, a

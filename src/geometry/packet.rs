@@ -278,6 +278,14 @@ pub fn bits_of(mask: __m256) -> u32 {
     _mm256_movemask_ps(mask) as u32
 }
 
+/// The lanes of a register as an array (callable where AVX2 is known
+/// to be there but not enabled for the caller).
+#[inline(always)]
+pub fn to_array_plain(x: __m256) -> [f32; LANES] {
+    // SAFETY: an __m256 is eight floats.
+    unsafe { std::mem::transmute::<__m256, [f32; LANES]>(x) }
+}
+
 /// The lanes of a register as an array.
 #[inline]
 #[target_feature(enable = "avx2")]

@@ -88,6 +88,11 @@ impl RayShear {
     pub fn rows(&self) -> [Vec3; 3] {
         [self.rx, self.ry, self.rz]
     }
+
+    /// The ray's origin.
+    pub fn origin(&self) -> Vec3 {
+        self.o
+    }
 }
 
 /// Returns (t, b1, b2) for a hit with t in (tmin, tmax); b1, b2 weight
@@ -177,44 +182,104 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
     std::arch::x86_64::__m256,
     std::arch::x86_64::__m256,
 ) {
-    use super::packet::{abs, bits_of, load, max, to_array};
+    use super::packet::{load, to_array};
     use std::arch::x86_64::*;
     // SAFETY: loads of the packet's aligned rows.
-    let (o, r) = unsafe {
+    let (o, r, tmin) = unsafe {
         (
             [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
-            [
-                load(&p.shear[0]),
-                load(&p.shear[1]),
-                load(&p.shear[2]),
-                load(&p.shear[3]),
-                load(&p.shear[4]),
-                load(&p.shear[5]),
-                load(&p.shear[6]),
-                load(&p.shear[7]),
-                load(&p.shear[8]),
-            ],
+            std::array::from_fn(|k| load(&p.shear[k])),
+            load(&p.tmin),
         )
     };
+    let vertex = |c: usize| {
+        [
+            _mm256_set1_ps(tri.xs[c]),
+            _mm256_set1_ps(tri.ys[c]),
+            _mm256_set1_ps(tri.zs[c]),
+        ]
+    };
+    let zero = _mm256_setzero_ps();
+    let Some(WatertightLanes {
+        hits,
+        zero_edge,
+        t,
+        b1,
+        b2,
+    }) = (unsafe { watertight_lanes(o, r, [vertex(0), vertex(1), vertex(2)], tmin, tmax, lanes) })
+    else {
+        return (0, zero, zero, zero);
+    };
+    let mut bits = hits;
+    let (mut t, mut b1, mut b2) = (t, b1, b2);
+    if zero_edge != 0 {
+        // The scalar test, in double precision where it needs it.
+        let (mut ts, mut b1s, mut b2s) = (to_array(t), to_array(b1), to_array(b2));
+        let tmaxs = to_array(tmax);
+        let mut edge = zero_edge;
+        while edge != 0 {
+            let lane = edge.trailing_zeros() as usize;
+            edge &= edge - 1;
+            let ray = &p.rays[lane];
+            let shear = RayShear::new(ray.o, ray.d);
+            if let Some((tl, u1, u2)) = intersect_triangle(&shear, tri, ray.tmin, tmaxs[lane]) {
+                (ts[lane], b1s[lane], b2s[lane]) = (tl, u1, u2);
+                bits |= 1 << lane;
+            }
+        }
+        // SAFETY: each array holds eight floats.
+        unsafe {
+            t = _mm256_loadu_ps(ts.as_ptr());
+            b1 = _mm256_loadu_ps(b1s.as_ptr());
+            b2 = _mm256_loadu_ps(b2s.as_ptr());
+        }
+    }
+    (bits, t, b1, b2)
+}
+
+/// What [`watertight_lanes`] finds: the lanes hit (those with a zero edge
+/// function left out), the lanes whose edge function is exactly zero
+/// (the scalar test redoes them in double precision), and each lane's t,
+/// b1 and b2.
+#[cfg(target_arch = "x86_64")]
+pub struct WatertightLanes {
+    pub hits: u32,
+    pub zero_edge: u32,
+    pub t: std::arch::x86_64::__m256,
+    pub b1: std::arch::x86_64::__m256,
+    pub b2: std::arch::x86_64::__m256,
+}
+
+/// [`intersect_triangle`]'s operations in eight lanes, each lane a ray
+/// (origin `o`, shear rows `r`, range `tmin`..`tmax`) and a triangle
+/// (vertices `v`): a packet's rays against one triangle splat in every
+/// lane, or one ray splat against eight triangles. `None` where no lane
+/// of `lanes` can hit (the scalar test's early `None`s, as masks).
+///
+/// # Safety
+/// Call only from functions compiled for AVX2 (it is inlined into them,
+/// which a `target_feature` function of its size was not).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub unsafe fn watertight_lanes(
+    o: [std::arch::x86_64::__m256; 3],
+    r: [std::arch::x86_64::__m256; 9],
+    v: [[std::arch::x86_64::__m256; 3]; 3],
+    tmin: std::arch::x86_64::__m256,
+    tmax: std::arch::x86_64::__m256,
+    lanes: u32,
+) -> Option<WatertightLanes> {
+    use super::packet::{abs, bits_of, max};
+    use std::arch::x86_64::*;
     let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
     // The vertices relative to the origins; a sheared row of one of them
     // (`row(v, k)`: row k / 3 of the shear): x' and y' first, for the
     // edge functions; z' only for lanes still in the running.
-    let relative = |vx: f32, vy: f32, vz: f32| {
-        [
-            sub(_mm256_set1_ps(vx), o[0]),
-            sub(_mm256_set1_ps(vy), o[1]),
-            sub(_mm256_set1_ps(vz), o[2]),
-        ]
-    };
+    let relative = |[vx, vy, vz]: [__m256; 3]| [sub(vx, o[0]), sub(vy, o[1]), sub(vz, o[2])];
     let row = |[x, y, z]: [__m256; 3], k: usize| {
         add(add(mul(x, r[k]), mul(y, r[k + 1])), mul(z, r[k + 2]))
     };
-    let (ra, rb, rc) = (
-        relative(tri.xs.x, tri.ys.x, tri.zs.x),
-        relative(tri.xs.y, tri.ys.y, tri.zs.y),
-        relative(tri.xs.z, tri.ys.z, tri.zs.z),
-    );
+    let (ra, rb, rc) = (relative(v[0]), relative(v[1]), relative(v[2]));
     let (xa, ya) = (row(ra, 0), row(ra, 3));
     let (xb, yb) = (row(rb, 0), row(rb, 3));
     let (xc, yc) = (row(rc, 0), row(rc, 3));
@@ -250,15 +315,13 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
     // (depths, division, error bounds) is skipped. Most tests of a packet
     // end here.
     if !bits_of(outside) & lanes == 0 && zero_edge == 0 {
-        return (0, zero, zero, zero);
+        return None;
     }
     let (za, zb, zc) = (row(ra, 6), row(rb, 6), row(rc, 6));
     let det = add(add(u, v), w);
     let t_scaled = add(add(mul(u, za), mul(v, zb)), mul(w, zc));
     let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
     let t = mul(t_scaled, inv_det);
-    // SAFETY: a load of the packet's aligned row.
-    let tmin = unsafe { load(&p.tmin) };
     let in_range = _mm256_and_ps(
         _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
         _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
@@ -270,7 +333,7 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
     // No lane in range (the scalar test's second and third `None`): the
     // error bounds are not needed.
     if bits_of(candidate) & lanes == 0 && zero_edge == 0 {
-        return (0, zero, zero, zero);
+        return None;
     }
     let max3 = |a, b, c| max(max(abs(a), abs(b)), abs(c));
     let (max_xt, max_yt, max_zt) = (max3(xa, xb, xc), max3(ya, yb, yc), max3(za, zb, zc));
@@ -297,31 +360,13 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
         abs(inv_det),
     );
     let hit = _mm256_and_ps(candidate, _mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t));
-    let mut bits = bits_of(hit) & lanes & !zero_edge;
-    let (mut t, mut b1, mut b2) = (t, mul(v, inv_det), mul(w, inv_det));
-    if zero_edge != 0 {
-        // The scalar test, in double precision where it needs it.
-        let (mut ts, mut b1s, mut b2s) = (to_array(t), to_array(b1), to_array(b2));
-        let tmaxs = to_array(tmax);
-        let mut edge = zero_edge;
-        while edge != 0 {
-            let lane = edge.trailing_zeros() as usize;
-            edge &= edge - 1;
-            let ray = &p.rays[lane];
-            let shear = RayShear::new(ray.o, ray.d);
-            if let Some((tl, u1, u2)) = intersect_triangle(&shear, tri, ray.tmin, tmaxs[lane]) {
-                (ts[lane], b1s[lane], b2s[lane]) = (tl, u1, u2);
-                bits |= 1 << lane;
-            }
-        }
-        // SAFETY: each array holds eight floats.
-        unsafe {
-            t = _mm256_loadu_ps(ts.as_ptr());
-            b1 = _mm256_loadu_ps(b1s.as_ptr());
-            b2 = _mm256_loadu_ps(b2s.as_ptr());
-        }
-    }
-    (bits, t, b1, b2)
+    Some(WatertightLanes {
+        hits: bits_of(hit) & lanes & !zero_edge,
+        zero_edge,
+        t,
+        b1: mul(v, inv_det),
+        b2: mul(w, inv_det),
+    })
 }
 
 #[cfg(test)]
