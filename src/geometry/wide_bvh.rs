@@ -952,7 +952,8 @@ mod tests {
         tris
     }
 
-    fn build(tris: &[[Vec3; 3]]) -> (WideBvh, Vec<[Vec3; 3]>) {
+    /// The triangles' boxes, and the same as obvhs's builders take them.
+    fn boxes_of(tris: &[[Vec3; 3]]) -> (Vec<Aabb>, Vec<Boxed>) {
         let boxes: Vec<Aabb> = tris
             .iter()
             .map(|t| Aabb {
@@ -964,6 +965,11 @@ mod tests {
             .iter()
             .map(|b| Boxed(OAabb::new(Vec3A::from(b.min), Vec3A::from(b.max))))
             .collect();
+        (boxes, o)
+    }
+
+    fn build(tris: &[[Vec3; 3]]) -> (WideBvh, Vec<[Vec3; 3]>) {
+        let (boxes, o) = boxes_of(tris);
         let cw = build_cwbvh(&o, BvhBuildParams::medium_build(), &mut Default::default());
         let order: Vec<usize> = cw.primitive_indices.iter().map(|&i| i as usize).collect();
         let leaf_boxes: Vec<Aabb> = order.iter().map(|&i| boxes[i]).collect();
@@ -973,17 +979,7 @@ mod tests {
 
     /// As `build`, by [`WideBvh::from_bvh2`]: leaves of up to eight.
     fn build_collapsed(tris: &[[Vec3; 3]]) -> (WideBvh, Vec<[Vec3; 3]>) {
-        let boxes: Vec<Aabb> = tris
-            .iter()
-            .map(|t| Aabb {
-                min: t[0].min(t[1]).min(t[2]),
-                max: t[0].max(t[1]).max(t[2]),
-            })
-            .collect();
-        let o: Vec<Boxed> = boxes
-            .iter()
-            .map(|b| Boxed(OAabb::new(Vec3A::from(b.min), Vec3A::from(b.max))))
-            .collect();
+        let (boxes, o) = boxes_of(tris);
         let params = BvhBuildParams {
             max_prims_per_leaf: 1,
             ..BvhBuildParams::medium_build()
