@@ -158,8 +158,9 @@ pub struct Bvh {
     groups: Vec<Bvh>,
     bounds: Aabb,
     /// Whether the one-ray walks test a leaf's triangles together in AVX2
-    /// lanes ([`Bvh::leaf_triangles_lanes`]): trees too big for packets,
-    /// whose leaves hold up to eight primitives, on CPUs with AVX2.
+    /// lanes ([`Bvh::leaf_triangles_lanes`]): trees built with leaves of up
+    /// to eight (`WideBvh::from_bvh2`, those too big for packets), on CPUs
+    /// with AVX2.
     leaf_lanes: bool,
     /// Wall time spent building.
     pub build_time: Duration,
@@ -326,7 +327,6 @@ impl Bvh {
             .collect();
         let oboxes = build_boxes(&padded);
         let mut core = Duration::default();
-        let prims_count = prims.len();
         // Trees too big for packets are walked one ray at a time, their
         // leaves' triangles tested together in lanes: those collapse
         // obvhs's binary tree into leaves of up to `LEAF_LANES`
@@ -342,6 +342,8 @@ impl Bvh {
                 WideBvh::from_bvh2(&bvh2, &padded, LEAF_LANES as u32)
             })
             .flatten();
+        // Its leaves' triangles are tested in lanes where it was built so.
+        let leaf_lanes = wide_leaves.is_some() && cpu_has_avx2();
         let (wide, order) = wide_leaves.unwrap_or_else(|| {
             let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
             let order = bvh.primitive_indices.clone();
@@ -362,7 +364,7 @@ impl Bvh {
             instances,
             groups,
             bounds,
-            leaf_lanes: leaf_lanes(prims_count),
+            leaf_lanes,
             build_time: start.elapsed(),
         }
     }
@@ -449,7 +451,7 @@ impl Bvh {
                         if w.hits == 0 {
                             return None;
                         }
-                        let ts = super::packet::to_array_plain(w.t);
+                        let ts = super::packet::to_array(w.t);
                         // The nearest, the first of equals: the one the
                         // primitive loop keeps (it needs t < tmax).
                         let mut each = w.hits;
@@ -466,8 +468,8 @@ impl Bvh {
                             t: ts[lane],
                             shape: self.refs[id].shape,
                             index: self.refs[id].index,
-                            b1: super::packet::to_array_plain(w.b1)[lane],
-                            b2: super::packet::to_array_plain(w.b2)[lane],
+                            b1: super::packet::to_array(w.b1)[lane],
+                            b2: super::packet::to_array(w.b2)[lane],
                             instance: BvhHit::NO_INSTANCE,
                         };
                         return Some(best.t);
@@ -615,18 +617,14 @@ impl Bvh {
     }
 }
 
-/// Whether a tree of `prims` primitives tests its leaves' triangles in
-/// lanes: too big for packets, on a CPU with AVX2.
-fn leaf_lanes(prims: usize) -> bool {
+/// Whether the CPU runs the AVX2 leaf test ([`Bvh::leaf_triangles_lanes`]).
+fn cpu_has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        prims > PACKET_MAX_PRIMITIVES && std::arch::is_x86_feature_detected!("avx2")
+        std::arch::is_x86_feature_detected!("avx2")
     }
     #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = prims;
-        false
-    }
+    false
 }
 
 /// Trees of at most this many primitives are walked by packets of rays

@@ -278,20 +278,11 @@ pub fn bits_of(mask: __m256) -> u32 {
     _mm256_movemask_ps(mask) as u32
 }
 
-/// The lanes of a register as an array (callable where AVX2 is known
-/// to be there but not enabled for the caller).
+/// The lanes of a register as an array (a plain function: also called
+/// from code not compiled for AVX2 that runs only where the CPU has it,
+/// the one-ray walks' leaf test).
 #[inline(always)]
-pub fn to_array_plain(x: __m256) -> [f32; LANES] {
+pub fn to_array(x: __m256) -> [f32; LANES] {
     // SAFETY: an __m256 is eight floats.
     unsafe { std::mem::transmute::<__m256, [f32; LANES]>(x) }
-}
-
-/// The lanes of a register as an array.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub fn to_array(x: __m256) -> [f32; LANES] {
-    let mut out = [0.0; LANES];
-    // SAFETY: `out` holds eight floats.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
-    out
 }

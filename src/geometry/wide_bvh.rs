@@ -461,8 +461,8 @@ impl WideBvh {
                 if bvh.nodes[kid as usize].is_leaf() || under[kid as usize] <= leaf_max {
                     // The subtree's primitives, left to right.
                     prims.clear();
-                    let mut st = vec![kid];
-                    while let Some(id) = st.pop() {
+                    stack.push(kid);
+                    while let Some(id) = stack.pop() {
                         let b = &bvh.nodes[id as usize];
                         if b.is_leaf() {
                             let first = b.first_index as usize;
@@ -470,7 +470,7 @@ impl WideBvh {
                                 &bvh.primitive_indices[first..first + b.prim_count as usize],
                             );
                         } else {
-                            st.extend([b.first_index + 1, b.first_index]);
+                            stack.extend([b.first_index + 1, b.first_index]);
                         }
                     }
                     nodes[wi].child[slot] = order.len() as u32;
