@@ -2,8 +2,10 @@
 //! CPUs it has, and which SIMD extensions the CPU reports. The ratios
 //! against Mitsuba's LLVM variant depend in part on the last: Dr.Jit
 //! vectorises every stage to the widest extension (16 lanes with
-//! AVX-512F, 8 with AVX2), while lente's hand-written lanes are AVX2 only
-//! (on an AVX2 CPU, 8 lanes instead of 4 made Dr.Jit 1.11x faster on the
+//! AVX-512F, 8 with AVX2), while lente's hand-written lanes are AVX2's
+//! eight or four (its BVH walks run in AVX-512VL's 256-bit form where the
+//! CPU has it: more registers and mask registers, not more lanes) (on an
+//! AVX2 CPU, 8 lanes instead of 4 made Dr.Jit 1.11x faster on the
 //! suite's geometric mean: `scripts/llvm_lanes.py`). Printed before the
 //! figures so that a table is never read without its machine.
 
@@ -20,6 +22,9 @@ pub struct Machine {
     pub avx2: bool,
     /// Whether the CPU reports AVX-512F (Dr.Jit's 16 lanes).
     pub avx512f: bool,
+    /// Whether lente's BVH walks run in AVX-512VL's form
+    /// ([`crate::geometry::PacketIsa`]).
+    pub walks_avx512vl: bool,
 }
 
 impl Machine {
@@ -34,12 +39,18 @@ impl Machine {
         );
         #[cfg(not(target_arch = "x86_64"))]
         let (avx, avx2, avx512f) = (false, false, false);
+        #[cfg(target_arch = "x86_64")]
+        let walks_avx512vl =
+            crate::geometry::PacketIsa::detect() == Some(crate::geometry::PacketIsa::Avx512Vl);
+        #[cfg(not(target_arch = "x86_64"))]
+        let walks_avx512vl = false;
         Machine {
             cpu: model_name(&cpuinfo).unwrap_or("unknown CPU").to_string(),
             logical_cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
             avx,
             avx2,
             avx512f,
+            walks_avx512vl,
         }
     }
 
@@ -61,7 +72,11 @@ impl Machine {
             self.logical_cpus,
             yes_no(self.avx2),
             yes_no(self.avx512f),
-            if self.avx2 { "AVX2" } else { "portable" },
+            match (self.avx2, self.walks_avx512vl) {
+                (true, true) => "AVX2, BVH walks AVX-512VL",
+                (true, false) => "AVX2",
+                _ => "portable",
+            },
         )
     }
 }
@@ -99,6 +114,7 @@ mod tests {
             avx: true,
             avx2: true,
             avx512f: false,
+            walks_avx512vl: false,
         };
         let d = m.describe();
         assert!(d.contains("Test CPU, 2 logical CPU(s)"), "{d}");
@@ -109,6 +125,9 @@ mod tests {
         );
         m.avx512f = true;
         assert!(m.describe().ends_with("lanes here: 16)"));
+        m.walks_avx512vl = true;
+        assert!(m.describe().contains("paths: AVX2, BVH walks AVX-512VL;"));
+        m.walks_avx512vl = false;
         m.avx = false;
         m.avx2 = false;
         m.avx512f = false;
@@ -127,5 +146,6 @@ mod tests {
         // Each extension implies the one before it on every CPU shipped.
         assert!(!m.avx512f || m.avx2);
         assert!(!m.avx2 || m.avx);
+        assert!(!m.walks_avx512vl || m.avx512f);
     }
 }

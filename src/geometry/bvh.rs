@@ -10,6 +10,8 @@ use obvhs::bvh2::builder::build_bvh2;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
+#[cfg(target_arch = "x86_64")]
+use super::lanes::{Avx2Lanes, Avx512VlLanes, Lanes, PacketIsa, F8};
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 #[cfg(target_arch = "x86_64")]
 use super::triangle::{watertight_lanes, WatertightLanes};
@@ -451,7 +453,9 @@ impl Bvh {
                         if w.hits == 0 {
                             return None;
                         }
-                        let ts = super::packet::to_array(w.t);
+                        // SAFETY: as above.
+                        let l = unsafe { Avx2Lanes::new_unchecked() };
+                        let ts = l.store(w.t);
                         // The nearest, the first of equals: the one the
                         // primitive loop keeps (it needs t < tmax).
                         let mut each = w.hits;
@@ -468,8 +472,8 @@ impl Bvh {
                             t: ts[lane],
                             shape: self.refs[id].shape,
                             index: self.refs[id].index,
-                            b1: super::packet::to_array(w.b1)[lane],
-                            b2: super::packet::to_array(w.b2)[lane],
+                            b1: l.store(w.b1)[lane],
+                            b2: l.store(w.b2)[lane],
                             instance: BvhHit::NO_INSTANCE,
                         };
                         return Some(best.t);
@@ -558,7 +562,7 @@ impl Bvh {
         shear: &RayShear,
         tmin: f32,
         tmax: f32,
-    ) -> Option<Option<WatertightLanes>> {
+    ) -> Option<Option<WatertightLanes<F8>>> {
         use std::arch::x86_64::*;
         let (first, count) = (first as usize, count as usize);
         let leaf = &self.prims[first..first + count];
@@ -595,21 +599,19 @@ impl Bvh {
         }
         let o = shear.origin();
         let [rx, ry, rz] = shear.rows();
-        let r = [rx.x, rx.y, rx.z, ry.x, ry.y, ry.z, rz.x, rz.y, rz.z].map(|c| _mm256_set1_ps(c));
-        let found = unsafe {
-            watertight_lanes(
-                [
-                    _mm256_set1_ps(o.x),
-                    _mm256_set1_ps(o.y),
-                    _mm256_set1_ps(o.z),
-                ],
-                r,
-                [[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]],
-                _mm256_set1_ps(tmin),
-                _mm256_set1_ps(tmax),
-                lanes,
-            )
-        };
+        // SAFETY: the caller runs compiled for AVX2.
+        let l = unsafe { Avx2Lanes::new_unchecked() };
+        let r = [rx.x, rx.y, rx.z, ry.x, ry.y, ry.z, rz.x, rz.y, rz.z].map(|c| l.splat(c));
+        let v = [[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]].map(|p| p.map(|c| l.wrap(c)));
+        let found = watertight_lanes(
+            l,
+            [l.splat(o.x), l.splat(o.y), l.splat(o.z)],
+            r,
+            v,
+            l.splat(tmin),
+            l.splat(tmax),
+            lanes,
+        );
         match found {
             Some(w) if w.zero_edge & lanes != 0 => None,
             found => Some(found),
@@ -640,8 +642,8 @@ pub const PACKET_MAX_PRIMITIVES: usize = 1024;
 /// (`WideBvh::from_bvh2`): AVX2's eight lanes, which test them together.
 pub const LEAF_LANES: usize = 8;
 
-/// Rays in a packet: AVX2's eight lanes.
-pub const PACKET_LANES: usize = 8;
+/// Rays in a packet: eight lanes (AVX2, or AVX-512VL's 256-bit registers).
+pub const PACKET_LANES: usize = super::lanes::MAX_LANES;
 
 impl Bvh {
     /// Whether [`Bvh::intersect_packet`] walks rays together here: a small
@@ -651,7 +653,7 @@ impl Bvh {
         {
             self.prims.len() <= PACKET_MAX_PRIMITIVES
                 && self.bvh.as_ref().is_some_and(WideBvh::packet_walkable)
-                && std::arch::is_x86_feature_detected!("avx2")
+                && PacketIsa::detect().is_some()
         }
         #[cfg(not(target_arch = "x86_64"))]
         false
@@ -665,93 +667,128 @@ impl Bvh {
     pub fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
         #[cfg(target_arch = "x86_64")]
         if rays.len() > 1 && self.walks_packets() {
-            // SAFETY: the CPU supports AVX2 (`walks_packets`).
-            unsafe { self.intersect_packet_avx2(rays, hits) };
-            return;
+            // `walks_packets` saw that the CPU has one.
+            if let Some(isa) = PacketIsa::detect() {
+                return self.intersect_packet_in(isa, rays, hits);
+            }
         }
         for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
             *hit = self.intersect(ray);
         }
     }
 
+    /// [`Bvh::intersect_packet`]'s walk in `isa`'s lanes, which the CPU
+    /// must have ([`PacketIsa::detect`], [`PacketIsa::available`]).
+    #[cfg(target_arch = "x86_64")]
+    fn intersect_packet_in(&self, isa: PacketIsa, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
+        assert!(isa.available());
+        match isa {
+            // SAFETY: the CPU has AVX-512F, AVX-512VL and AVX2.
+            PacketIsa::Avx512Vl => unsafe { self.intersect_packet_avx512(rays, hits) },
+            // SAFETY: the CPU has AVX2.
+            PacketIsa::Avx2 => unsafe { self.intersect_packet_avx2(rays, hits) },
+        }
+    }
+
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn intersect_packet_avx2(&self, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
-        use super::packet::{mask_of, to_array, RayPacket, LANES};
+        // SAFETY: compiled for AVX2, called where the CPU has it.
+        let l = unsafe { Avx2Lanes::new_unchecked() };
+        self.intersect_packet_lanes(l, rays, hits);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    fn intersect_packet_avx512(&self, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
+        // SAFETY: compiled for AVX-512VL, called where the CPU has it.
+        let l = unsafe { Avx512VlLanes::new_unchecked() };
+        self.intersect_packet_lanes(l, rays, hits);
+    }
+
+    /// The closest-hit walk of the packet of `rays` in `L`'s lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn intersect_packet_lanes<L: Lanes>(&self, l: L, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
+        use super::packet::RayPacket;
         use super::triangle::intersect_triangle_lanes;
-        use std::arch::x86_64::*;
         let Some(bvh) = self.bvh.as_ref() else {
             hits.iter_mut().for_each(|h| *h = None);
             return;
         };
-        let p = RayPacket::new(rays);
-        // SAFETY: the packet's rows are aligned.
-        let mut tmax = unsafe { super::packet::load(&p.tmax) };
-        let (mut b1, mut b2) = (_mm256_setzero_ps(), _mm256_setzero_ps());
-        // The primitive each lane hit (-1: none); curve and instance hits,
-        // tested one ray at a time, keep their whole record in `special`.
-        const NONE: i32 = -1;
-        const SPECIAL: i32 = -2;
-        let mut found = _mm256_set1_epi32(NONE);
-        let mut special = [None::<BvhHit>; LANES];
-        bvh.closest_packet(&p, &mut tmax, |id, lanes, tmax| {
-            let prim = &self.prims[id];
-            let (bits, t, u, v) = match prim.kind() {
-                PrimKind::Triangle => {
-                    intersect_triangle_lanes::<false>(&p, &prim.packed_triangle(), lanes, *tmax)
-                }
-                PrimKind::Sphere(si) => {
-                    let (bits, t) = self.spheres[si].intersect_lanes::<false>(&p, *tmax);
-                    (bits, t, _mm256_setzero_ps(), _mm256_setzero_ps())
-                }
-                PrimKind::Disk(di) => {
-                    let (bits, [t, x, y]) = self.disks[di].intersect_lanes::<false>(&p, *tmax);
-                    (bits, t, x, y)
-                }
-                PrimKind::Rectangle(ri) => {
-                    let (bits, [t, x, y]) = self.rectangles[ri].intersect_lanes::<false>(&p, *tmax);
-                    (bits, t, x, y)
-                }
-                PrimKind::Curve(_) | PrimKind::Instance(_) => {
-                    // One ray at a time, through the one-ray walk's test.
-                    let mut ts = to_array(*tmax);
-                    let mut each = lanes;
-                    while each != 0 {
-                        let lane = each.trailing_zeros() as usize;
-                        each &= each - 1;
-                        let r = &p.rays[lane];
-                        let ray = Ray::with_range(r.o, r.d, r.tmin, ts[lane]);
-                        if let Some(h) = self.primitive_hit_apart(id, &ray) {
-                            ts[lane] = h.t;
-                            special[lane] = Some(h);
-                            found = _mm256_blendv_epi8(
-                                found,
-                                _mm256_set1_epi32(SPECIAL),
-                                _mm256_castps_si256(mask_of(1 << lane)),
-                            );
-                        }
+        let p = RayPacket::new(l, rays);
+        let mut tmax = p.tmax;
+        let (mut b1, mut b2) = (l.zero(), l.zero());
+        // The primitive each lane hit (-1: none), as bits in a float
+        // register; curve and instance hits, tested one ray at a time,
+        // keep their whole record in `special`.
+        const NONE: u32 = u32::MAX;
+        const SPECIAL: u32 = u32::MAX - 1;
+        let mut found = l.splat_bits(NONE);
+        let mut special = [None::<BvhHit>; PACKET_LANES];
+        bvh.closest_packet(
+            &p,
+            &mut tmax,
+            #[inline(always)]
+            |id, lanes, tmax| {
+                let prim = &self.prims[id];
+                let (bits, t, u, v) = match prim.kind() {
+                    PrimKind::Triangle => intersect_triangle_lanes::<L, false>(
+                        &p,
+                        &prim.packed_triangle(),
+                        lanes,
+                        *tmax,
+                    ),
+                    PrimKind::Sphere(si) => {
+                        let (bits, t) = self.spheres[si].intersect_lanes::<L, false>(&p, *tmax);
+                        (bits, t, l.zero(), l.zero())
                     }
-                    // SAFETY: `ts` holds eight floats.
-                    *tmax = unsafe { _mm256_loadu_ps(ts.as_ptr()) };
+                    PrimKind::Disk(di) => {
+                        let (bits, [t, x, y]) =
+                            self.disks[di].intersect_lanes::<L, false>(&p, *tmax);
+                        (bits, t, x, y)
+                    }
+                    PrimKind::Rectangle(ri) => {
+                        let (bits, [t, x, y]) =
+                            self.rectangles[ri].intersect_lanes::<L, false>(&p, *tmax);
+                        (bits, t, x, y)
+                    }
+                    PrimKind::Curve(_) | PrimKind::Instance(_) => {
+                        // One ray at a time, through the one-ray walk's test.
+                        let mut ts = l.store(*tmax);
+                        let mut each = lanes;
+                        let mut hit_lanes = 0;
+                        while each != 0 {
+                            let lane = each.trailing_zeros() as usize;
+                            each &= each - 1;
+                            let r = &p.rays[lane];
+                            let ray = Ray::with_range(r.o, r.d, r.tmin, ts[lane]);
+                            if let Some(h) = self.primitive_hit_apart(id, &ray) {
+                                ts[lane] = h.t;
+                                special[lane] = Some(h);
+                                hit_lanes |= 1 << lane;
+                            }
+                        }
+                        let m = l.mask(hit_lanes);
+                        found = l.blend(found, l.splat_bits(SPECIAL), m);
+                        *tmax = l.load(&ts);
+                        return;
+                    }
+                };
+                let bits = bits & lanes;
+                if bits == 0 {
                     return;
                 }
-            };
-            let bits = bits & lanes;
-            if bits == 0 {
-                return;
-            }
-            let m = mask_of(bits);
-            *tmax = _mm256_blendv_ps(*tmax, t, m);
-            b1 = _mm256_blendv_ps(b1, u, m);
-            b2 = _mm256_blendv_ps(b2, v, m);
-            found = _mm256_blendv_epi8(found, _mm256_set1_epi32(id as i32), _mm256_castps_si256(m));
-        });
-        let (ts, b1s, b2s) = (to_array(tmax), to_array(b1), to_array(b2));
-        let mut ids = [0i32; LANES];
-        // SAFETY: `ids` holds eight integers.
-        unsafe { _mm256_storeu_si256(ids.as_mut_ptr().cast(), found) };
+                let m = l.mask(bits);
+                *tmax = l.blend(*tmax, t, m);
+                b1 = l.blend(b1, u, m);
+                b2 = l.blend(b2, v, m);
+                found = l.blend(found, l.splat_bits(id as u32), m);
+            },
+        );
+        let (ts, b1s, b2s, ids) = (l.store(tmax), l.store(b1), l.store(b2), l.store(found));
         for (lane, hit) in hits.iter_mut().enumerate().take(rays.len()) {
-            *hit = match ids[lane] {
+            *hit = match ids[lane].to_bits() {
                 NONE => None,
                 SPECIAL => special[lane],
                 id => {
@@ -777,73 +814,115 @@ impl Bvh {
         }
     }
 
-    /// [`Bvh::occluded`] of each of `rays` (at most [`PACKET_LANES`]) into
-    /// `blocked`: the same answers (which primitive blocks a ray does not
-    /// matter), by one walk of the packet where [`Bvh::walks_packets`].
+    /// [`Bvh::occluded`] of each of `rays` (at most [`PACKET_LANES`])
+    /// into `blocked`: the same answers (which primitive blocks a ray does
+    /// not matter), by one walk of the packet where [`Bvh::walks_packets`].
     pub fn occluded_packet(&self, rays: &[Ray], blocked: &mut [bool]) {
         #[cfg(target_arch = "x86_64")]
         if rays.len() > 1 && self.walks_packets() {
-            // SAFETY: the CPU supports AVX2 (`walks_packets`).
-            let bits = unsafe { self.occluded_packet_avx2(rays) };
-            for (k, b) in blocked.iter_mut().enumerate().take(rays.len()) {
-                *b = bits & (1 << k) != 0;
+            // `walks_packets` saw that the CPU has one.
+            if let Some(isa) = PacketIsa::detect() {
+                let bits = self.occluded_packet_in(isa, rays);
+                for (k, b) in blocked.iter_mut().enumerate().take(rays.len()) {
+                    *b = bits & (1 << k) != 0;
+                }
+                return;
             }
-            return;
         }
         for (ray, b) in rays.iter().zip(blocked.iter_mut()) {
             *b = self.occluded(ray);
         }
     }
 
-    /// The lanes of `rays`' packet that something blocks, as bits.
+    /// The lanes of `rays`' packet that something blocks, walked in
+    /// `isa`'s lanes, which the CPU must have.
+    #[cfg(target_arch = "x86_64")]
+    fn occluded_packet_in(&self, isa: PacketIsa, rays: &[Ray]) -> u32 {
+        assert!(isa.available());
+        match isa {
+            // SAFETY: the CPU has AVX-512F, AVX-512VL and AVX2.
+            PacketIsa::Avx512Vl => unsafe { self.occluded_packet_avx512(rays) },
+            // SAFETY: the CPU has AVX2.
+            PacketIsa::Avx2 => unsafe { self.occluded_packet_avx2(rays) },
+        }
+    }
+
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn occluded_packet_avx2(&self, rays: &[Ray]) -> u32 {
+        // SAFETY: compiled for AVX2, called where the CPU has it.
+        let l = unsafe { Avx2Lanes::new_unchecked() };
+        self.occluded_packet_lanes(l, rays)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    fn occluded_packet_avx512(&self, rays: &[Ray]) -> u32 {
+        // SAFETY: compiled for AVX-512VL, called where the CPU has it.
+        let l = unsafe { Avx512VlLanes::new_unchecked() };
+        self.occluded_packet_lanes(l, rays)
+    }
+
+    /// The lanes of `rays`' packet that something blocks, as bits.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn occluded_packet_lanes<L: Lanes>(&self, l: L, rays: &[Ray]) -> u32 {
         use super::packet::RayPacket;
         use super::triangle::intersect_triangle_lanes;
         let Some(bvh) = self.bvh.as_ref() else {
             return 0;
         };
-        let p = RayPacket::new(rays);
-        // SAFETY: the packet's rows are aligned.
-        let tmax = unsafe { super::packet::load(&p.tmax) };
-        bvh.any_packet(&p, |id, lanes| {
-            let prim = &self.prims[id];
-            let bits = match prim.kind() {
-                PrimKind::Triangle => {
-                    intersect_triangle_lanes::<true>(&p, &prim.packed_triangle(), lanes, tmax).0
-                }
-                PrimKind::Sphere(si) => self.spheres[si].intersect_lanes::<true>(&p, tmax).0,
-                PrimKind::Disk(di) => self.disks[di].intersect_lanes::<true>(&p, tmax).0,
-                PrimKind::Rectangle(ri) => self.rectangles[ri].intersect_lanes::<true>(&p, tmax).0,
-                PrimKind::Curve(ci) => {
-                    let mut bits = 0;
-                    let mut each = lanes;
-                    while each != 0 {
-                        let lane = each.trailing_zeros() as usize;
-                        each &= each - 1;
-                        let r = &p.rays[lane];
-                        let hit = self.curves[ci].intersect(r.o, r.d, r.tmin, r.tmax);
-                        bits |= u32::from(hit.is_some()) << lane;
+        let p = RayPacket::new(l, rays);
+        let tmax = p.tmax;
+        bvh.any_packet(
+            &p,
+            #[inline(always)]
+            |id, lanes| {
+                let prim = &self.prims[id];
+                let bits = match prim.kind() {
+                    PrimKind::Triangle => {
+                        intersect_triangle_lanes::<L, true>(
+                            &p,
+                            &prim.packed_triangle(),
+                            lanes,
+                            tmax,
+                        )
+                        .0
                     }
-                    bits
-                }
-                PrimKind::Instance(ii) => {
-                    let inst = &self.instances[ii];
-                    let mut bits = 0;
-                    let mut each = lanes;
-                    while each != 0 {
-                        let lane = each.trailing_zeros() as usize;
-                        each &= each - 1;
-                        let local = inst.to_local(&p.rays[lane]);
-                        let hit = self.groups[inst.group as usize].occluded(&local);
-                        bits |= u32::from(hit) << lane;
+                    PrimKind::Sphere(si) => self.spheres[si].intersect_lanes::<L, true>(&p, tmax).0,
+                    PrimKind::Disk(di) => self.disks[di].intersect_lanes::<L, true>(&p, tmax).0,
+                    PrimKind::Rectangle(ri) => {
+                        self.rectangles[ri].intersect_lanes::<L, true>(&p, tmax).0
                     }
-                    bits
-                }
-            };
-            bits & lanes
-        })
+                    PrimKind::Curve(ci) => {
+                        let mut bits = 0;
+                        let mut each = lanes;
+                        while each != 0 {
+                            let lane = each.trailing_zeros() as usize;
+                            each &= each - 1;
+                            let r = &p.rays[lane];
+                            let hit = self.curves[ci].intersect(r.o, r.d, r.tmin, r.tmax);
+                            bits |= u32::from(hit.is_some()) << lane;
+                        }
+                        bits
+                    }
+                    PrimKind::Instance(ii) => {
+                        let inst = &self.instances[ii];
+                        let mut bits = 0;
+                        let mut each = lanes;
+                        while each != 0 {
+                            let lane = each.trailing_zeros() as usize;
+                            each &= each - 1;
+                            let local = inst.to_local(&p.rays[lane]);
+                            let hit = self.groups[inst.group as usize].occluded(&local);
+                            bits |= u32::from(hit) << lane;
+                        }
+                        bits
+                    }
+                };
+                bits & lanes
+            },
+        )
     }
 
     /// [`Bvh::primitive_hit`] out of line, for the packet walk (inlined,
@@ -927,31 +1006,57 @@ mod tests {
         if std::arch::is_x86_feature_detected!("avx2") {
             assert!(bvh.walks_packets(), "a small tree is walked by packets");
         }
+        // The dispatching entry points, then each instruction set the CPU
+        // has, called directly (packets of one ray included).
+        #[cfg(target_arch = "x86_64")]
+        let walks: Vec<Option<PacketIsa>> =
+            [None, Some(PacketIsa::Avx2), Some(PacketIsa::Avx512Vl)]
+                .into_iter()
+                .filter(|w| w.is_none_or(PacketIsa::available))
+                .collect();
+        #[cfg(not(target_arch = "x86_64"))]
+        let walks = [None::<()>];
         let mut hit = 0;
-        let mut start = 0;
-        let mut size = 1;
-        while start < rays.len() {
-            let chunk = &rays[start..(start + size).min(rays.len())];
-            let mut hits = [None; PACKET_LANES];
-            bvh.intersect_packet(chunk, &mut hits);
-            let mut blocked = [false; PACKET_LANES];
-            bvh.occluded_packet(chunk, &mut blocked[..chunk.len()]);
-            for (k, ray) in chunk.iter().enumerate() {
-                let alone = bvh.intersect(ray);
-                let (packed, alone_bits) = if ties {
-                    (hits[k].map(|h| h.t.to_bits()), alone.map(|h| h.t.to_bits()))
-                } else {
-                    (bits(hits[k]).map(|b| b.0), bits(alone).map(|b| b.0))
-                };
-                assert_eq!(packed, alone_bits, "ray {} {ray:?}", start + k);
-                if !ties {
-                    assert_eq!(bits(hits[k]), bits(alone), "ray {} {ray:?}", start + k);
+        for walk in walks {
+            hit = 0;
+            let mut start = 0;
+            let mut size = 1;
+            while start < rays.len() {
+                let chunk = &rays[start..(start + size).min(rays.len())];
+                let mut hits = [None; PACKET_LANES];
+                let mut blocked = [false; PACKET_LANES];
+                match walk {
+                    #[cfg(target_arch = "x86_64")]
+                    Some(isa) => {
+                        bvh.intersect_packet_in(isa, chunk, &mut hits);
+                        let b = bvh.occluded_packet_in(isa, chunk);
+                        for (k, blocked) in blocked.iter_mut().enumerate() {
+                            *blocked = b & (1 << k) != 0;
+                        }
+                    }
+                    _ => {
+                        bvh.intersect_packet(chunk, &mut hits);
+                        bvh.occluded_packet(chunk, &mut blocked[..chunk.len()]);
+                    }
                 }
-                assert_eq!(blocked[k], bvh.occluded(ray), "ray {} {ray:?}", start + k);
-                hit += usize::from(alone.is_some());
+                for (k, ray) in chunk.iter().enumerate() {
+                    let alone = bvh.intersect(ray);
+                    let (packed, alone_bits) = if ties {
+                        (hits[k].map(|h| h.t.to_bits()), alone.map(|h| h.t.to_bits()))
+                    } else {
+                        (bits(hits[k]).map(|b| b.0), bits(alone).map(|b| b.0))
+                    };
+                    let at = format!("{walk:?}, ray {} {ray:?}", start + k);
+                    assert_eq!(packed, alone_bits, "{at}");
+                    if !ties {
+                        assert_eq!(bits(hits[k]), bits(alone), "{at}");
+                    }
+                    assert_eq!(blocked[k], bvh.occluded(ray), "{at}");
+                    hit += usize::from(alone.is_some());
+                }
+                start += chunk.len();
+                size = size % PACKET_LANES + 1;
             }
-            start += chunk.len();
-            size = size % PACKET_LANES + 1;
         }
         hit
     }

@@ -5,6 +5,8 @@ mod bvh;
 mod curve;
 mod disk;
 mod instance;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 mod mesh;
 mod obj;
 #[cfg(target_arch = "x86_64")]
@@ -24,6 +26,8 @@ pub use bvh::{build_boxes, BoundsOnly, Bvh, BvhHit, PACKET_LANES, PACKET_MAX_PRI
 pub use curve::{load_curve, Curve, CurveBasis, CurveError, CurveSegment};
 pub use disk::Disk;
 pub use instance::Instance;
+#[cfg(target_arch = "x86_64")]
+pub use lanes::PacketIsa;
 pub use mesh::{MeshError, TriangleMesh};
 pub use obj::{load_obj, parse_obj, ObjError};
 pub use plane::{PlaneError, PlaneFrame};

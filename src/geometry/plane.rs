@@ -127,38 +127,28 @@ impl PlaneFrame {
         Some((t, Vec2::new(q.dot(self.dx), q.dot(self.dy))))
     }
 
-    /// [`PlaneFrame::hit`] of a packet's eight rays: the lanes that meet the
-    /// plane within (tmin, tmax) as a vector mask, their t and object
-    /// coordinates, by the scalar routine's operations in its order.
-    ///
-    /// # Safety
-    ///
-    /// The CPU must support AVX2.
+    /// [`PlaneFrame::hit`] of a packet's rays: the lanes that meet the
+    /// plane within (tmin, tmax) as a mask, their t and object coordinates,
+    /// by the scalar routine's operations in its order.
     #[cfg(target_arch = "x86_64")]
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub fn hit_lanes(
+    #[inline(always)]
+    pub fn hit_lanes<L: super::lanes::Lanes>(
         &self,
-        p: &super::packet::RayPacket,
-        tmax: std::arch::x86_64::__m256,
-    ) -> [std::arch::x86_64::__m256; 4] {
-        use super::packet::{dot3, rays_lanes, scaled_sub3, splat3, sub3};
-        use std::arch::x86_64::*;
-        let (o, d, tmin) = rays_lanes(p);
-        let to_center = sub3(splat3(self.center), o);
-        let n = splat3(self.n);
-        let t = _mm256_div_ps(dot3(to_center, n), dot3(d, n));
-        let within = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
-            _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
-        );
+        p: &super::packet::RayPacket<L>,
+        tmax: L::F,
+    ) -> (L::M, [L::F; 3]) {
+        use super::lanes::{dot3, scaled_sub3, splat3, sub3};
+        let l = p.l;
+        let (o, d, tmin) = (p.o, p.d, p.tmin);
+        let to_center = sub3(splat3(l, self.center), o);
+        let n = splat3(l, self.n);
+        let t = dot3(to_center, n) / dot3(d, n);
+        let within = l.m_and(l.gt(t, tmin), l.lt(t, tmax));
         let q = scaled_sub3(t, d, to_center);
-        [
+        (
             within,
-            t,
-            dot3(q, splat3(self.dx)),
-            dot3(q, splat3(self.dy)),
-        ]
+            [t, dot3(q, splat3(l, self.dx)), dot3(q, splat3(l, self.dy))],
+        )
     }
 
     /// The point at object coordinates `l` and its error bound: on the

@@ -69,33 +69,24 @@ impl Rectangle {
             .filter(|(_, l)| l.x.abs() <= 1.0 && l.y.abs() <= 1.0)
     }
 
-    /// [`Rectangle::intersect`] of a packet's eight rays: the lanes that hit
-    /// as bits, their t and object coordinates (bit for bit the scalar's).
+    /// [`Rectangle::intersect`] of a packet's rays: the lanes that hit as
+    /// bits, their t and object coordinates (bit for bit the scalar's).
     ///
     /// `ANY_HIT` (the any-hit walk's copy or the closest-hit walk's) only
     /// gives each walk a copy of its own, which LLVM inlines (one called
     /// from both stayed out of line: +13% instructions for the walk).
-    ///
-    /// # Safety
-    ///
-    /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub fn intersect_lanes<const ANY_HIT: bool>(
+    #[inline(always)]
+    pub fn intersect_lanes<L: super::lanes::Lanes, const ANY_HIT: bool>(
         &self,
-        p: &super::packet::RayPacket,
-        tmax: std::arch::x86_64::__m256,
-    ) -> (u32, [std::arch::x86_64::__m256; 3]) {
-        use super::packet::{abs, bits_of};
-        use std::arch::x86_64::*;
-        let [within, t, x, y] = self.frame.hit_lanes(p, tmax);
-        let one = _mm256_set1_ps(1.0);
-        let inside = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_LE_OQ>(abs(x), one),
-            _mm256_cmp_ps::<_CMP_LE_OQ>(abs(y), one),
-        );
-        (bits_of(_mm256_and_ps(within, inside)), [t, x, y])
+        p: &super::packet::RayPacket<L>,
+        tmax: L::F,
+    ) -> (u32, [L::F; 3]) {
+        let l = p.l;
+        let (within, [t, x, y]) = self.frame.hit_lanes(p, tmax);
+        let one = l.splat(1.0);
+        let inside = l.m_and(l.le(l.abs(x), one), l.le(l.abs(y), one));
+        (l.bits(l.m_and(within, inside)), [t, x, y])
     }
 
     /// Mitsuba's (u, v) at object coordinates `l`: ((x + 1) / 2, (y + 1) / 2).

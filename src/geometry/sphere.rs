@@ -197,70 +197,49 @@ impl Sphere {
         }
     }
 
-    /// [`Sphere::intersect`] of a packet's eight rays: the lanes that hit
-    /// within (tmin, tmax) as bits, and their t, by the scalar test's
-    /// operations in its order (each lane's t is its, bit for bit).
+    /// [`Sphere::intersect`] of a packet's rays: the lanes that hit within
+    /// (tmin, tmax) as bits, and their t, by the scalar test's operations
+    /// in its order (each lane's t is its, bit for bit).
     ///
     /// `ANY_HIT` (the any-hit walk's copy or the closest-hit walk's) only
     /// gives each walk a copy of its own, which LLVM inlines (one called
     /// from both stayed out of line: +13% instructions for the walk).
-    ///
-    /// # Safety
-    ///
-    /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub fn intersect_lanes<const ANY_HIT: bool>(
+    #[inline(always)]
+    pub fn intersect_lanes<L: super::lanes::Lanes, const ANY_HIT: bool>(
         &self,
-        p: &super::packet::RayPacket,
-        tmax: std::arch::x86_64::__m256,
-    ) -> (u32, std::arch::x86_64::__m256) {
-        use super::packet::{bits_of, dot3, rays_lanes, splat3, sub3};
-        use std::arch::x86_64::*;
-        let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
+        p: &super::packet::RayPacket<L>,
+        tmax: L::F,
+    ) -> (u32, L::F) {
+        use super::lanes::{dot3, splat3, sub3};
+        let l = p.l;
         let dot = dot3;
-        let (o, d, tmin) = rays_lanes(p);
-        let f = sub3(o, splat3(self.center));
+        let (o, d, tmin) = (p.o, p.d, p.tmin);
+        let f = sub3(o, splat3(l, self.center));
         let a = dot(d, d);
-        let b = _mm256_xor_ps(dot(f, d), _mm256_set1_ps(-0.0));
-        let s = _mm256_div_ps(b, a);
-        let l = [
-            add(f[0], mul(s, d[0])),
-            add(f[1], mul(s, d[1])),
-            add(f[2], mul(s, d[2])),
-        ];
-        let r2 = _mm256_set1_ps(self.radius * self.radius);
-        let disc = sub(r2, dot(l, l));
-        let zero = _mm256_setzero_ps();
-        let outside = _mm256_cmp_ps::<_CMP_LT_OQ>(disc, zero);
-        let cc = sub(dot(f, f), r2);
+        let b = l.xor(dot(f, d), l.splat(-0.0));
+        let s = b / a;
+        let lp = [f[0] + s * d[0], f[1] + s * d[1], f[2] + s * d[2]];
+        let r2 = l.splat(self.radius * self.radius);
+        let disc = r2 - dot(lp, lp);
+        let zero = l.zero();
+        let outside = l.lt(disc, zero);
+        let cc = dot(f, f) - r2;
         // `b.signum()`: +-1 by b's sign bit (a NaN b makes q NaN anyway).
-        let sign = _mm256_or_ps(_mm256_and_ps(b, _mm256_set1_ps(-0.0)), _mm256_set1_ps(1.0));
-        let q = add(b, mul(sign, _mm256_sqrt_ps(mul(a, disc))));
-        let (x, y) = (_mm256_div_ps(cc, q), _mm256_div_ps(q, a));
+        let sign = l.or(l.and(b, l.splat(-0.0)), l.splat(1.0));
+        let q = b + sign * l.sqrt(a * disc);
+        let (x, y) = (cc / q, q / a);
         // f32::min and max: a NaN operand gives the other one.
-        // (`_mm256_min_ps(x, y)` gives y where either is NaN.)
-        let y_nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(y, y);
-        let t0 = _mm256_blendv_ps(_mm256_min_ps(x, y), x, y_nan);
-        let t1 = _mm256_blendv_ps(_mm256_max_ps(x, y), x, y_nan);
-        let q_zero = _mm256_cmp_ps::<_CMP_EQ_OQ>(q, zero);
-        let (t0, t1) = (
-            _mm256_blendv_ps(t0, zero, q_zero),
-            _mm256_blendv_ps(t1, zero, q_zero),
-        );
-        let within = |t| {
-            _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
-                _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
-            )
-        };
-        let (in0, in1) = (within(t0), within(t1));
-        let t = _mm256_blendv_ps(t1, t0, in0);
-        (
-            bits_of(_mm256_andnot_ps(outside, _mm256_or_ps(in0, in1))),
-            t,
-        )
+        // (`minps(x, y)` gives y where either is NaN.)
+        let y_nan = l.unord(y, y);
+        let t0 = l.blend(l.min(x, y), x, y_nan);
+        let t1 = l.blend(l.max(x, y), x, y_nan);
+        let q_zero = l.eq(q, zero);
+        let (t0, t1) = (l.blend(t0, zero, q_zero), l.blend(t1, zero, q_zero));
+        let in0 = l.m_and(l.gt(t0, tmin), l.lt(t0, tmax));
+        let in1 = l.m_and(l.gt(t1, tmin), l.lt(t1, tmax));
+        let t = l.blend(t1, t0, in0);
+        (l.bits(l.m_andnot(outside, l.m_or(in0, in1))), t)
     }
 
     /// Outward normal and spherical (u, v) at a surface point, in

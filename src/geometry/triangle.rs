@@ -3,6 +3,8 @@
 
 use glam::Vec3A;
 
+#[cfg(target_arch = "x86_64")]
+use super::lanes::Lanes;
 use crate::math::{gamma, Vec3};
 
 /// A triangle stored by coordinate: `xs` holds the three vertices' x, and
@@ -158,8 +160,8 @@ pub fn intersect_triangle(
     Some((t, v * inv_det, w * inv_det))
 }
 
-/// [`intersect_triangle`] of the eight rays of a packet: the lanes that hit
-/// the triangle within (tmin, tmax) as bits, and their t, b1 and b2. Each
+/// [`intersect_triangle`] of the rays of a packet: the lanes that hit the
+/// triangle within (tmin, tmax) as bits, and their t, b1 and b2. Each
 /// lane does the scalar test's operations in its order, so it finds the
 /// same hit bit for bit; a lane whose edge function comes out exactly zero
 /// (a ray through an edge or vertex) is redone by the scalar test, which
@@ -169,44 +171,30 @@ pub fn intersect_triangle(
 /// gives each walk a copy of its own, which LLVM inlines (one called
 /// from both stayed out of line: +13% instructions for the walk).
 #[cfg(target_arch = "x86_64")]
-#[inline]
-#[target_feature(enable = "avx2")]
-pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
-    p: &super::packet::RayPacket,
+#[inline(always)]
+pub fn intersect_triangle_lanes<L: Lanes, const ANY_HIT: bool>(
+    p: &super::packet::RayPacket<L>,
     tri: &PackedTriangle,
     lanes: u32,
-    tmax: std::arch::x86_64::__m256,
-) -> (
-    u32,
-    std::arch::x86_64::__m256,
-    std::arch::x86_64::__m256,
-    std::arch::x86_64::__m256,
-) {
-    use super::packet::{load, to_array};
-    use std::arch::x86_64::*;
-    // SAFETY: loads of the packet's aligned rows.
-    let (o, r, tmin) = unsafe {
-        (
-            [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
-            std::array::from_fn(|k| load(&p.shear[k])),
-            load(&p.tmin),
-        )
-    };
-    let vertex = |c: usize| {
-        [
-            _mm256_set1_ps(tri.xs[c]),
-            _mm256_set1_ps(tri.ys[c]),
-            _mm256_set1_ps(tri.zs[c]),
-        ]
-    };
-    let zero = _mm256_setzero_ps();
+    tmax: L::F,
+) -> (u32, L::F, L::F, L::F) {
+    let l = p.l;
+    // (No closures in lane code: they would be compiled without the
+    // width's instruction set, and its operations left as calls.)
+    let (xs, ys, zs) = (tri.xs, tri.ys, tri.zs);
+    let vertices = [
+        [l.splat(xs.x), l.splat(ys.x), l.splat(zs.x)],
+        [l.splat(xs.y), l.splat(ys.y), l.splat(zs.y)],
+        [l.splat(xs.z), l.splat(ys.z), l.splat(zs.z)],
+    ];
+    let zero = l.zero();
     let Some(WatertightLanes {
         hits,
         zero_edge,
         t,
         b1,
         b2,
-    }) = (unsafe { watertight_lanes(o, r, [vertex(0), vertex(1), vertex(2)], tmin, tmax, lanes) })
+    }) = watertight_lanes(l, p.o, p.shear, vertices, p.tmin, tmax, lanes)
     else {
         return (0, zero, zero, zero);
     };
@@ -214,8 +202,8 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
     let (mut t, mut b1, mut b2) = (t, b1, b2);
     if zero_edge != 0 {
         // The scalar test, in double precision where it needs it.
-        let (mut ts, mut b1s, mut b2s) = (to_array(t), to_array(b1), to_array(b2));
-        let tmaxs = to_array(tmax);
+        let (mut ts, mut b1s, mut b2s) = (l.store(t), l.store(b1), l.store(b2));
+        let tmaxs = l.store(tmax);
         let mut edge = zero_edge;
         while edge != 0 {
             let lane = edge.trailing_zeros() as usize;
@@ -227,12 +215,7 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
                 bits |= 1 << lane;
             }
         }
-        // SAFETY: each array holds eight floats.
-        unsafe {
-            t = _mm256_loadu_ps(ts.as_ptr());
-            b1 = _mm256_loadu_ps(b1s.as_ptr());
-            b2 = _mm256_loadu_ps(b2s.as_ptr());
-        }
+        (t, b1, b2) = (l.load(&ts), l.load(&b1s), l.load(&b2s));
     }
     (bits, t, b1, b2)
 }
@@ -242,130 +225,101 @@ pub fn intersect_triangle_lanes<const ANY_HIT: bool>(
 /// (the scalar test redoes them in double precision), and each lane's t,
 /// b1 and b2.
 #[cfg(target_arch = "x86_64")]
-pub struct WatertightLanes {
+pub struct WatertightLanes<F> {
     pub hits: u32,
     pub zero_edge: u32,
-    pub t: std::arch::x86_64::__m256,
-    pub b1: std::arch::x86_64::__m256,
-    pub b2: std::arch::x86_64::__m256,
+    pub t: F,
+    pub b1: F,
+    pub b2: F,
 }
 
-/// [`intersect_triangle`]'s operations in eight lanes, each lane a ray
+/// [`intersect_triangle`]'s operations in SIMD lanes, each lane a ray
 /// (origin `o`, shear rows `r`, range `tmin`..`tmax`) and a triangle
 /// (vertices `v`): a packet's rays against one triangle splat in every
-/// lane, or one ray splat against eight triangles. `None` where no lane
-/// of `lanes` can hit (the scalar test's early `None`s, as masks).
-///
-/// # Safety
-/// Call only from functions compiled for AVX2 (it is inlined into them,
-/// which a `target_feature` function of its size was not).
+/// lane, or one ray splat against a leaf's triangles. `None` where no
+/// lane of `lanes` can hit (the scalar test's early `None`s, as masks).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub unsafe fn watertight_lanes(
-    o: [std::arch::x86_64::__m256; 3],
-    r: [std::arch::x86_64::__m256; 9],
-    v: [[std::arch::x86_64::__m256; 3]; 3],
-    tmin: std::arch::x86_64::__m256,
-    tmax: std::arch::x86_64::__m256,
+pub fn watertight_lanes<L: Lanes>(
+    l: L,
+    o: [L::F; 3],
+    r: [L::F; 9],
+    v: [[L::F; 3]; 3],
+    tmin: L::F,
+    tmax: L::F,
     lanes: u32,
-) -> Option<WatertightLanes> {
-    use super::packet::{abs, bits_of, max};
-    use std::arch::x86_64::*;
-    let (mul, add, sub) = (_mm256_mul_ps, _mm256_add_ps, _mm256_sub_ps);
+) -> Option<WatertightLanes<L::F>> {
     // The vertices relative to the origins; a sheared row of one of them
     // (`row(v, k)`: row k / 3 of the shear): x' and y' first, for the
     // edge functions; z' only for lanes still in the running.
-    let relative = |[vx, vy, vz]: [__m256; 3]| [sub(vx, o[0]), sub(vy, o[1]), sub(vz, o[2])];
-    let row = |[x, y, z]: [__m256; 3], k: usize| {
-        add(add(mul(x, r[k]), mul(y, r[k + 1])), mul(z, r[k + 2]))
-    };
-    let (ra, rb, rc) = (relative(v[0]), relative(v[1]), relative(v[2]));
-    let (xa, ya) = (row(ra, 0), row(ra, 3));
-    let (xb, yb) = (row(rb, 0), row(rb, 3));
-    let (xc, yc) = (row(rc, 0), row(rc, 3));
+    #[inline(always)]
+    fn relative<F: Copy + std::ops::Sub<Output = F>>([vx, vy, vz]: [F; 3], o: [F; 3]) -> [F; 3] {
+        [vx - o[0], vy - o[1], vz - o[2]]
+    }
+    #[inline(always)]
+    fn row<L: Lanes>([x, y, z]: [L::F; 3], r: &[L::F; 9], k: usize) -> L::F {
+        x * r[k] + y * r[k + 1] + z * r[k + 2]
+    }
+    let (ra, rb, rc) = (relative(v[0], o), relative(v[1], o), relative(v[2], o));
+    let (xa, ya) = (row::<L>(ra, &r, 0), row::<L>(ra, &r, 3));
+    let (xb, yb) = (row::<L>(rb, &r, 0), row::<L>(rb, &r, 3));
+    let (xc, yc) = (row::<L>(rc, &r, 0), row::<L>(rc, &r, 3));
     // `yt.cross(xt)`'s products and differences.
-    let u = sub(mul(yb, xc), mul(xb, yc));
-    let v = sub(mul(yc, xa), mul(xc, ya));
-    let w = sub(mul(ya, xb), mul(xa, yb));
-    let zero = _mm256_setzero_ps();
-    let zero_edge = bits_of(_mm256_or_ps(
-        _mm256_or_ps(
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(u, zero),
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(v, zero),
-        ),
-        _mm256_cmp_ps::<_CMP_EQ_OQ>(w, zero),
-    )) & lanes;
-    let below = _mm256_or_ps(
-        _mm256_or_ps(
-            _mm256_cmp_ps::<_CMP_LT_OQ>(u, zero),
-            _mm256_cmp_ps::<_CMP_LT_OQ>(v, zero),
-        ),
-        _mm256_cmp_ps::<_CMP_LT_OQ>(w, zero),
-    );
-    let above = _mm256_or_ps(
-        _mm256_or_ps(
-            _mm256_cmp_ps::<_CMP_GT_OQ>(u, zero),
-            _mm256_cmp_ps::<_CMP_GT_OQ>(v, zero),
-        ),
-        _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero),
-    );
-    let outside = _mm256_and_ps(below, above);
+    let u = yb * xc - xb * yc;
+    let v = yc * xa - xc * ya;
+    let w = ya * xb - xa * yb;
+    let zero = l.zero();
+    let zero_edge = l.bits(l.m_or(l.m_or(l.eq(u, zero), l.eq(v, zero)), l.eq(w, zero))) & lanes;
+    let below = l.m_or(l.m_or(l.lt(u, zero), l.lt(v, zero)), l.lt(w, zero));
+    let above = l.m_or(l.m_or(l.gt(u, zero), l.gt(v, zero)), l.gt(w, zero));
+    let outside = l.m_and(below, above);
     // Every live lane passes the triangle by (the scalar test's first
     // `None`), and none needs the scalar test: no hit, and the rest
     // (depths, division, error bounds) is skipped. Most tests of a packet
     // end here.
-    if !bits_of(outside) & lanes == 0 && zero_edge == 0 {
+    if !l.bits(outside) & lanes == 0 && zero_edge == 0 {
         return None;
     }
-    let (za, zb, zc) = (row(ra, 6), row(rb, 6), row(rc, 6));
-    let det = add(add(u, v), w);
-    let t_scaled = add(add(mul(u, za), mul(v, zb)), mul(w, zc));
-    let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-    let t = mul(t_scaled, inv_det);
-    let in_range = _mm256_and_ps(
-        _mm256_cmp_ps::<_CMP_GT_OQ>(t, tmin),
-        _mm256_cmp_ps::<_CMP_LT_OQ>(t, tmax),
+    let (za, zb, zc) = (
+        row::<L>(ra, &r, 6),
+        row::<L>(rb, &r, 6),
+        row::<L>(rc, &r, 6),
     );
-    let candidate = _mm256_andnot_ps(
-        _mm256_or_ps(outside, _mm256_cmp_ps::<_CMP_EQ_OQ>(det, zero)),
-        in_range,
-    );
+    let det = u + v + w;
+    let t_scaled = u * za + v * zb + w * zc;
+    let inv_det = l.splat(1.0) / det;
+    let t = t_scaled * inv_det;
+    let in_range = l.m_and(l.gt(t, tmin), l.lt(t, tmax));
+    let candidate = l.m_andnot(l.m_or(outside, l.eq(det, zero)), in_range);
     // No lane in range (the scalar test's second and third `None`): the
     // error bounds are not needed.
-    if bits_of(candidate) & lanes == 0 && zero_edge == 0 {
+    if l.bits(candidate) & lanes == 0 && zero_edge == 0 {
         return None;
     }
-    let max3 = |a, b, c| max(max(abs(a), abs(b)), abs(c));
-    let (max_xt, max_yt, max_zt) = (max3(xa, xb, xc), max3(ya, yb, yc), max3(za, zb, zc));
-    let g = |n: i32| _mm256_set1_ps(gamma(n));
-    let delta_z = mul(g(3), max_zt);
-    let delta_x = mul(g(5), add(max_xt, max_zt));
-    let delta_y = mul(g(5), add(max_yt, max_zt));
-    let delta_e = mul(
-        _mm256_set1_ps(2.0),
-        add(
-            add(mul(mul(g(2), max_xt), max_yt), mul(delta_y, max_xt)),
-            mul(delta_x, max_yt),
-        ),
+    #[inline(always)]
+    fn max3<L: Lanes>(l: L, a: L::F, b: L::F, c: L::F) -> L::F {
+        l.max(l.max(l.abs(a), l.abs(b)), l.abs(c))
+    }
+    let (max_xt, max_yt, max_zt) = (
+        max3(l, xa, xb, xc),
+        max3(l, ya, yb, yc),
+        max3(l, za, zb, zc),
     );
-    let max_e = max3(u, v, w);
-    let delta_t = mul(
-        mul(
-            _mm256_set1_ps(3.0),
-            add(
-                add(mul(mul(g(3), max_e), max_zt), mul(delta_e, max_zt)),
-                mul(delta_z, max_e),
-            ),
-        ),
-        abs(inv_det),
-    );
-    let hit = _mm256_and_ps(candidate, _mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t));
+    let (g2, g3, g5) = (l.splat(gamma(2)), l.splat(gamma(3)), l.splat(gamma(5)));
+    let delta_z = g3 * max_zt;
+    let delta_x = g5 * (max_xt + max_zt);
+    let delta_y = g5 * (max_yt + max_zt);
+    let delta_e = l.splat(2.0) * (g2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = max3(l, u, v, w);
+    let delta_t =
+        l.splat(3.0) * (g3 * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * l.abs(inv_det);
+    let hit = l.m_and(candidate, l.gt(t, delta_t));
     Some(WatertightLanes {
-        hits: bits_of(hit) & lanes & !zero_edge,
+        hits: l.bits(hit) & lanes & !zero_edge,
         zero_edge,
         t,
-        b1: mul(v, inv_det),
-        b2: mul(w, inv_det),
+        b1: v * inv_det,
+        b2: w * inv_det,
     })
 }
 

@@ -572,11 +572,26 @@ impl WideBvh {
             return self.closest_with::<Portable, VecStack, F>(ray, leaf);
         }
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        match super::lanes::PacketIsa::detect() {
+            // SAFETY: the CPU supports AVX-512VL.
+            Some(super::lanes::PacketIsa::Avx512Vl) => {
+                return unsafe { self.closest_avx512(ray, leaf) }
+            }
             // SAFETY: the CPU supports AVX2.
-            return unsafe { self.closest_avx2(ray, leaf) };
+            Some(super::lanes::PacketIsa::Avx2) => return unsafe { self.closest_avx2(ray, leaf) },
+            None => {}
         }
         self.closest_with::<Portable, FixedStack, F>(ray, leaf)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    unsafe fn closest_avx512<F: FnMut(u32, u32, f32) -> Option<f32>>(
+        &self,
+        ray: &Ray,
+        leaf: F,
+    ) -> bool {
+        self.closest_with::<Avx2, FixedStack, F>(ray, leaf)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -649,11 +664,22 @@ impl WideBvh {
             return self.any_with::<Portable, VecStack, F>(ray, leaf);
         }
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        match super::lanes::PacketIsa::detect() {
+            // SAFETY: the CPU supports AVX-512VL.
+            Some(super::lanes::PacketIsa::Avx512Vl) => {
+                return unsafe { self.any_avx512(ray, leaf) }
+            }
             // SAFETY: the CPU supports AVX2.
-            return unsafe { self.any_avx2(ray, leaf) };
+            Some(super::lanes::PacketIsa::Avx2) => return unsafe { self.any_avx2(ray, leaf) },
+            None => {}
         }
         self.any_with::<Portable, FixedStack, F>(ray, leaf)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    unsafe fn any_avx512<F: FnMut(u32, u32, f32) -> bool>(&self, ray: &Ray, leaf: F) -> bool {
+        self.any_with::<Avx2, FixedStack, F>(ray, leaf)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -699,88 +725,40 @@ impl WideBvh {
 /// from them, which the entry held back for the next visit did).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
-struct PacketEntry {
-    tnear: std::arch::x86_64::__m256,
+struct PacketEntry<F> {
+    tnear: F,
     index: u32,
     count: u32,
     lanes: u32,
 }
 
+/// The slab test of `node`'s child `slot` for every lane of packet `p`
+/// within `[tmin, hi]`: which lanes meet its box, as bits, and where each
+/// enters it. The one-ray test's operations (its far planes widened by
+/// `FAR_SCALE`; a NaN distance leaves the range as it is), the near plane
+/// of each lane chosen by its direction's sign.
 #[cfg(target_arch = "x86_64")]
-impl PacketEntry {
-    /// The root, for the lanes `live`.
-    #[target_feature(enable = "avx2")]
-    fn root(live: u32) -> PacketEntry {
-        use std::arch::x86_64::_mm256_set1_ps;
-        PacketEntry {
-            tnear: _mm256_set1_ps(f32::NEG_INFINITY),
-            index: ROOT.index,
-            count: 0,
-            lanes: live,
-        }
+#[inline(always)]
+fn packet_slab_test<L: super::lanes::Lanes>(
+    p: &super::packet::RayPacket<L>,
+    node: &WideNode,
+    slot: usize,
+    hi: L::F,
+) -> (u32, L::F) {
+    let l = p.l;
+    let scale = l.splat(FAR_SCALE);
+    let (mut lo, mut hi) = (p.tmin, hi);
+    for a in 0..3 {
+        let lower = l.splat(node.bounds[2 * a][slot]);
+        let upper = l.splat(node.bounds[2 * a + 1][slot]);
+        let t_lower = (lower - p.o[a]) * p.inv[a];
+        let t_upper = (upper - p.o[a]) * p.inv[a];
+        let t0 = l.blend(t_lower, t_upper, p.neg[a]);
+        let t1 = l.blend(t_upper, t_lower, p.neg[a]) * scale;
+        lo = l.max(t0, lo);
+        hi = l.min(t1, hi);
     }
-}
-
-/// A packet's rays as the slab test of a child box wants them, in
-/// registers.
-#[cfg(target_arch = "x86_64")]
-struct PacketSlabs {
-    o: [std::arch::x86_64::__m256; 3],
-    inv: [std::arch::x86_64::__m256; 3],
-    neg: [std::arch::x86_64::__m256; 3],
-    tmin: std::arch::x86_64::__m256,
-}
-
-#[cfg(target_arch = "x86_64")]
-impl PacketSlabs {
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn new(p: &super::packet::RayPacket) -> PacketSlabs {
-        use super::packet::{load, load_mask};
-        // SAFETY: loads of the packet's aligned rows.
-        unsafe {
-            PacketSlabs {
-                o: [load(&p.o[0]), load(&p.o[1]), load(&p.o[2])],
-                inv: [load(&p.inv[0]), load(&p.inv[1]), load(&p.inv[2])],
-                neg: [
-                    load_mask(&p.neg[0]),
-                    load_mask(&p.neg[1]),
-                    load_mask(&p.neg[2]),
-                ],
-                tmin: load(&p.tmin),
-            }
-        }
-    }
-
-    /// The slab test of `node`'s child `slot` for every lane within
-    /// `[tmin, hi]`: which lanes meet its box, as bits, and where each
-    /// enters it. The one-ray test's operations (its far planes widened by
-    /// `FAR_SCALE`; a NaN distance leaves the range as it is), the near
-    /// plane of each lane chosen by its direction's sign.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn test(
-        &self,
-        node: &WideNode,
-        slot: usize,
-        hi: std::arch::x86_64::__m256,
-    ) -> (u32, std::arch::x86_64::__m256) {
-        use super::packet::bits_of;
-        use std::arch::x86_64::*;
-        let scale = _mm256_set1_ps(FAR_SCALE);
-        let (mut lo, mut hi) = (self.tmin, hi);
-        for a in 0..3 {
-            let lower = _mm256_set1_ps(node.bounds[2 * a][slot]);
-            let upper = _mm256_set1_ps(node.bounds[2 * a + 1][slot]);
-            let t_lower = _mm256_mul_ps(_mm256_sub_ps(lower, self.o[a]), self.inv[a]);
-            let t_upper = _mm256_mul_ps(_mm256_sub_ps(upper, self.o[a]), self.inv[a]);
-            let t0 = _mm256_blendv_ps(t_lower, t_upper, self.neg[a]);
-            let t1 = _mm256_mul_ps(_mm256_blendv_ps(t_upper, t_lower, self.neg[a]), scale);
-            lo = _mm256_max_ps(t0, lo);
-            hi = _mm256_min_ps(t1, hi);
-        }
-        (bits_of(_mm256_cmp_ps::<_CMP_LE_OQ>(lo, hi)), lo)
-    }
+    (l.bits(l.le(lo, hi)), lo)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -796,23 +774,24 @@ impl WideBvh {
     /// children in slot order, and `hit(prim, lanes)` tells which of the
     /// rays in `lanes` the leaf's primitive blocks. Returns the blocked
     /// lanes. Only for trees that are [`WideBvh::packet_walkable`].
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub fn any_packet<F: FnMut(usize, u32) -> u32>(
+    #[inline(always)]
+    pub fn any_packet<L: super::lanes::Lanes, F: FnMut(usize, u32) -> u32>(
         &self,
-        p: &super::packet::RayPacket,
+        p: &super::packet::RayPacket<L>,
         mut hit: F,
     ) -> u32 {
         assert!(self.fixed_stack);
         if self.nodes.is_empty() {
             return 0;
         }
-        let slabs = PacketSlabs::new(p);
-        // SAFETY: the packet's row is aligned.
-        let tmax = unsafe { super::packet::load(&p.tmax) };
-        let mut stack = FixedStack::<PacketEntry>::new();
+        let mut stack = FixedStack::<PacketEntry<L::F>>::new();
         let mut open = p.live;
-        stack.push(PacketEntry::root(p.live));
+        stack.push(PacketEntry {
+            tnear: p.l.zero(),
+            index: ROOT.index,
+            count: 0,
+            lanes: p.live,
+        });
         while let Some(e) = stack.pop() {
             let lanes = e.lanes & open;
             if lanes == 0 {
@@ -832,14 +811,14 @@ impl WideBvh {
             }
             let node = &self.nodes[e.index as usize];
             for slot in (0..8).rev() {
-                let (meets, _) = slabs.test(node, slot, tmax);
+                let (meets, _) = packet_slab_test(p, node, slot, p.tmax);
                 let meets = meets & lanes;
                 if meets == 0 {
                     continue;
                 }
                 // Pushed last to first, popped in slot order.
                 stack.push(PacketEntry {
-                    tnear: std::arch::x86_64::_mm256_setzero_ps(),
+                    tnear: p.l.zero(),
                     index: node.child[slot],
                     count: node.count[slot] as u32,
                     lanes: meets,
@@ -857,29 +836,31 @@ impl WideBvh {
     /// visited in slot order (nearest first along one lane's ray cost the
     /// Cornell box 1% more instructions). Only for trees that are
     /// [`WideBvh::packet_walkable`].
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub fn closest_packet<F: FnMut(usize, u32, &mut std::arch::x86_64::__m256)>(
+    #[inline(always)]
+    pub fn closest_packet<L: super::lanes::Lanes, F: FnMut(usize, u32, &mut L::F)>(
         &self,
-        p: &super::packet::RayPacket,
-        tmax: &mut std::arch::x86_64::__m256,
+        p: &super::packet::RayPacket<L>,
+        tmax: &mut L::F,
         mut hit: F,
     ) {
-        use super::packet::bits_of;
-        use std::arch::x86_64::*;
         assert!(self.fixed_stack);
         if self.nodes.is_empty() {
             return;
         }
-        let slabs = PacketSlabs::new(p);
-        let scale = _mm256_set1_ps(FAR_SCALE);
-        let mut stack = FixedStack::<PacketEntry>::new();
-        stack.push(PacketEntry::root(p.live));
+        let l = p.l;
+        let scale = l.splat(FAR_SCALE);
+        let mut stack = FixedStack::<PacketEntry<L::F>>::new();
+        stack.push(PacketEntry {
+            tnear: l.splat(f32::NEG_INFINITY),
+            index: ROOT.index,
+            count: 0,
+            lanes: p.live,
+        });
         while let Some(e) = stack.pop() {
             // As the one-ray walk: a box entered a rounding error beyond
             // the closest hit may still hold a hit as close.
-            let reach = _mm256_mul_ps(*tmax, scale);
-            let lanes = e.lanes & bits_of(_mm256_cmp_ps::<_CMP_LE_OQ>(e.tnear, reach));
+            let reach = *tmax * scale;
+            let lanes = e.lanes & l.bits(l.le(e.tnear, reach));
             if lanes == 0 {
                 continue;
             }
@@ -891,7 +872,7 @@ impl WideBvh {
             }
             let node = &self.nodes[e.index as usize];
             for slot in (0..8).rev() {
-                let (meets, lo) = slabs.test(node, slot, reach);
+                let (meets, lo) = packet_slab_test(p, node, slot, reach);
                 let meets = meets & lanes;
                 if meets == 0 {
                     continue;
@@ -1030,7 +1011,53 @@ mod tests {
     /// A tree and its triangles in leaf order.
     type Built = (WideBvh, Vec<[Vec3; 3]>);
 
-    fn check<T: NodeTest>(build: fn(&[[Vec3; 3]]) -> Built) {
+    /// Which walk a check runs: the node test called as is, or one of
+    /// the entry points compiled for an instruction set.
+    #[derive(Clone, Copy, Debug)]
+    enum Walk {
+        Portable,
+        #[cfg(target_arch = "x86_64")]
+        Avx2,
+        #[cfg(target_arch = "x86_64")]
+        Avx2Entry,
+        #[cfg(target_arch = "x86_64")]
+        Avx512Entry,
+    }
+
+    impl Walk {
+        fn closest<F: FnMut(u32, u32, f32) -> Option<f32>>(
+            self,
+            bvh: &WideBvh,
+            ray: &Ray,
+            leaf: F,
+        ) -> bool {
+            match self {
+                Walk::Portable => bvh.closest_with::<Portable, FixedStack, F>(ray, leaf),
+                #[cfg(target_arch = "x86_64")]
+                Walk::Avx2 => bvh.closest_with::<Avx2, FixedStack, F>(ray, leaf),
+                // SAFETY: only run where the CPU has the instructions.
+                #[cfg(target_arch = "x86_64")]
+                Walk::Avx2Entry => unsafe { bvh.closest_avx2(ray, leaf) },
+                #[cfg(target_arch = "x86_64")]
+                Walk::Avx512Entry => unsafe { bvh.closest_avx512(ray, leaf) },
+            }
+        }
+
+        fn any<F: FnMut(u32, u32, f32) -> bool>(self, bvh: &WideBvh, ray: &Ray, leaf: F) -> bool {
+            match self {
+                Walk::Portable => bvh.any_with::<Portable, FixedStack, F>(ray, leaf),
+                #[cfg(target_arch = "x86_64")]
+                Walk::Avx2 => bvh.any_with::<Avx2, FixedStack, F>(ray, leaf),
+                // SAFETY: only run where the CPU has the instructions.
+                #[cfg(target_arch = "x86_64")]
+                Walk::Avx2Entry => unsafe { bvh.any_avx2(ray, leaf) },
+                #[cfg(target_arch = "x86_64")]
+                Walk::Avx512Entry => unsafe { bvh.any_avx512(ray, leaf) },
+            }
+        }
+    }
+
+    fn check(walk: Walk, build: fn(&[[Vec3; 3]]) -> Built) {
         let tris = soup(4000);
         let (bvh, leaf) = build(&tris);
         let mut hits = 0;
@@ -1038,7 +1065,7 @@ mod tests {
             let sh = RayShear::new(ray.o, ray.d);
             let tri = |p: usize| PackedTriangle::new(leaf[p][0], leaf[p][1], leaf[p][2]);
             let mut best = None;
-            let found = bvh.closest_with::<T, FixedStack, _>(&ray, |first, count, mut tmax| {
+            let found = walk.closest(&bvh, &ray, |first, count, mut tmax| {
                 let mut found = None;
                 for p in first as usize..(first + count) as usize {
                     let t = intersect_triangle(&sh, &tri(p), ray.tmin, tmax).map(|h| h.0);
@@ -1050,12 +1077,12 @@ mod tests {
             });
             let expect = brute(&tris, &ray);
             assert_eq!(found, expect.is_some());
-            assert_eq!(best, expect, "closest hit of {ray:?}");
-            let any = bvh.any_with::<T, FixedStack, _>(&ray, |first, count, tmax| {
+            assert_eq!(best, expect, "{walk:?}: closest hit of {ray:?}");
+            let any = walk.any(&bvh, &ray, |first, count, tmax| {
                 (first as usize..(first + count) as usize)
                     .any(|p| intersect_triangle(&sh, &tri(p), ray.tmin, tmax).is_some())
             });
-            assert_eq!(any, expect.is_some(), "any hit of {ray:?}");
+            assert_eq!(any, expect.is_some(), "{walk:?}: any hit of {ray:?}");
             hits += usize::from(found);
         }
         assert!(hits > 2000, "only {hits} hits: the test would prove little");
@@ -1063,16 +1090,24 @@ mod tests {
 
     #[test]
     fn portable_traversal_finds_what_brute_force_finds() {
-        check::<Portable>(build);
-        check::<Portable>(build_collapsed);
+        check(Walk::Portable, build);
+        check(Walk::Portable, build_collapsed);
     }
 
+    /// The AVX2 node test, and the walks compiled for AVX2 and for
+    /// AVX-512VL, where the CPU has them.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn avx2_traversal_finds_what_brute_force_finds() {
         if std::arch::is_x86_feature_detected!("avx2") {
-            check::<Avx2>(build);
-            check::<Avx2>(build_collapsed);
+            for walk in [Walk::Avx2, Walk::Avx2Entry] {
+                check(walk, build);
+                check(walk, build_collapsed);
+            }
+        }
+        if super::super::lanes::PacketIsa::Avx512Vl.available() {
+            check(Walk::Avx512Entry, build);
+            check(Walk::Avx512Entry, build_collapsed);
         }
     }
 
