@@ -643,7 +643,10 @@ pub const PACKET_MAX_PRIMITIVES: usize = 1024;
 pub const LEAF_LANES: usize = 8;
 
 /// Rays in a packet: eight lanes (AVX2, or AVX-512VL's 256-bit registers).
-pub const PACKET_LANES: usize = super::lanes::MAX_LANES;
+pub const PACKET_LANES: usize = 8;
+
+#[cfg(target_arch = "x86_64")]
+const _: () = assert!(PACKET_LANES == super::lanes::MAX_LANES);
 
 impl Bvh {
     /// Whether [`Bvh::intersect_packet`] walks rays together here: a small
