@@ -163,6 +163,7 @@ pub struct Bvh {
     /// lanes ([`Bvh::leaf_triangles_lanes`]): trees built with leaves of up
     /// to eight (`WideBvh::from_bvh2`, those too big for packets), on CPUs
     /// with AVX2.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     leaf_lanes: bool,
     /// Wall time spent building.
     pub build_time: Duration,

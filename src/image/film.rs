@@ -33,6 +33,7 @@ pub struct FilmBlock {
     gaussian_4: bool,
     /// The CPU has AVX2: [`FilmBlock::put`] splats a Gaussian sample in
     /// eight lanes.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     avx2: bool,
 }
 
