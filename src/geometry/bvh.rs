@@ -345,8 +345,12 @@ impl Bvh {
                 WideBvh::from_bvh2(&bvh2, &padded, LEAF_LANES as u32)
             })
             .flatten();
-        // Its leaves' triangles are tested in lanes where it was built so.
-        let leaf_lanes = wide_leaves.is_some() && cpu_has_avx2();
+        // Its leaves' triangles are tested in lanes where it was built so
+        // and the CPU has AVX2, as the walks' choice of copy sees it.
+        #[cfg(target_arch = "x86_64")]
+        let leaf_lanes = wide_leaves.is_some() && PacketIsa::detect().is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        let leaf_lanes = false;
         let (wide, order) = wide_leaves.unwrap_or_else(|| {
             let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
             let order = bvh.primitive_indices.clone();
@@ -447,7 +451,8 @@ impl Bvh {
                 #[cfg(target_arch = "x86_64")]
                 if self.leaf_lanes && (2..=LEAF_LANES as u32).contains(&count) {
                     let sh = shear.get_or_insert_with(|| RayShear::new(o, d));
-                    // SAFETY: `leaf_lanes` is set only where the CPU has AVX2.
+                    // SAFETY: `leaf_lanes` is set only where the CPU has AVX2
+                    // (`PacketIsa::detect`).
                     let lanes = unsafe { self.leaf_triangles_lanes(first, count, sh, tmin, tmax) };
                     if let Some(lanes) = lanes {
                         let w = lanes?;
@@ -532,7 +537,8 @@ impl Bvh {
                 #[cfg(target_arch = "x86_64")]
                 if self.leaf_lanes && (2..=LEAF_LANES as u32).contains(&count) {
                     let sh = shear.get_or_insert_with(|| RayShear::new(o, d));
-                    // SAFETY: `leaf_lanes` is set only where the CPU has AVX2.
+                    // SAFETY: `leaf_lanes` is set only where the CPU has AVX2
+                    // (`PacketIsa::detect`).
                     let lanes = unsafe { self.leaf_triangles_lanes(first, count, sh, tmin, tmax) };
                     if let Some(lanes) = lanes {
                         return lanes.is_some_and(|w| w.hits != 0);
@@ -618,16 +624,6 @@ impl Bvh {
             found => Some(found),
         }
     }
-}
-
-/// Whether the CPU runs the AVX2 leaf test ([`Bvh::leaf_triangles_lanes`]).
-fn cpu_has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
 }
 
 /// Trees of at most this many primitives are walked by packets of rays
