@@ -358,6 +358,111 @@ impl Camera {
 }
 
 impl Camera {
+    /// [`Camera::generate_ray`] of each film position (pixels) and its
+    /// aperture sample, into `rays`: the same rays bit for bit. Where the
+    /// CPU has AVX2, perspective rays are made eight at a time in SIMD
+    /// lanes: each ray's two normalisations are a chain of square roots
+    /// and divisions (7% of a Veach render, 9% of the constant cube's,
+    /// one ray at a time) that the lanes run once for eight rays.
+    pub fn generate_rays(&self, films: &[Vec2], apertures: &[Vec2], rays: &mut [Ray]) {
+        assert!(films.len() == apertures.len() && films.len() == rays.len());
+        #[cfg(target_arch = "x86_64")]
+        if self.params.projection == Projection::Perspective
+            && crate::geometry::PacketIsa::detect().is_some()
+        {
+            // SAFETY: the CPU has AVX2 (`PacketIsa::detect`).
+            return unsafe { self.perspective_rays_avx2(films, apertures, rays) };
+        }
+        for ((ray, &film), &aperture) in rays.iter_mut().zip(films).zip(apertures) {
+            *ray = self.generate_ray(film, aperture);
+        }
+    }
+
+    /// [`Camera::generate_rays`] of perspective rays in AVX2 lanes: each
+    /// lane does `generate_ray`'s operations in its order (glam's
+    /// normalisation is `v * (1 / sqrt(dot(v, v)))`, its matrix product
+    /// sums the axes' terms in order); the lens points and the ray origins
+    /// behind a lens, a polygon's or a disk's sample and one matrix
+    /// product each, are computed one ray at a time.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn perspective_rays_avx2(&self, films: &[Vec2], apertures: &[Vec2], rays: &mut [Ray]) {
+        use crate::geometry::lanes::{Avx2Lanes, Lanes, MAX_LANES};
+        // SAFETY: the caller saw AVX2.
+        let l = unsafe { Avx2Lanes::new_unchecked() };
+        let p = &self.params;
+        let m = &p.to_world.m;
+        let axis = |a: crate::math::Vec4| [l.splat(a.x), l.splat(a.y), l.splat(a.z)];
+        let axes = [axis(m.x_axis), axis(m.y_axis), axis(m.z_axis)];
+        let (w, h) = (l.splat(p.width as f32), l.splat(p.height as f32));
+        let (one, two) = (l.splat(1.0), l.splat(2.0));
+        let (tan_x, inv_aspect) = (l.splat(self.tan_half_x), l.splat(self.inv_aspect));
+        let (near, far) = (l.splat(p.near_clip), l.splat(p.far_clip));
+        let lens = p.lens_radius > 0.0;
+        let focal = l.splat(p.focal_distance);
+        let chunks = films.chunks(MAX_LANES).zip(apertures.chunks(MAX_LANES));
+        for ((films, apertures), rays) in chunks.zip(rays.chunks_mut(MAX_LANES)) {
+            // Lanes beyond the rays compute a ray through (0, 0), unused.
+            let (mut fx, mut fy) = ([0.0f32; MAX_LANES], [0.0f32; MAX_LANES]);
+            for (k, f) in films.iter().enumerate() {
+                (fx[k], fy[k]) = (f.x, f.y);
+            }
+            let sx = l.load(&fx) / w;
+            let sy = l.load(&fy) / h;
+            let dx = (one - two * sx) * tan_x;
+            let dy = (one - two * sy) * tan_x * inv_aspect;
+            let mut o = [
+                l.splat(self.pinhole_origin.x),
+                l.splat(self.pinhole_origin.y),
+                l.splat(self.pinhole_origin.z),
+            ];
+            let d = if lens {
+                let (mut lx, mut ly) = ([0.0f32; MAX_LANES], [0.0f32; MAX_LANES]);
+                let mut wo = [[0.0f32; MAX_LANES]; 3];
+                for (k, &a) in apertures.iter().enumerate() {
+                    let q = self.lens_point(a);
+                    (lx[k], ly[k]) = (q.x, q.y);
+                    let at = p.to_world.point(Vec3::new(q.x, q.y, 0.0));
+                    (wo[0][k], wo[1][k], wo[2][k]) = (at.x, at.y, at.z);
+                }
+                o = [l.load(&wo[0]), l.load(&wo[1]), l.load(&wo[2])];
+                // (d * focal - (lens.x, lens.y, 0)), d.z being 1.
+                let v = [
+                    dx * focal - l.load(&lx),
+                    dy * focal - l.load(&ly),
+                    one * focal - l.zero(),
+                ];
+                normalize_lanes(l, v)
+            } else {
+                normalize_lanes(l, [dx, dy, one])
+            };
+            let inv_z = one / d[2];
+            // `Mat4::transform_vector3`: the x axis's term, plus the y
+            // axis's, plus the z axis's.
+            let [ax, ay, az] = axes;
+            let wd = [
+                ax[0] * d[0] + ay[0] * d[1] + az[0] * d[2],
+                ax[1] * d[0] + ay[1] * d[1] + az[1] * d[2],
+                ax[2] * d[0] + ay[2] * d[1] + az[2] * d[2],
+            ];
+            let wd = normalize_lanes(l, wd);
+            let fields = [
+                o[0],
+                o[1],
+                o[2],
+                wd[0],
+                wd[1],
+                wd[2],
+                near * inv_z,
+                far * inv_z,
+            ];
+            l.store_rays(fields, rays);
+        }
+    }
+
     /// Mitsuba's orthographic ray: from the near plane, along +z, over
     /// the near clip to the far one.
     fn orthographic_ray(&self, film: Vec2) -> Ray {
@@ -372,6 +477,15 @@ impl Camera {
         let d = self.params.to_world.vector(Vec3::Z).normalize();
         Ray::with_range(o, d, 0.0, self.params.far_clip - self.params.near_clip)
     }
+}
+
+/// glam's `Vec3::normalize` in lanes: `v * (1 / sqrt(dot(v, v)))`, the
+/// dot product summed x, y, z.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn normalize_lanes<L: crate::geometry::lanes::Lanes>(l: L, [x, y, z]: [L::F; 3]) -> [L::F; 3] {
+    let r = l.splat(1.0) / l.sqrt(x * x + y * y + z * z);
+    [x * r, y * r, z * r]
 }
 
 /// Uniform sample of a regular polygon inscribed in the unit circle:
@@ -488,6 +602,62 @@ mod tests {
             ..ok
         };
         assert_eq!(bad(blades), CameraParam::ApertureBlades);
+    }
+
+    /// `generate_rays` (eight at a time in lanes where the CPU has AVX2)
+    /// makes `generate_ray`'s rays bit for bit: pinhole, disk and polygon
+    /// lenses and the orthographic camera, under a rotated, scaled
+    /// `to_world`, for batches that fill their last eight lanes or not.
+    #[test]
+    fn batches_of_rays_are_the_single_rays() {
+        let to_world = Transform::new(
+            crate::math::Mat4::from_translation(Vec3::new(0.3, -1.2, 4.0))
+                * crate::math::Mat4::from_axis_angle(Vec3::new(1.0, 2.0, -0.5).normalize(), 0.7)
+                * crate::math::Mat4::from_scale(Vec3::new(-1.0, 1.3, 0.9)),
+        )
+        .unwrap();
+        let polygon = Aperture::Polygon {
+            blades: 6,
+            rotation: 0.3,
+        };
+        let mut sampler = crate::sampling::Sampler::new(7, 11);
+        for (lens_radius, aperture, projection) in [
+            (0.0, Aperture::Circular, Projection::Perspective),
+            (0.2, Aperture::Circular, Projection::Perspective),
+            (0.2, polygon, Projection::Perspective),
+            (0.0, Aperture::Circular, Projection::Orthographic),
+        ] {
+            let c = Camera::new(CameraParams {
+                width: 37,
+                height: 23,
+                fov_x_deg: 50.0,
+                near_clip: 0.01,
+                far_clip: 500.0,
+                to_world,
+                lens_radius,
+                focal_distance: 3.5,
+                aperture,
+                projection,
+                ..Default::default()
+            })
+            .unwrap();
+            for n in [1, 7, 8, 9, 16, 21] {
+                let films: Vec<Vec2> = (0..n)
+                    .map(|_| sampler.next_2d() * Vec2::new(37.0, 23.0))
+                    .collect();
+                let apertures: Vec<Vec2> = (0..n).map(|_| sampler.next_2d()).collect();
+                let mut rays = vec![Ray::new(Vec3::ZERO, Vec3::Z); n];
+                c.generate_rays(&films, &apertures, &mut rays);
+                for ((r, &f), &a) in rays.iter().zip(&films).zip(&apertures) {
+                    let one = c.generate_ray(f, a);
+                    let bits = |r: &Ray| {
+                        [r.o.to_array(), r.d.to_array(), [r.tmin, r.tmax, 0.0]]
+                            .map(|v| v.map(f32::to_bits))
+                    };
+                    assert_eq!(bits(r), bits(&one), "lens {lens_radius}, {projection:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -27,8 +27,8 @@ use crate::aov::{AovList, MAX_AOV_CHANNELS};
 use crate::color::Rgb;
 use crate::image::{Bitmap, Film, FilmBlock, Filter};
 use crate::integrator::{Integrator, PathBatch, PathConfig, BATCH_PATHS};
-use crate::math::Ray;
 use crate::math::Vec2;
+use crate::math::{Ray, Vec3};
 use crate::progress::{Progress, ProgressMode};
 use crate::sampling::{PixelStreams, Sampler, SamplerKind};
 use crate::scene::Scene;
@@ -266,18 +266,21 @@ fn trace_tile(
                 let mut sampler = streams.sampler(s);
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let aperture = sampler.next_2d();
+                if let (Some((cfg, batch)), None) = (&mut batch, &aov_streams) {
+                    // The batch makes its camera rays together.
+                    batch.push(film, aperture, sampler, None);
+                    if batch.is_full() {
+                        batch.trace_and_splat(scene, cfg, &mut block);
+                    }
+                    continue;
+                }
                 let ray = scene.camera.generate_ray(film, aperture);
                 if let Some(aov_streams) = &aov_streams {
                     let mut aov_sampler = aov_streams.sampler(s);
                     aovs.evaluate(scene, &ray, &mut aov_sampler, &mut aov_values);
                 }
                 if let Some((cfg, batch)) = &mut batch {
-                    batch.push(
-                        film,
-                        ray,
-                        sampler,
-                        aov_streams.is_some().then_some(&aov_values),
-                    );
+                    batch.push(film, aperture, sampler, Some(&aov_values));
                     if batch.is_full() {
                         batch.trace_and_splat(scene, cfg, &mut block);
                     }
@@ -318,6 +321,7 @@ thread_local! {
 #[derive(Default)]
 struct SampleBatch {
     films: Vec<Vec2>,
+    apertures: Vec<Vec2>,
     rays: Vec<Ray>,
     samplers: Vec<Sampler>,
     /// Each sample's AOV values (when the block has AOVs).
@@ -327,27 +331,34 @@ struct SampleBatch {
 }
 
 impl SampleBatch {
+    /// A sample: its film position, its aperture sample (its camera ray
+    /// is made with the batch's, [`crate::camera::Camera::generate_rays`];
+    /// a sample with AOVs made its own for them too), its sampler and its
+    /// AOVs, if the block has them.
     fn push(
         &mut self,
         film: Vec2,
-        ray: Ray,
+        aperture: Vec2,
         sampler: Sampler,
         aovs: Option<&[f32; MAX_AOV_CHANNELS]>,
     ) {
         self.films.push(film);
-        self.rays.push(ray);
+        self.apertures.push(aperture);
         self.samplers.push(sampler);
         self.aovs.extend(aovs);
     }
 
     fn is_full(&self) -> bool {
-        self.rays.len() >= BATCH_PATHS
+        self.films.len() >= BATCH_PATHS
     }
 
     /// Traces the waiting samples' paths and splats them into `block`.
     fn trace_and_splat(&mut self, scene: &Scene, cfg: &PathConfig, block: &mut FilmBlock) {
+        let n = self.films.len();
+        self.rays.resize(n, Ray::new(Vec3::ZERO, Vec3::Z));
+        (scene.camera).generate_rays(&self.films, &self.apertures, &mut self.rays);
         self.radiance.clear();
-        self.radiance.resize(self.rays.len(), Rgb::ZERO);
+        self.radiance.resize(n, Rgb::ZERO);
         (self.paths).radiance(
             scene,
             cfg,
@@ -362,6 +373,7 @@ impl SampleBatch {
             block.put_aovs(film, aovs);
         }
         self.films.clear();
+        self.apertures.clear();
         self.rays.clear();
         self.samplers.clear();
         self.aovs.clear();

@@ -88,6 +88,9 @@ pub trait Lanes: Copy {
     /// field: row `j` holds field `j` of every ray. Lanes beyond the rays
     /// (1 to [`MAX_LANES`] of them) repeat the first.
     fn rays(self, rays: &[Ray]) -> [Self::F; 8];
+    /// The inverse of [`Lanes::rays`]: rays from their eight fields' rows,
+    /// lane `k` into `rays[k]` for each of `rays` (at most eight).
+    fn store_rays(self, fields: [Self::F; 8], rays: &mut [Ray]);
 
     /// |x|.
     #[inline(always)]
@@ -344,6 +347,15 @@ macro_rules! float_ops {
         #[inline(always)]
         fn rays(self, rays: &[Ray]) -> [F8; 8] {
             unsafe { ray_fields8(rays, 0) }.map(F8)
+        }
+        #[inline(always)]
+        fn store_rays(self, fields: [F8; 8], rays: &mut [Ray]) {
+            let [a, b, c, d, e, f, g, h] = fields;
+            let each = unsafe { transpose8([a.0, b.0, c.0, d.0, e.0, f.0, g.0, h.0]) };
+            for (ray, v) in rays.iter_mut().zip(each) {
+                // SAFETY: a `Ray` is eight contiguous floats.
+                unsafe { _mm256_storeu_ps((ray as *mut Ray).cast(), v) };
+            }
         }
     };
 }

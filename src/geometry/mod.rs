@@ -6,7 +6,7 @@ mod curve;
 mod disk;
 mod instance;
 #[cfg(target_arch = "x86_64")]
-mod lanes;
+pub(crate) mod lanes;
 mod mesh;
 mod obj;
 #[cfg(target_arch = "x86_64")]
