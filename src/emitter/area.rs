@@ -90,6 +90,25 @@ impl AreaLight {
         self
     }
 
+    /// Triangle `tri` of the light's mesh from its table, if the light
+    /// has one and radiates a constant radiance: what
+    /// [`sample_triangles_lanes`](super::area_lanes::sample_triangles_lanes)
+    /// samples in lanes.
+    #[inline]
+    pub(crate) fn constant_table_triangle(&self, tri: usize) -> Option<&LightTriangle> {
+        match self.texture {
+            None => self.triangles.get(tri),
+            Some(_) => None,
+        }
+    }
+
+    /// Whether the light is a tabulated mesh of constant radiance (see
+    /// [`AreaLight::constant_table_triangle`]).
+    #[inline]
+    pub(crate) fn samples_in_lanes(&self) -> bool {
+        self.texture.is_none() && !self.triangles.is_empty()
+    }
+
     /// Triangle `tri` of the light's mesh `m`, from the table or computed.
     #[inline]
     fn triangle(&self, m: &TriangleMesh, tri: usize) -> Cow<'_, LightTriangle> {

@@ -76,6 +76,13 @@ impl LightTriangle {
             .collect()
     }
 
+    /// The normal of the emitting side where every point of the triangle
+    /// has the same one (see [`LightTriangle::table`]).
+    #[inline]
+    pub fn front_ref(&self) -> Option<&Vec3> {
+        self.front.as_ref()
+    }
+
     /// [`TriangleMesh::surface_point`] of this triangle (`tri` of `m`), the
     /// same bits.
     #[inline]

@@ -2,6 +2,7 @@
 //! reference point; `pdf` is the solid-angle density of doing so.
 
 mod area;
+mod area_lanes;
 mod constant;
 mod directional;
 mod envmap;
@@ -14,6 +15,7 @@ pub mod sky;
 mod spot;
 
 pub use area::AreaLight;
+pub use area_lanes::{sample_triangles_lanes, TriangleRequest};
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
 pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, EnvPoint, LightPdf, TexelRows};

@@ -6,7 +6,7 @@
 //! scalar routine is one chain of dependent divisions, square roots and
 //! sine and cosine polynomials, which four lanes run once.
 
-use crate::math::{gamma, sin_cos_turns_lanes, Vec2, Vec3, Vec4, PI};
+use crate::math::{gamma, sin_cos_turns_lanes, sqrt4 as sqrt, Lanes3, Vec2, Vec3, Vec4, PI};
 
 use super::{Sphere, SurfaceSample};
 
@@ -19,49 +19,6 @@ pub struct ConeSample {
     pub pdf: f32,
     pub wi: Vec3,
     pub dist: f32,
-}
-
-/// Three coordinates of four points, one vector per axis.
-#[derive(Clone, Copy)]
-struct Lanes3 {
-    x: Vec4,
-    y: Vec4,
-    z: Vec4,
-}
-
-impl Lanes3 {
-    /// Four points' coordinates in lanes, read where the points lie:
-    /// copied into an array first, they were loaded back in 16-byte
-    /// pieces across the 8- and 4-byte stores just made, which could not
-    /// be forwarded.
-    fn gather(v: [&Vec3; 4]) -> Lanes3 {
-        Lanes3 {
-            x: Vec4::from_array(v.map(|v| v.x)),
-            y: Vec4::from_array(v.map(|v| v.y)),
-            z: Vec4::from_array(v.map(|v| v.z)),
-        }
-    }
-
-    fn lane(&self, k: usize) -> Vec3 {
-        Vec3::new(self.x[k], self.y[k], self.z[k])
-    }
-
-    /// glam's `Vec3::dot(self, self)`: (x x + y y) + z z.
-    fn length_squared(&self) -> Vec4 {
-        self.x * self.x + self.y * self.y + self.z * self.z
-    }
-
-    fn map(&self, f: impl Fn(Vec4) -> Vec4) -> Lanes3 {
-        Lanes3 {
-            x: f(self.x),
-            y: f(self.y),
-            z: f(self.z),
-        }
-    }
-}
-
-fn sqrt(v: Vec4) -> Vec4 {
-    Vec4::from_array(v.to_array().map(f32::sqrt))
 }
 
 /// For each lane `k`: the cone sample of `spheres[k]` seen from `p[k]`

@@ -23,7 +23,8 @@ use super::LightNumbers;
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::color::Rgb;
 use crate::emitter::{
-    AreaLight, ConstantLight, Emitter, EmitterContext, EnvMap, EnvPoint, LightPdf, LightSample,
+    sample_triangles_lanes, AreaLight, ConstantLight, Emitter, EmitterContext, EnvMap, EnvPoint,
+    LightPdf, LightSample, TriangleRequest,
 };
 use crate::geometry::{sample_cones_lanes, Geometry, Intersection, Sphere, PACKET_LANES};
 use crate::math::{Ray, Vec2, Vec3};
@@ -378,6 +379,7 @@ impl PathBatch {
         let mut group = EnvGroup::default();
         let mut spheres = SphereGroup::default();
         let mut constants = ConstantGroup::default();
+        let mut triangles = TriangleGroup::default();
         for (j, (&k, numbers)) in self.arrived.iter().zip(&self.requests).enumerate() {
             let Some(numbers) = numbers else {
                 continue;
@@ -415,6 +417,21 @@ impl PathBatch {
                             spheres.flush(&ctx, &mut self.lights);
                         }
                     }
+                    Geometry::Mesh(mesh) if area.samples_in_lanes() => {
+                        let m = triangles.n;
+                        triangles.slot[m] = j;
+                        triangles.requests[m] = Some(TriangleRequest {
+                            light: area,
+                            mesh,
+                            p: its.p,
+                            u: numbers.u,
+                            u1,
+                        });
+                        triangles.n += 1;
+                        if triangles.n == 4 {
+                            triangles.flush(&ctx, &mut self.lights);
+                        }
+                    }
                     _ => area.sample_into(&ctx, its.p, numbers.u, u1, &mut self.lights[j]),
                 },
                 Emitter::Constant(sky) => {
@@ -441,6 +458,9 @@ impl PathBatch {
         }
         if constants.n > 0 {
             constants.flush(&ctx, &mut self.lights);
+        }
+        if triangles.n > 0 {
+            triangles.flush(&ctx, &mut self.lights);
         }
     }
 
@@ -549,6 +569,27 @@ impl SphereGroup<'_> {
                 None => area.sample_into(ctx, self.p[m], self.u[m], self.u1[m], out),
             }
         }
+        self.n = 0;
+    }
+}
+
+/// Up to four light samples of emitting meshes waiting to be drawn
+/// together ([`sample_triangles_lanes`]): where each goes in `lights`, and
+/// what it asks for.
+#[derive(Default)]
+struct TriangleGroup<'a> {
+    n: usize,
+    slot: [usize; 4],
+    requests: [Option<TriangleRequest<'a>>; 4],
+}
+
+impl TriangleGroup<'_> {
+    /// Draws the waiting samples (at least one) into their slots of
+    /// `lights`, and empties the group.
+    fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<LightSample>]) {
+        let n = self.n;
+        let requests = std::array::from_fn(|k| self.requests[k.min(n - 1)].expect("a filled lane"));
+        sample_triangles_lanes(ctx, &requests, n, &self.slot, lights);
         self.n = 0;
     }
 }

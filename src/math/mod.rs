@@ -2,6 +2,7 @@
 
 mod approx;
 mod frame;
+mod lanes3;
 mod prefetch;
 mod ray;
 mod transform;
@@ -14,6 +15,7 @@ pub use approx::{
 };
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+pub use lanes3::{sqrt4, Lanes3};
 pub use prefetch::{prefetch, prefetch_at};
 pub use ray::{barycentric_error, gamma, offset_ray_origin, Ray};
 pub use transform::Transform;
