@@ -40,7 +40,7 @@ pub use shapes::{
     cube_mesh, cylinder_mesh, disk_mesh, rectangle_mesh, sphere_mesh, ROUND_SEGMENTS,
 };
 pub use sphere::{Sphere, SphereError, SphereUv};
-pub use sphere_lanes::{sample_cones_lanes, ConeSample};
+pub use sphere_lanes::{sample_cones_lanes, ConeLanes, ConeSample};
 pub use triangle::{intersect_triangle, PackedTriangle, RayShear};
 
 use crate::math::{Aabb, Frame, Ray, Transform, Vec2, Vec3};

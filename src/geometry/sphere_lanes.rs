@@ -27,11 +27,7 @@ pub struct ConeSample {
 /// `to = s.p - p[k]` (what an area light's sample computes from it); None
 /// where the point is inside or on the sphere (no cone: the caller draws
 /// those by area, as the scalar routine does).
-pub fn sample_cones_lanes(
-    spheres: [&Sphere; 4],
-    p: [&Vec3; 4],
-    u: [Vec2; 4],
-) -> [Option<ConeSample>; 4] {
+pub fn sample_cones_lanes(spheres: [&Sphere; 4], p: [&Vec3; 4], u: [Vec2; 4]) -> ConeLanes {
     let centre = Lanes3::gather(spheres.map(|s| &s.center));
     let radius = Vec4::from_array(spheres.map(|s| s.radius));
     let at = Lanes3::gather(p);
@@ -105,21 +101,50 @@ pub fn sample_cones_lanes(
     };
     let dist = sqrt(to_point.length_squared());
     let wi = to_point.map(|c| c / dist);
-    std::array::from_fn(|k| {
-        (inside & (1 << k) == 0).then(|| ConeSample {
+    ConeLanes {
+        inside,
+        point,
+        err,
+        n,
+        pdf,
+        wi,
+        dist,
+    }
+}
+
+/// Four lanes of [`sample_cones_lanes`]: each lane's cone sample, as
+/// vectors (read lane by lane where they are used: a `ConeSample` array
+/// written lane by lane and copied out in 16-byte pieces waited for the
+/// narrower stores, which cannot be forwarded to them: half of the
+/// sphere lights' group in `perf`).
+pub struct ConeLanes {
+    /// Lanes (as bits) whose point is inside or on its sphere: no cone.
+    pub inside: u32,
+    pub point: Lanes3,
+    pub err: Lanes3,
+    pub n: Lanes3,
+    pub pdf: Vec4,
+    pub wi: Lanes3,
+    pub dist: Vec4,
+}
+
+impl ConeLanes {
+    /// Lane `k`'s sample, None where it has no cone.
+    pub fn lane(&self, k: usize) -> Option<ConeSample> {
+        (self.inside & (1 << k) == 0).then(|| ConeSample {
             s: SurfaceSample {
-                p: point.lane(k),
-                err: err.lane(k),
-                n: n.lane(k),
+                p: self.point.lane(k),
+                err: self.err.lane(k),
+                n: self.n.lane(k),
                 pdf_area: 0.0,
                 prim: 0,
                 bary: Vec2::ZERO,
             },
-            pdf: pdf[k],
-            wi: wi.lane(k),
-            dist: dist[k],
+            pdf: self.pdf[k],
+            wi: self.wi.lane(k),
+            dist: self.dist[k],
         })
-    })
+    }
 }
 
 #[cfg(test)]
@@ -187,7 +212,7 @@ mod tests {
             let lanes = sample_cones_lanes(refs, p.each_ref(), u);
             for k in 0..4 {
                 let want = scalar(&spheres[k], p[k], u[k]);
-                assert_eq!(bits(&lanes[k]), bits(&want), "round {round}, lane {k}");
+                assert_eq!(bits(&lanes.lane(k)), bits(&want), "round {round}, lane {k}");
                 compared += 1;
                 inside += usize::from(want.is_none());
             }

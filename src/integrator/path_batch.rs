@@ -561,12 +561,27 @@ impl SphereGroup<'_> {
             std::array::from_fn(|k| &self.p[k.min(n - 1)]),
             std::array::from_fn(|k| self.u[k.min(n - 1)]),
         );
-        for (m, cone) in cones.iter().enumerate().take(n) {
+        for m in 0..n {
             let area = light(m).0;
             let out = &mut lights[self.slot[m]];
-            match cone {
-                Some(c) => area.set_light_sample(ctx, &c.s, c.wi, c.dist, c.pdf, out),
-                None => area.sample_into(ctx, self.p[m], self.u[m], self.u1[m], out),
+            if cones.inside & (1 << m) != 0 {
+                area.sample_into(ctx, self.p[m], self.u[m], self.u1[m], out);
+            } else if area.texture.is_none() {
+                // `set_light_sample` of a constant radiance, written in
+                // place from the lanes.
+                let pdf = cones.pdf[m];
+                *out = Some(LightSample {
+                    wi: cones.wi.lane(m),
+                    p: cones.point.lane(m),
+                    err: cones.err.lane(m),
+                    n: cones.n.lane(m),
+                    dist: cones.dist[m],
+                    weight: area.radiance / pdf,
+                    pdf,
+                    delta: false,
+                });
+            } else if let Some(c) = cones.lane(m) {
+                area.set_light_sample(ctx, &c.s, c.wi, c.dist, c.pdf, out);
             }
         }
         self.n = 0;
