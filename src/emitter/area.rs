@@ -102,10 +102,11 @@ impl AreaLight {
         }
     }
 
-    /// Whether the light is a tabulated mesh of constant radiance (see
-    /// [`AreaLight::constant_table_triangle`]).
+    /// Whether the light is a tabulated mesh of constant radiance: what
+    /// the batch samples four at a time
+    /// ([`sample_triangles_lanes`](super::sample_triangles_lanes)).
     #[inline]
-    pub(crate) fn samples_in_lanes(&self) -> bool {
+    pub fn samples_in_lanes(&self) -> bool {
         self.texture.is_none() && !self.triangles.is_empty()
     }
 
