@@ -117,7 +117,6 @@ impl Distribution1D {
 
     /// Last cell whose cdf is <= u and whose probability is non-zero.
     fn find(&self, u: f32) -> usize {
-        let n = self.func.len();
         // partition_point: first index with cdf > u, so cell = that - 1.
         // In a short table the same index is the count of entries <= u
         // (the cdf never decreases), which takes no branch: a binary
@@ -129,8 +128,14 @@ impl Distribution1D {
         } else {
             self.cdf.partition_point(|&c| c <= u)
         };
+        self.cell_before(idx)
+    }
+
+    /// The cell ending at cdf entry `idx` (the first entry above u), or
+    /// the nearest with a non-zero probability (u exactly on a plateau).
+    fn cell_before(&self, idx: usize) -> usize {
+        let n = self.func.len();
         let mut i = idx.saturating_sub(1).min(n - 1);
-        // Never return a zero-probability cell (u exactly on a cdf plateau).
         if self.cdf[i + 1] - self.cdf[i] <= 0.0 {
             if let Some(j) = (i..n).find(|&j| self.cdf[j + 1] > self.cdf[j]) {
                 i = j;
@@ -169,16 +174,8 @@ mod tests {
                 us.extend([0.0, ONE_MINUS_EPSILON, f32::NAN]);
                 for u in us {
                     // `find` as it was, by binary search alone.
-                    let idx = d.cdf.partition_point(|&c| c <= u);
-                    let mut i = idx.saturating_sub(1).min(n - 1);
-                    if d.cdf[i + 1] - d.cdf[i] <= 0.0 {
-                        if let Some(j) = (i..n).find(|&j| d.cdf[j + 1] > d.cdf[j]) {
-                            i = j;
-                        } else if let Some(j) = (0..i).rev().find(|&j| d.cdf[j + 1] > d.cdf[j]) {
-                            i = j;
-                        }
-                    }
-                    assert_eq!(d.find(u), i, "{w:?} at {u}");
+                    let searched = d.cell_before(d.cdf.partition_point(|&c| c <= u));
+                    assert_eq!(d.find(u), searched, "{w:?} at {u}");
                 }
             }
         }
