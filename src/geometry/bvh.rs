@@ -339,9 +339,10 @@ impl Bvh {
             .then(|| {
                 // A more thorough build where it pays for itself: obvhs's
                 // most thorough preset (reinsertion over every node) on
-                // the 102k-triangle mesh renders 8% faster for 0.2 s more
-                // build on two cores; on a million triangles 3% faster for
-                // 3.4 s more, which a render must be long to win back.
+                // the 102k-triangle mesh renders 6% faster (1 thread,
+                // median of 5) for 0.2 s more build on two cores; on a
+                // million triangles 3-4% faster for 3.4 s more, which a
+                // render must be long to win back.
                 let preset = if prims.len() <= THOROUGH_BUILD_MAX_PRIMITIVES {
                     BvhBuildParams::very_slow_build()
                 } else {
