@@ -123,10 +123,12 @@ impl LightBounds {
             // Inside the bounding sphere: no direction can be excluded.
             return self.power / r2.max(f32::MIN_POSITIVE);
         }
-        let dist = d2.sqrt();
-        let w = to_p / dist;
+        // One division for the direction and the cone's sine: divisions
+        // and square roots were most of the lights' weighing.
+        let inv_dist = 1.0 / d2.sqrt();
+        let w = to_p * inv_dist;
         // Half-angle of the cone the bounding sphere subtends from p.
-        let sin_b = self.radius / dist;
+        let sin_b = self.radius * inv_dist;
         let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
         let mut factor = 1.0;
         if self.cos_theta_o > -1.0 {

@@ -32,6 +32,9 @@ pub(super) struct BoundsLanes {
     sin_o: Vec4,
     /// Lanes whose light emits within a cone (`cos_theta_o > -1`).
     cone: BVec4A,
+    /// The importance at a point inside the light's sphere, which does
+    /// not depend on the point.
+    inside_value: Vec4,
 }
 
 impl BoundsLanes {
@@ -45,12 +48,13 @@ impl BoundsLanes {
             Vec4::from_array(std::array::from_fn(|i| four.get(i).map_or(pad, f)))
         };
         let cos_o = lane(&|b| b.cos_theta_o, -1.0);
+        let (radius, power) = (lane(&|b| b.radius, 0.0), lane(&|b| b.power, 0.0));
         BoundsLanes {
             cx: lane(&|b| b.centre.x, 0.0),
             cy: lane(&|b| b.centre.y, 0.0),
             cz: lane(&|b| b.centre.z, 0.0),
-            radius: lane(&|b| b.radius, 0.0),
-            power: lane(&|b| b.power, 0.0),
+            radius,
+            power,
             ax: lane(&|b| b.axis.x, 0.0),
             ay: lane(&|b| b.axis.y, 0.0),
             az: lane(&|b| b.axis.z, 1.0),
@@ -61,6 +65,8 @@ impl BoundsLanes {
                 0.0,
             ),
             cone: cos_o.cmpgt(Vec4::splat(-1.0)),
+            // As `LightBounds::importance` computes it.
+            inside_value: power / (radius * radius).max(Vec4::splat(f32::MIN_POSITIVE)),
         }
     }
 
@@ -76,12 +82,10 @@ impl BoundsLanes {
             Vec4::splat(p.z) - self.cz,
         );
         let d2 = dot(tx, ty, tz, tx, ty, tz);
-        let r2 = self.radius * self.radius;
-        let inside = d2.cmple(r2);
-        let inside_value = self.power / r2.max(Vec4::splat(f32::MIN_POSITIVE));
-        let dist = d2.sqrt();
-        let (wx, wy, wz) = (tx / dist, ty / dist, tz / dist);
-        let sin_b = self.radius / dist;
+        let inside = d2.cmple(self.radius * self.radius);
+        let inv_dist = Vec4::ONE / d2.sqrt();
+        let (wx, wy, wz) = (tx * inv_dist, ty * inv_dist, tz * inv_dist);
+        let sin_b = self.radius * inv_dist;
         let cos_b = sqrt_of_one_minus_square(sin_b);
         // The emission cone, where the light has one.
         let cos_w = dot(self.ax, self.ay, self.az, wx, wy, wz).clamp(-one, one);
@@ -100,7 +104,7 @@ impl BoundsLanes {
             factor *= c.max(Vec4::splat(MIN_FACTOR));
         }
         let outside_value = Vec4::select(culled, zero, self.power * factor / d2);
-        let value = Vec4::select(inside, inside_value, outside_value);
+        let value = Vec4::select(inside, self.inside_value, outside_value);
         Vec4::select(self.power.cmple(zero), zero, value)
     }
 }
@@ -111,8 +115,8 @@ impl BoundsLanes {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 pub(super) struct BoundsLanes8 {
-    /// cx, cy, cz, radius, power, ax, ay, az, cos_o, sin_o.
-    rows: [[f32; 8]; 10],
+    /// cx, cy, cz, radius, power, ax, ay, az, cos_o, sin_o, inside_value.
+    rows: [[f32; 8]; 11],
     /// All ones where the light emits within a cone.
     cone: [u32; 8],
 }
@@ -145,6 +149,7 @@ impl BoundsLanes8 {
                         row(&|b| b.az),
                         row(&|b| b.cos_o),
                         row(&|b| b.sin_o),
+                        row(&|b| b.inside_value),
                     ],
                     cone: std::array::from_fn(|k| {
                         let bit = if k < 4 { cl >> k } else { ch >> (k - 4) };
@@ -193,12 +198,11 @@ impl BoundsLanes8 {
             sub(_mm256_set1_ps(p.z), cz),
         );
         let d2 = dot(tx, ty, tz, tx, ty, tz);
-        let r2 = mul(radius, radius);
-        let inside = le(d2, r2);
-        let inside_value = div(power, _mm256_max_ps(r2, _mm256_set1_ps(f32::MIN_POSITIVE)));
-        let dist = _mm256_sqrt_ps(d2);
-        let (wx, wy, wz) = (div(tx, dist), div(ty, dist), div(tz, dist));
-        let sin_b = div(radius, dist);
+        let inside = le(d2, mul(radius, radius));
+        let inside_value = row(10);
+        let inv_dist = div(one, _mm256_sqrt_ps(d2));
+        let (wx, wy, wz) = (mul(tx, inv_dist), mul(ty, inv_dist), mul(tz, inv_dist));
+        let sin_b = mul(radius, inv_dist);
         let cos_b = sqrt1m(sin_b);
         // glam's clamp: max with the low end, then min with the high end.
         let cos_w = _mm256_min_ps(
