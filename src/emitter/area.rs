@@ -96,10 +96,9 @@ impl AreaLight {
     /// samples in lanes.
     #[inline]
     pub(crate) fn constant_table_triangle(&self, tri: usize) -> Option<&LightTriangle> {
-        match self.texture {
-            None => self.triangles.get(tri),
-            Some(_) => None,
-        }
+        self.samples_in_lanes()
+            .then(|| self.triangles.get(tri))
+            .flatten()
     }
 
     /// Whether the light is a tabulated mesh of constant radiance: what

@@ -109,6 +109,19 @@ impl LightBounds {
         }
     }
 
+    /// [`LightBounds::importance`] at a point inside the bounding sphere,
+    /// where no direction can be excluded (the same everywhere there).
+    #[inline]
+    pub(super) fn inside_importance(&self) -> f32 {
+        self.power / (self.radius * self.radius).max(f32::MIN_POSITIVE)
+    }
+
+    /// sin(theta_o), from `cos_theta_o`.
+    #[inline]
+    pub(super) fn sin_theta_o(&self) -> f32 {
+        (1.0 - self.cos_theta_o * self.cos_theta_o).max(0.0).sqrt()
+    }
+
     /// An upper bound (up to a common factor) of the light this can send
     /// to a point `p` with unit normal `n` (zero: no normal, as in a
     /// medium), on either side of the surface.
@@ -118,10 +131,8 @@ impl LightBounds {
         }
         let to_p = p - self.centre;
         let d2 = to_p.length_squared();
-        let r2 = self.radius * self.radius;
-        if d2 <= r2 {
-            // Inside the bounding sphere: no direction can be excluded.
-            return self.power / r2.max(f32::MIN_POSITIVE);
+        if d2 <= self.radius * self.radius {
+            return self.inside_importance();
         }
         // One division for the direction and the cone's sine: divisions
         // and square roots were most of the lights' weighing.
@@ -138,7 +149,7 @@ impl LightBounds {
             let cos_w = self.axis.dot(w).clamp(-1.0, 1.0);
             let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
             let cos_o = self.cos_theta_o;
-            let sin_o = (1.0 - cos_o * cos_o).max(0.0).sqrt();
+            let sin_o = self.sin_theta_o();
             let (cos_x, sin_x) = if cos_w >= cos_o {
                 (1.0, 0.0)
             } else {

@@ -48,25 +48,19 @@ impl BoundsLanes {
             Vec4::from_array(std::array::from_fn(|i| four.get(i).map_or(pad, f)))
         };
         let cos_o = lane(&|b| b.cos_theta_o, -1.0);
-        let (radius, power) = (lane(&|b| b.radius, 0.0), lane(&|b| b.power, 0.0));
         BoundsLanes {
             cx: lane(&|b| b.centre.x, 0.0),
             cy: lane(&|b| b.centre.y, 0.0),
             cz: lane(&|b| b.centre.z, 0.0),
-            radius,
-            power,
+            radius: lane(&|b| b.radius, 0.0),
+            power: lane(&|b| b.power, 0.0),
             ax: lane(&|b| b.axis.x, 0.0),
             ay: lane(&|b| b.axis.y, 0.0),
             az: lane(&|b| b.axis.z, 1.0),
             cos_o,
-            // As `LightBounds::importance` computes it.
-            sin_o: lane(
-                &|b| (1.0 - b.cos_theta_o * b.cos_theta_o).max(0.0).sqrt(),
-                0.0,
-            ),
+            sin_o: lane(&LightBounds::sin_theta_o, 0.0),
             cone: cos_o.cmpgt(Vec4::splat(-1.0)),
-            // As `LightBounds::importance` computes it.
-            inside_value: power / (radius * radius).max(Vec4::splat(f32::MIN_POSITIVE)),
+            inside_value: lane(&LightBounds::inside_importance, 0.0),
         }
     }
 
