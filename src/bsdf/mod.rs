@@ -437,6 +437,9 @@ impl Bsdf {
     /// True if every lobe is a delta: NEE is pointless on it. A BSDF with
     /// both delta and smooth lobes (plastic) is not specular; its samples
     /// say which lobe they came from.
+    /// (The models answered here, inlined; the wrappers, which recurse,
+    /// out of line: a recursive whole was never inlined, a call per
+    /// bounce.)
     #[inline]
     pub fn is_specular(&self) -> bool {
         match self {
@@ -446,12 +449,25 @@ impl Bsdf {
             | Bsdf::ThinDielectric(_)
             | Bsdf::Polarizer(_)
             | Bsdf::Null => true,
+            Bsdf::TwoSided(_)
+            | Bsdf::Mask(_)
+            | Bsdf::Blend(_)
+            | Bsdf::Tilted(_)
+            | Bsdf::Textured(_) => self.is_specular_wrapper(),
+            _ => false,
+        }
+    }
+
+    /// [`Bsdf::is_specular`] of a wrapper: from what it wraps.
+    #[inline(never)]
+    fn is_specular_wrapper(&self) -> bool {
+        match self {
             Bsdf::TwoSided(b) => b.front.is_specular() && b.back.is_specular(),
             Bsdf::Mask(b) => b.nested.is_specular(),
             Bsdf::Blend(b) => b.first.is_specular() && b.second.is_specular(),
             Bsdf::Tilted(b) => b.nested.is_specular(),
             Bsdf::Textured(b) => b.base().is_specular(),
-            _ => false,
+            _ => self.is_specular(),
         }
     }
 
@@ -463,17 +479,30 @@ impl Bsdf {
     /// to the integrand. A purely glossy lobe gains too little from that
     /// to pay for the extra table reads. False where unsure (transmission,
     /// null lobes, tilted frames).
+    /// (Inlined for the models, the wrappers out of line, as
+    /// [`Bsdf::is_specular`].)
     #[inline]
     pub fn favours_facing_light(&self) -> bool {
         match self {
             Bsdf::Diffuse(_) | Bsdf::Microfacet(_) | Bsdf::Plastic(_) | Bsdf::RoughPlastic(_) => {
                 true
             }
+            Bsdf::TwoSided(_) | Bsdf::Blend(_) | Bsdf::Textured(_) => {
+                self.favours_facing_light_wrapper()
+            }
+            _ => false,
+        }
+    }
+
+    /// [`Bsdf::favours_facing_light`] of a wrapper: from what it wraps.
+    #[inline(never)]
+    fn favours_facing_light_wrapper(&self) -> bool {
+        match self {
             Bsdf::TwoSided(b) => b.front.favours_facing_light() && b.back.favours_facing_light(),
             Bsdf::Blend(b) => b.first.favours_facing_light() && b.second.favours_facing_light(),
             // The same models with textured parameters.
             Bsdf::Textured(b) => b.base().favours_facing_light(),
-            _ => false,
+            _ => self.favours_facing_light(),
         }
     }
 

@@ -502,7 +502,12 @@ impl PathState {
     /// there (its longest length).
     #[inline]
     pub fn arrive(&mut self, scene: &Scene, cfg: &PathConfig, its: &Intersection) -> bool {
-        if cfg.count_emission(self.specular) && !self.hides_emitters(cfg) {
+        // (The surface's emitter looked up here too: most surfaces have
+        // none, and the call and its arguments cost more than the test.)
+        if cfg.count_emission(self.specular)
+            && !self.hides_emitters(cfg)
+            && scene.shape_emitter[its.shape as usize].is_some()
+        {
             let mut l = self.l;
             add_area_emission(
                 scene,
