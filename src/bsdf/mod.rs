@@ -655,9 +655,20 @@ impl Bsdf {
     /// `(eval, pdf)` at once: what next-event estimation under MIS needs.
     /// The same values as the two calls; the models whose two share work
     /// (plastics, rough conductors, textured ones' lookups) do it once,
-    /// and the diffuse model, most scenes' commonest, is inlined.
+    /// and the diffuse model, most scenes' commonest, is inlined here (the
+    /// others' dispatch out of line: a call and a returned pair through
+    /// memory cost the diffuse model's estimate as much as its formula).
+    #[inline]
     pub fn eval_pdf(&self, at: impl Into<SurfacePoint>, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
-        let at = at.into();
+        match self {
+            Bsdf::Diffuse(b) => b.eval_pdf(wi, wo),
+            _ => self.eval_pdf_other(at.into(), wi, wo),
+        }
+    }
+
+    /// [`Bsdf::eval_pdf`] of the models other than the diffuse one.
+    #[inline(never)]
+    fn eval_pdf_other(&self, at: SurfacePoint, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
         match self {
             Bsdf::Diffuse(b) => b.eval_pdf(wi, wo),
             Bsdf::Plastic(b) => b.eval_pdf(wi, wo),

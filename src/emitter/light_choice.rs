@@ -395,10 +395,27 @@ impl LightChoice {
 
     /// Chooses an emitter for the shading point `at`. Returns its index,
     /// the probability of the choice and `u` rescaled to [0, 1) for reuse.
+    #[inline]
     pub fn sample(&self, at: &ChoicePoint, u: f32) -> Option<(usize, f32, f32)> {
         if u < self.p_unbounded {
+            // One light at infinity (a sky or a probe): inlined, what
+            // `sample_unbounded` and its one-cell distribution compute.
+            if let ([i], Some(_)) = (&self.unbounded[..], &self.unbounded_by_power) {
+                let u = (u / self.p_unbounded).min(ONE_MINUS_EPSILON);
+                return Some((
+                    *i as usize,
+                    self.p_unbounded,
+                    u.clamp(0.0, 1.0 - f32::EPSILON),
+                ));
+            }
             return self.sample_unbounded(u);
         }
+        self.sample_bounded(at, u)
+    }
+
+    /// [`LightChoice::sample`] where `u` chooses among the bounded lights.
+    #[inline(never)]
+    fn sample_bounded(&self, at: &ChoicePoint, u: f32) -> Option<(usize, f32, f32)> {
         let p_bounded = 1.0 - self.p_unbounded;
         let u = ((u - self.p_unbounded) / p_bounded).min(ONE_MINUS_EPSILON);
         if let Some(d) = &self.bounded_by_power {
