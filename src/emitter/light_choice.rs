@@ -372,15 +372,39 @@ impl LightChoice {
         // instructions for five to eight lights), else four.
         #[cfg(target_arch = "x86_64")]
         if !self.lanes8.is_empty() {
-            for (g, lanes) in self.lanes8.iter().enumerate() {
-                // SAFETY: `lanes8` is filled only where the CPU has AVX2.
-                keep(8 * g, &unsafe { lanes.importance(p, n) });
-            }
+            // SAFETY: `lanes8` is filled only where the CPU has AVX2.
+            unsafe { self.weigh_avx2(at) };
             return;
         }
         for (g, lanes) in self.lanes.iter().enumerate() {
             keep(4 * g, &lanes.importance(p, n).to_array());
         }
+    }
+
+    /// [`LightChoice::weigh`] eight lights at a time, compiled for AVX2 so
+    /// that the lanes' importance is inlined (a call to it spilled the
+    /// point and the sum around it): the same values kept and summed in
+    /// the same order.
+    ///
+    /// # Safety
+    /// Call only where the CPU has AVX2 (where `lanes8` is filled).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn weigh_avx2(&self, at: &mut ChoicePoint) {
+        let (p, n) = (at.p, at.n);
+        let count = self.bounded.len();
+        let mut total = at.total;
+        for (g, lanes) in self.lanes8.iter().enumerate() {
+            let values = lanes.importance(p, n);
+            let first = 8 * g;
+            for (k, &w) in (first..count).zip(&values) {
+                if let Some(slot) = at.importance.get_mut(k) {
+                    *slot = w;
+                }
+                total += w;
+            }
+        }
+        at.total = total;
     }
 
     /// Importance of bounded light `k` at `at`: kept by [`LightChoice::at`]
