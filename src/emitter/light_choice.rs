@@ -415,16 +415,8 @@ impl LightChoice {
     #[inline]
     pub fn sample(&self, at: &ChoicePoint, u: f32) -> Option<(usize, f32, f32)> {
         if u < self.p_unbounded {
-            // One light at infinity (a sky or a probe): inlined, what
-            // `sample_unbounded` and its one-cell distribution compute.
-            if let ([i], Some(_)) = (&self.unbounded[..], &self.unbounded_by_power) {
-                let u = (u / self.p_unbounded).min(ONE_MINUS_EPSILON);
-                return Some((
-                    *i as usize,
-                    self.p_unbounded,
-                    u.clamp(0.0, 1.0 - f32::EPSILON),
-                ));
-            }
+            // Inlined down to the one-cell distribution of a single light
+            // at infinity (a sky or a probe).
             return self.sample_unbounded(u);
         }
         self.sample_bounded(at, u)

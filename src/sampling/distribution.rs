@@ -93,12 +93,21 @@ impl Distribution1D {
     }
 
     /// Picks a cell; returns (index, probability, u rescaled to [0,1) within the cell).
+    ///
+    /// Inlined for the one-cell case (a scene's single sky or probe, chosen
+    /// every bounce), which is what the general case computes without the
+    /// search; the search stays out of line.
+    #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
         if self.func.len() == 1 {
-            // One cell (one light, a one-triangle mesh): what the general
-            // case computes, without the search.
             return (0, 1.0, u.clamp(0.0, 1.0 - f32::EPSILON));
         }
+        self.sample_discrete_searched(u)
+    }
+
+    /// [`Distribution1D::sample_discrete`] with more than one cell.
+    #[inline(never)]
+    fn sample_discrete_searched(&self, u: f32) -> (usize, f32, f32) {
         let (i, p) = self.sample_index(u);
         let du = if p > 0.0 {
             ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
