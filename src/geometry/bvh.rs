@@ -12,6 +12,9 @@ use obvhs::{aabb::Aabb as OAabb, Boundable, BvhBuildParams};
 
 #[cfg(target_arch = "x86_64")]
 use super::lanes::{Avx2Lanes, Avx512VlLanes, Lanes, PacketIsa, F8};
+use super::leaf_rows::LeafRows;
+#[cfg(target_arch = "x86_64")]
+use super::leaf_rows::TAG_ROW;
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 #[cfg(target_arch = "x86_64")]
 use super::triangle::{watertight_lanes, WatertightLanes};
@@ -165,6 +168,10 @@ pub struct Bvh {
     /// with AVX2.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     leaf_lanes: bool,
+    /// The leaves' triangles as the lanes read them (empty unless
+    /// `leaf_lanes`).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    leaf_rows: LeafRows,
     /// Wall time spent building.
     pub build_time: Duration,
 }
@@ -311,6 +318,7 @@ impl Bvh {
                 groups,
                 bounds,
                 leaf_lanes: false,
+                leaf_rows: LeafRows::empty(),
                 build_time: start.elapsed(),
             };
         }
@@ -371,6 +379,17 @@ impl Bvh {
         // Primitives in leaf order, so the traversal's ids index them.
         let prims: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
         let refs: Vec<PrimRef> = order.iter().map(|&i| refs[i as usize]).collect();
+        let leaf_rows = if leaf_lanes {
+            LeafRows::new(prims.len(), wide.leaves(), |i| {
+                let p = &prims[i];
+                matches!(p.kind(), PrimKind::Triangle).then(|| {
+                    let (x, y, z) = (p.xs.to_array(), p.ys.to_array(), p.zs.to_array());
+                    std::array::from_fn(|k| [x[k], y[k], z[k]])
+                })
+            })
+        } else {
+            LeafRows::empty()
+        };
         Bvh {
             bvh: Some(wide),
             prims,
@@ -383,6 +402,7 @@ impl Bvh {
             groups,
             bounds,
             leaf_lanes,
+            leaf_rows,
             build_time: start.elapsed(),
         }
     }
@@ -582,30 +602,12 @@ impl Bvh {
         tmax: f32,
     ) -> Option<Option<WatertightLanes<F8>>> {
         use std::arch::x86_64::*;
-        let (first, count) = (first as usize, count as usize);
-        let leaf = &self.prims[first..first + count];
-        // Lanes beyond the leaf repeat its last triangle and are left out.
-        let rec = |i: usize| &leaf[i.min(count - 1)];
-        // Each coordinate's four-float rows (three vertices and the tag)
-        // of triangles k and k + 4, transposed to rows of eight triangles.
-        let rows = |pick: fn(&Prim) -> Vec4| {
-            let r: [__m256; 4] = std::array::from_fn(|k| {
-                _mm256_set_m128(__m128::from(pick(rec(k + 4))), __m128::from(pick(rec(k))))
-            });
-            let t0 = _mm256_unpacklo_ps(r[0], r[1]);
-            let t1 = _mm256_unpackhi_ps(r[0], r[1]);
-            let t2 = _mm256_unpacklo_ps(r[2], r[3]);
-            let t3 = _mm256_unpackhi_ps(r[2], r[3]);
-            [
-                _mm256_shuffle_ps::<0x44>(t0, t2),
-                _mm256_shuffle_ps::<0xEE>(t0, t2),
-                _mm256_shuffle_ps::<0x44>(t1, t3),
-                _mm256_shuffle_ps::<0xEE>(t1, t3),
-            ]
-        };
-        let [x0, x1, x2, tags] = rows(|p| p.xs);
-        let [y0, y1, y2, _] = rows(|p| p.ys);
-        let [z0, z1, z2, _] = rows(|p| p.zs);
+        let leaf = self.leaf_rows.leaf(first, count);
+        let count = count as usize;
+        // SAFETY: the caller runs compiled for AVX2; every row is < ROWS.
+        let row = |r: usize| unsafe { LeafRows::load(leaf, count, r) };
+        let [x0, x1, x2, y0, y1, y2, z0, z1, z2] = std::array::from_fn(row);
+        let tags = row(TAG_ROW);
         let lanes = (1u32 << count) - 1;
         // Triangles carry a zero tag; anything else goes to the loop.
         let tagged = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(

@@ -7,6 +7,7 @@ mod disk;
 mod instance;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod lanes;
+mod leaf_rows;
 mod mesh;
 mod obj;
 #[cfg(target_arch = "x86_64")]

@@ -513,6 +513,15 @@ impl WideBvh {
         bvh
     }
 
+    /// Every leaf, as `(first, count)`: its primitives' range.
+    pub fn leaves(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        self.nodes.iter().flat_map(|n| {
+            (0..8)
+                .filter(|&slot| n.count[slot] > 0)
+                .map(|slot| (n.child[slot], u32::from(n.count[slot])))
+        })
+    }
+
     /// The number of nodes on the longest path from the root to a leaf
     /// (0 for an empty tree): what a traversal's stack must hold.
     pub fn depth(&self) -> usize {
