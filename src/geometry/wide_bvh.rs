@@ -87,6 +87,11 @@ struct SlabRay {
     inv: [f32; 3],
     /// Index into `WideNode::bounds` of the near plane along each axis.
     near: [usize; 3],
+    /// Byte offsets in `WideNode::bounds` of the near and far planes'
+    /// rows along each axis (the AVX2 test's loads; an index scaled at
+    /// every node cost two instructions a plane).
+    near_at: [usize; 3],
+    far_at: [usize; 3],
     tmin: f32,
 }
 
@@ -99,10 +104,14 @@ impl SlabRay {
         // component makes both planes' distances NaN, which the test
         // ignores, whichever plane is "near".
         let near = |a: usize| 2 * a + (ray.d[a].to_bits() >> 31) as usize;
+        let near = [near(0), near(1), near(2)];
+        const ROW: usize = std::mem::size_of::<[f32; 8]>();
         SlabRay {
             o: ray.o.to_array(),
             inv: inv.to_array(),
-            near: [near(0), near(1), near(2)],
+            near,
+            near_at: near.map(|n| n * ROW),
+            far_at: near.map(|n| (n ^ 1) * ROW),
             tmin: ray.tmin,
         }
     }
@@ -171,13 +180,14 @@ unsafe fn slab_test_avx2(node: &WideNode, r: &SlabRay, tmax: f32) -> (u32, [f32;
     let mut lo = _mm256_set1_ps(r.tmin);
     let mut hi = _mm256_set1_ps(tmax);
     let scale = _mm256_set1_ps(FAR_SCALE);
+    let rows = node.bounds.as_ptr().cast::<u8>();
     for a in 0..3 {
-        let n = r.near[a];
         let o = _mm256_set1_ps(r.o[a]);
         let inv = _mm256_set1_ps(r.inv[a]);
-        // SAFETY: the rows are 32-byte aligned arrays of eight floats.
-        let near = _mm256_load_ps(node.bounds[n].as_ptr());
-        let far = _mm256_load_ps(node.bounds[n ^ 1].as_ptr());
+        // SAFETY: the offsets are those of rows of `bounds` (`SlabRay::new`),
+        // 32-byte aligned arrays of eight floats.
+        let near = _mm256_load_ps(rows.add(r.near_at[a]).cast());
+        let far = _mm256_load_ps(rows.add(r.far_at[a]).cast());
         let t0 = _mm256_mul_ps(_mm256_sub_ps(near, o), inv);
         let t1 = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far, o), inv), scale);
         // max/min return their second operand when either is NaN: a NaN
