@@ -80,6 +80,15 @@ struct Entry {
     count: u32,
 }
 
+impl Entry {
+    /// A placeholder, overwritten before it is read.
+    const UNSET: Entry = Entry {
+        t: 0.0,
+        index: 0,
+        count: 0,
+    };
+}
+
 /// The ray as the slab test wants it: origin, reciprocal direction, which
 /// plane of each pair is met first, and the range.
 struct SlabRay {
@@ -311,7 +320,10 @@ fn push_nearest_last<S: TraversalStack>(
             b
         });
     }
-    let mut hits = [entry(first); 8];
+    // Filled from a constant (a few vector stores) rather than with the
+    // first entry eight times (24 scalar stores a visit).
+    let mut hits = [Entry::UNSET; 8];
+    hits[0] = entry(first);
     let mut n = 1;
     while mask != 0 {
         let slot = mask.trailing_zeros() as usize;
