@@ -382,10 +382,9 @@ impl Bvh {
         let leaf_rows = if leaf_lanes {
             LeafRows::new(prims.len(), wide.leaves(), |i| {
                 let p = &prims[i];
-                matches!(p.kind(), PrimKind::Triangle).then(|| {
-                    let (x, y, z) = (p.xs.to_array(), p.ys.to_array(), p.zs.to_array());
-                    std::array::from_fn(|k| [x[k], y[k], z[k]])
-                })
+                // Its records hold the three vertices by axis already.
+                matches!(p.kind(), PrimKind::Triangle)
+                    .then(|| [p.xs, p.ys, p.zs].map(|c| c.truncate().to_array()))
             })
         } else {
             LeafRows::empty()

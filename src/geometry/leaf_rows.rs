@@ -35,8 +35,9 @@ pub struct LeafRows {
 
 impl LeafRows {
     /// The rows of `leaves` (`(first, count)` each) over `n` primitives,
-    /// `triangle(i)` giving primitive `i`'s vertices, `None` if it is not a
-    /// triangle.
+    /// `triangle(i)` giving primitive `i`'s coordinates by axis (the x of
+    /// its three vertices, their y, their z: the rows' order), `None` if
+    /// it is not a triangle.
     pub fn new(
         n: usize,
         leaves: impl Iterator<Item = (u32, u32)>,
@@ -47,14 +48,12 @@ impl LeafRows {
             let (first, count) = (first as usize, count as usize);
             let block = &mut rows[ROWS * first..ROWS * (first + count)];
             for k in 0..count {
-                let Some(v) = triangle(first + k) else {
+                let Some(axes) = triangle(first + k) else {
                     block[TAG_ROW * count + k] = f32::from_bits(NOT_A_TRIANGLE);
                     continue;
                 };
-                for (vertex, xyz) in v.iter().enumerate() {
-                    for (axis, &c) in xyz.iter().enumerate() {
-                        block[(3 * axis + vertex) * count + k] = c;
-                    }
+                for (row, &c) in axes.iter().flatten().enumerate() {
+                    block[row * count + k] = c;
                 }
             }
         }
@@ -101,9 +100,15 @@ mod tests {
     #[test]
     fn rows_hold_each_leafs_triangles_and_tags() {
         // Two leaves, of two and three primitives; primitive 3 is a sphere.
+        // Primitive i's vertices: (i, 10 + i, 20 + i), (30, 30, 30) and
+        // (40, 40, 40), given by axis.
         let tri = |i: usize| {
-            let v = [i as f32, 10.0 + i as f32, 20.0 + i as f32];
-            (i != 3).then_some([v, [30.0; 3], [40.0; 3]])
+            let i = i as f32;
+            (i != 3.0).then_some([
+                [i, 30.0, 40.0],
+                [10.0 + i, 30.0, 40.0],
+                [20.0 + i, 30.0, 40.0],
+            ])
         };
         let rows = LeafRows::new(5, [(0, 2), (2, 3)].into_iter(), tri);
         let leaf = rows.leaf(2, 3);
