@@ -91,6 +91,33 @@ impl LeafRows {
         // so the eight from `row * count` are in it.
         unsafe { std::arch::x86_64::_mm256_loadu_ps(leaf.as_ptr().add(row * count)) }
     }
+
+    /// The rows of axis `axis` (0 to 2) of a leaf of `count` from
+    /// [`LeafRows::leaf`]: the coordinate of vertex 0, 1 and 2 on that
+    /// axis, in eight AVX2 lanes each. (A row a step of `count` floats from
+    /// the last: one multiply for the three.)
+    ///
+    /// # Safety
+    /// As [`LeafRows::load`], with `axis < 3`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn load_axis(
+        leaf: &[f32],
+        count: usize,
+        axis: usize,
+    ) -> [std::arch::x86_64::__m256; 3] {
+        use std::arch::x86_64::_mm256_loadu_ps;
+        debug_assert!(axis < 3 && (3 * axis + 2) * count + LEAF_LANES <= leaf.len());
+        // SAFETY: rows 3 axis to 3 axis + 2 are rows of the leaf (< ROWS).
+        unsafe {
+            let row = leaf.as_ptr().add(3 * axis * count);
+            [
+                _mm256_loadu_ps(row),
+                _mm256_loadu_ps(row.add(count)),
+                _mm256_loadu_ps(row.add(2 * count)),
+            ]
+        }
+    }
 }
 
 #[cfg(test)]

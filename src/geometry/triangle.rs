@@ -45,6 +45,11 @@ pub struct RayShear {
     rx: Vec3,
     ry: Vec3,
     rz: Vec3,
+    /// The same shear by axes ([`RayShear::axes`]): the axes (kx, ky,
+    /// kz), (sx, sy, sz) and the origin's coordinates in that order.
+    k: [u32; 3],
+    s: [f32; 3],
+    o_by_axes: [f32; 3],
 }
 
 impl RayShear {
@@ -83,7 +88,26 @@ impl RayShear {
             rx: ex - ez * sx,
             ry: ey - ez * sy,
             rz: ez * sz,
+            k: [kx as u32, ky as u32, kz as u32],
+            s: [sx, sy, sz],
+            o_by_axes: [o[kx], o[ky], o[kz]],
         }
+    }
+
+    /// The shear by axes: `([kx, ky, kz], [sx, sy, sz], [o[kx], o[ky],
+    /// o[kz]])`: `x' = p[kx] - sx p[kz]`, `y' = p[ky] - sy p[kz]`,
+    /// `z' = sz p[kz]` for `p` relative to the origin `o`. The rows' products and
+    /// sums without their zero terms: the same values, where they are not
+    /// zero (see `AxisShear`, the leaf test that uses it).
+    #[inline]
+    pub fn axes(&self) -> ([usize; 3], [f32; 3], [f32; 3]) {
+        // (No `map`: its closure stayed out of line in the AVX2 walks.)
+        let [kx, ky, kz] = self.k;
+        (
+            [kx as usize, ky as usize, kz as usize],
+            self.s,
+            self.o_by_axes,
+        )
     }
 
     /// The shear's rows (x', y', z' of a point relative to the origin).
@@ -106,7 +130,7 @@ pub fn intersect_triangle(
     tmin: f32,
     tmax: f32,
 ) -> Option<(f32, f32, f32)> {
-    let RayShear { o, rx, ry, rz } = *shear;
+    let RayShear { o, rx, ry, rz, .. } = *shear;
     // The vertices relative to the origin, three at a time: (a, b, c).
     let x = tri.xs - Vec3A::splat(o.x);
     let y = tri.ys - Vec3A::splat(o.y);
@@ -194,7 +218,14 @@ pub fn intersect_triangle_lanes<L: Lanes, const ANY_HIT: bool>(
         t,
         b1,
         b2,
-    }) = watertight_lanes(l, p.o, p.shear, vertices, p.tmin, tmax, lanes)
+    }) = watertight_lanes(
+        l,
+        &RowShear { o: p.o, r: p.shear },
+        vertices,
+        p.tmin,
+        tmax,
+        lanes,
+    )
     else {
         return (0, zero, zero, zero);
     };
@@ -233,37 +264,114 @@ pub struct WatertightLanes<F> {
     pub b2: F,
 }
 
+/// How [`watertight_lanes`] takes a triangle's vertices into its ray's
+/// sheared frame: x' and y' first, for the edge functions, and what z'
+/// needs kept until then (the test computes z' only for lanes still in the
+/// running).
+#[cfg(target_arch = "x86_64")]
+pub trait ShearLanes<F> {
+    type Kept: Copy;
+    /// x' and y' of the vertex `v`, and what z' needs of it.
+    fn xy(&self, v: [F; 3]) -> (F, F, Self::Kept);
+    /// z' of the vertex `xy` kept this of.
+    fn z(&self, kept: Self::Kept) -> F;
+}
+
+/// Each lane its own ray: the lanes' origins `o` and the rows `r` of their
+/// shears ([`RayShear`]'s rows, lane by lane: a packet's rays), applied
+/// with every product, as [`intersect_triangle`] does.
+#[cfg(target_arch = "x86_64")]
+pub struct RowShear<F> {
+    pub o: [F; 3],
+    pub r: [F; 9],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<
+        F: Copy + std::ops::Add<Output = F> + std::ops::Sub<Output = F> + std::ops::Mul<Output = F>,
+    > RowShear<F>
+{
+    #[inline(always)]
+    fn row(&self, [x, y, z]: [F; 3], k: usize) -> F {
+        x * self.r[k] + y * self.r[k + 1] + z * self.r[k + 2]
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<
+        F: Copy + std::ops::Add<Output = F> + std::ops::Sub<Output = F> + std::ops::Mul<Output = F>,
+    > ShearLanes<F> for RowShear<F>
+{
+    /// The vertex relative to the origin.
+    type Kept = [F; 3];
+
+    #[inline(always)]
+    fn xy(&self, [vx, vy, vz]: [F; 3]) -> (F, F, [F; 3]) {
+        let rel = [vx - self.o[0], vy - self.o[1], vz - self.o[2]];
+        (self.row(rel, 0), self.row(rel, 3), rel)
+    }
+
+    #[inline(always)]
+    fn z(&self, rel: [F; 3]) -> F {
+        self.row(rel, 6)
+    }
+}
+
+/// One ray in every lane ([`RayShear::axes`]): the vertices come with
+/// their coordinates in the ray's axis order (kx, ky, kz), as do the
+/// origin `o`, and `s` is (sx, sy, sz). x' = x - sx z, y' = y - sy z,
+/// z' = sz z: [`RowShear`]'s products and sums without the terms whose
+/// row entry is zero, each left out term a zero added to the rest, so
+/// every value is the same wherever it is not zero, and a zero's sign
+/// changes nothing the test finds: an edge function of either zero sends
+/// its lane to the scalar test, and a depth of either zero is no hit.
+/// Eight operations a vertex instead of eighteen, and one vector kept for
+/// z' instead of three.
+#[cfg(target_arch = "x86_64")]
+pub struct AxisShear<F> {
+    pub o: [F; 3],
+    pub s: [F; 3],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl<F: Copy + std::ops::Sub<Output = F> + std::ops::Mul<Output = F>> ShearLanes<F>
+    for AxisShear<F>
+{
+    /// The vertex's z relative to the origin.
+    type Kept = F;
+
+    #[inline(always)]
+    fn xy(&self, [vx, vy, vz]: [F; 3]) -> (F, F, F) {
+        let z = vz - self.o[2];
+        let [sx, sy, _] = self.s;
+        ((vx - self.o[0]) - sx * z, (vy - self.o[1]) - sy * z, z)
+    }
+
+    #[inline(always)]
+    fn z(&self, z: F) -> F {
+        self.s[2] * z
+    }
+}
+
 /// [`intersect_triangle`]'s operations in SIMD lanes, each lane a ray
-/// (origin `o`, shear rows `r`, range `tmin`..`tmax`) and a triangle
-/// (vertices `v`): a packet's rays against one triangle splat in every
-/// lane, or one ray splat against a leaf's triangles. `None` where no
-/// lane of `lanes` can hit (the scalar test's early `None`s, as masks).
+/// (its shear `shear`, range `tmin`..`tmax`) and a triangle (vertices
+/// `v`): a packet's rays against one triangle splat in every lane
+/// ([`RowShear`]), or one ray splat against a leaf's triangles
+/// ([`AxisShear`]). `None` where no lane of `lanes` can hit (the scalar
+/// test's early `None`s, as masks).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub fn watertight_lanes<L: Lanes>(
+pub fn watertight_lanes<L: Lanes, S: ShearLanes<L::F>>(
     l: L,
-    o: [L::F; 3],
-    r: [L::F; 9],
+    shear: &S,
     v: [[L::F; 3]; 3],
     tmin: L::F,
     tmax: L::F,
     lanes: u32,
 ) -> Option<WatertightLanes<L::F>> {
-    // The vertices relative to the origins; a sheared row of one of them
-    // (`row(v, k)`: row k / 3 of the shear): x' and y' first, for the
-    // edge functions; z' only for lanes still in the running.
-    #[inline(always)]
-    fn relative<F: Copy + std::ops::Sub<Output = F>>([vx, vy, vz]: [F; 3], o: [F; 3]) -> [F; 3] {
-        [vx - o[0], vy - o[1], vz - o[2]]
-    }
-    #[inline(always)]
-    fn row<L: Lanes>([x, y, z]: [L::F; 3], r: &[L::F; 9], k: usize) -> L::F {
-        x * r[k] + y * r[k + 1] + z * r[k + 2]
-    }
-    let (ra, rb, rc) = (relative(v[0], o), relative(v[1], o), relative(v[2], o));
-    let (xa, ya) = (row::<L>(ra, &r, 0), row::<L>(ra, &r, 3));
-    let (xb, yb) = (row::<L>(rb, &r, 0), row::<L>(rb, &r, 3));
-    let (xc, yc) = (row::<L>(rc, &r, 0), row::<L>(rc, &r, 3));
+    let (xa, ya, ka) = shear.xy(v[0]);
+    let (xb, yb, kb) = shear.xy(v[1]);
+    let (xc, yc, kc) = shear.xy(v[2]);
     // `yt.cross(xt)`'s products and differences.
     let u = yb * xc - xb * yc;
     let v = yc * xa - xc * ya;
@@ -280,11 +388,7 @@ pub fn watertight_lanes<L: Lanes>(
     if !l.bits(outside) & lanes == 0 && zero_edge == 0 {
         return None;
     }
-    let (za, zb, zc) = (
-        row::<L>(ra, &r, 6),
-        row::<L>(rb, &r, 6),
-        row::<L>(rc, &r, 6),
-    );
+    let (za, zb, zc) = (shear.z(ka), shear.z(kb), shear.z(kc));
     let det = u + v + w;
     let t_scaled = u * za + v * zb + w * zc;
     let inv_det = l.splat(1.0) / det;
