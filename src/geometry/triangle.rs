@@ -273,7 +273,7 @@ pub trait ShearLanes<F> {
     type Kept: Copy;
     /// x' and y' of the vertex `v`, and what z' needs of it.
     fn xy(&self, v: [F; 3]) -> (F, F, Self::Kept);
-    /// z' of the vertex `xy` kept this of.
+    /// z' of a vertex, from what [`ShearLanes::xy`] kept of it.
     fn z(&self, kept: Self::Kept) -> F;
 }
 
