@@ -33,8 +33,8 @@ pub struct RayPacket<'a, L: Lanes> {
     pub tmin: L::F,
     pub tmax: L::F,
     /// The rows of each ray's triangle shear
-    /// ([`RayShear::rows`](super::triangle::RayShear::rows)): row `3 r + c`
-    /// is component `c` of row `r`.
+    /// ([`RayShear::axes`](super::triangle::RayShear::axes) as a matrix,
+    /// `RowShear`): row `3 r + c` is component `c` of row `r`.
     pub shear: [L::F; 9],
     /// The rays, for the primitives tested one ray at a time.
     pub rays: &'a [Ray],
@@ -72,7 +72,7 @@ impl<'a, L: Lanes> RayPacket<'a, L> {
     }
 }
 
-/// [`RayShear::new`](super::triangle::RayShear::new)'s rows for a
+/// [`RayShear::new`](super::triangle::RayShear::new)'s shear, as rows, for a
 /// register of directions, by its operations: the dominant axis kz (ties
 /// as its comparisons break them), kx and ky after it (swapped where
 /// d[kz] < 0), then `e_kx - e_kz sx`, `e_ky - e_kz sy` and `e_kz sz` with

@@ -33,20 +33,11 @@ impl PackedTriangle {
     }
 }
 
-/// Per-ray precomputation for the watertight test: the ray origin and the
-/// axis permutation and shear that map the ray direction onto +z, written
-/// as a matrix (each row has one 1 or sz and at most one shear factor, so
-/// its products with vertex coordinates round exactly as Woop et al.'s
-/// permuted form does).
+/// Per-ray precomputation for the watertight test: the axis permutation
+/// and shear that map the ray direction onto +z (Woop et al.'s kx, ky, kz
+/// and sx, sy, sz), and the origin's coordinates in that axis order.
 #[derive(Clone, Copy, Debug)]
 pub struct RayShear {
-    o: Vec3,
-    /// Rows of the shear: x' = rx . p, y' = ry . p, z' = rz . p.
-    rx: Vec3,
-    ry: Vec3,
-    rz: Vec3,
-    /// The same shear by axes ([`RayShear::axes`]): the axes (kx, ky,
-    /// kz), (sx, sy, sz) and the origin's coordinates in that order.
     k: [u32; 3],
     s: [f32; 3],
     o_by_axes: [f32; 3],
@@ -73,32 +64,23 @@ impl RayShear {
             _ => (0, 1),
         };
         let (kx, ky) = if d[kz] < 0.0 { (ky, kx) } else { (kx, ky) };
-        let unit = |k: usize| match k {
-            0 => Vec3::X,
-            1 => Vec3::Y,
-            _ => Vec3::Z,
-        };
         let dz = d[kz];
-        let (sx, sy, sz) = (d[kx] / dz, d[ky] / dz, 1.0 / dz);
-        // Each row has a 1 (or sz) and at most one shear factor: the
-        // subtractions below are exact.
-        let (ex, ey, ez) = (unit(kx), unit(ky), unit(kz));
         RayShear {
-            o,
-            rx: ex - ez * sx,
-            ry: ey - ez * sy,
-            rz: ez * sz,
             k: [kx as u32, ky as u32, kz as u32],
-            s: [sx, sy, sz],
+            s: [d[kx] / dz, d[ky] / dz, 1.0 / dz],
             o_by_axes: [o[kx], o[ky], o[kz]],
         }
     }
 
     /// The shear by axes: `([kx, ky, kz], [sx, sy, sz], [o[kx], o[ky],
     /// o[kz]])`: `x' = p[kx] - sx p[kz]`, `y' = p[ky] - sy p[kz]`,
-    /// `z' = sz p[kz]` for `p` relative to the origin `o`. The rows' products and
-    /// sums without their zero terms: the same values, where they are not
-    /// zero (see `AxisShear`, the leaf test that uses it).
+    /// `z' = sz p[kz]` for `p` relative to the origin `o`.
+    ///
+    /// The same values, where they are not zero, as the matrix whose rows
+    /// are `e_kx - e_kz sx`, `e_ky - e_kz sy` and `e_kz sz` (a packet's
+    /// shear, `RowShear`): every term that form adds beside these is a
+    /// coordinate times an exact zero, and each row entry is exact. A
+    /// zero may differ in sign; no test's outcome depends on it.
     #[inline]
     pub fn axes(&self) -> ([usize; 3], [f32; 3], [f32; 3]) {
         // (No `map`: its closure stayed out of line in the AVX2 walks.)
@@ -108,16 +90,6 @@ impl RayShear {
             self.s,
             self.o_by_axes,
         )
-    }
-
-    /// The shear's rows (x', y', z' of a point relative to the origin).
-    pub fn rows(&self) -> [Vec3; 3] {
-        [self.rx, self.ry, self.rz]
-    }
-
-    /// The ray's origin.
-    pub fn origin(&self) -> Vec3 {
-        self.o
     }
 }
 
@@ -130,15 +102,17 @@ pub fn intersect_triangle(
     tmin: f32,
     tmax: f32,
 ) -> Option<(f32, f32, f32)> {
-    let RayShear { o, rx, ry, rz, .. } = *shear;
-    // The vertices relative to the origin, three at a time: (a, b, c).
-    let x = tri.xs - Vec3A::splat(o.x);
-    let y = tri.ys - Vec3A::splat(o.y);
-    let z = tri.zs - Vec3A::splat(o.z);
+    let ([kx, ky, kz], [sx, sy, sz], [ox, oy, oz]) = shear.axes();
+    // The vertices' coordinates in the ray's axis order, relative to the
+    // origin, three vertices at a time: (a, b, c).
+    let coords = [tri.xs, tri.ys, tri.zs];
+    let x = coords[kx] - Vec3A::splat(ox);
+    let y = coords[ky] - Vec3A::splat(oy);
+    let z = coords[kz] - Vec3A::splat(oz);
     // Sheared: xt = (ax, bx, cx), yt = (ay, by, cy), zt = (az, bz, cz).
-    let xt = x * rx.x + y * rx.y + z * rx.z;
-    let yt = x * ry.x + y * ry.y + z * ry.z;
-    let zt = x * rz.x + y * rz.y + z * rz.z;
+    let xt = x - z * sx;
+    let yt = y - z * sy;
+    let zt = z * sz;
     // Edge functions (u, v, w) = (cx by - cy bx, ax cy - ay cx, bx ay - by ax).
     let e = yt.cross(xt);
     let (mut u, mut v, mut w) = (e.x, e.y, e.z);
@@ -278,8 +252,9 @@ pub trait ShearLanes<F> {
 }
 
 /// Each lane its own ray: the lanes' origins `o` and the rows `r` of their
-/// shears ([`RayShear`]'s rows, lane by lane: a packet's rays), applied
-/// with every product, as [`intersect_triangle`] does.
+/// shears (a packet's rays, whose axis orders differ from lane to lane),
+/// `e_kx - e_kz sx`, `e_ky - e_kz sy` and `e_kz sz` applied with every
+/// product: [`RayShear::axes`]'s values wherever they are not zero.
 #[cfg(target_arch = "x86_64")]
 pub struct RowShear<F> {
     pub o: [F; 3],
@@ -317,16 +292,16 @@ impl<
     }
 }
 
-/// One ray in every lane ([`RayShear::axes`]): the vertices come with
-/// their coordinates in the ray's axis order (kx, ky, kz), as do the
-/// origin `o`, and `s` is (sx, sy, sz). x' = x - sx z, y' = y - sy z,
-/// z' = sz z: [`RowShear`]'s products and sums without the terms whose
-/// row entry is zero, each left out term a zero added to the rest, so
-/// every value is the same wherever it is not zero, and a zero's sign
-/// changes nothing the test finds: an edge function of either zero sends
-/// its lane to the scalar test, and a depth of either zero is no hit.
-/// Eight operations a vertex instead of eighteen, and one vector kept for
-/// z' instead of three.
+/// One ray in every lane ([`RayShear::axes`], as [`intersect_triangle`]
+/// applies it): the vertices come with their coordinates in the ray's
+/// axis order (kx, ky, kz), as do the origin `o`, and `s` is (sx, sy,
+/// sz). x' = x - sx z, y' = y - sy z, z' = sz z: [`RowShear`]'s products
+/// and sums without the terms whose row entry is zero, each left out term
+/// a zero added to the rest, so every value is the same wherever it is
+/// not zero, and a zero's sign changes nothing the test finds: an edge
+/// function of either zero sends its lane to the scalar test, and a depth
+/// of either zero is no hit. Eight operations a vertex instead of
+/// eighteen, and one vector kept for z' instead of three.
 #[cfg(target_arch = "x86_64")]
 pub struct AxisShear<F> {
     pub o: [F; 3],
