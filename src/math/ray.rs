@@ -78,7 +78,9 @@ fn offset_ray_origin_scalar(p: Vec3, err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 #[inline]
 unsafe fn offset_ray_origin_sse2(p: Vec3, err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     use std::arch::x86_64::*;
-    let lanes = |v: Vec3| _mm_set_ps(0.0, v.z, v.y, v.x);
+    // (glam's `Vec3A` is an `__m128`; its fourth lane, which no result
+    // reads, repeats z.)
+    let lanes = |v: Vec3| __m128::from(glam::Vec3A::from(v));
     let (p4, err4, n4, w4) = (lanes(p), lanes(err), lanes(n), lanes(w));
     // x + y, then + z, in lane 0.
     let sum3 = |a: __m128| {
@@ -95,9 +97,7 @@ unsafe fn offset_ray_origin_sse2(p: Vec3, err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
         _mm_shuffle_ps::<0>(behind, behind),
     );
     let r = step_away_lanes(_mm_add_ps(p4, offset), offset);
-    let mut out = [0.0f32; 4];
-    _mm_storeu_ps(out.as_mut_ptr(), r);
-    Vec3::new(out[0], out[1], out[2])
+    Vec3::from(glam::Vec3A::from(r))
 }
 
 /// [`step_away_lanes`] on vectors (what the tests compare with
@@ -106,14 +106,10 @@ unsafe fn offset_ray_origin_sse2(p: Vec3, err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 fn step_away(v: Vec3, o: Vec3) -> Vec3 {
     #[cfg(target_arch = "x86_64")]
     {
-        use std::arch::x86_64::*;
+        let lanes = |v: Vec3| glam::Vec3A::from(v).into();
         // SAFETY: SSE2 is part of x86-64.
-        unsafe {
-            let lanes = |v: Vec3| _mm_set_ps(0.0, v.z, v.y, v.x);
-            let mut out = [0.0f32; 4];
-            _mm_storeu_ps(out.as_mut_ptr(), step_away_lanes(lanes(v), lanes(o)));
-            Vec3::new(out[0], out[1], out[2])
-        }
+        let r = unsafe { step_away_lanes(lanes(v), lanes(o)) };
+        Vec3::from(glam::Vec3A::from(r))
     }
     #[cfg(not(target_arch = "x86_64"))]
     step_away_scalar(v, o)
