@@ -99,7 +99,9 @@ struct SlabRay {
     /// Byte offsets in `WideNode::bounds` of the near and far planes'
     /// rows along each axis (the AVX2 test's loads; an index scaled at
     /// every node cost two instructions a plane).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     near_at: [usize; 3],
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     far_at: [usize; 3],
     tmin: f32,
 }
