@@ -105,14 +105,15 @@ pub fn intersect_triangle(
     let ([kx, ky, kz], [sx, sy, sz], [ox, oy, oz]) = shear.axes();
     // The vertices' coordinates in the ray's axis order, relative to the
     // origin, three vertices at a time: (a, b, c).
+    // Sheared as a leaf's lanes shear them ([`AxisShear`]): xt = (ax, bx,
+    // cx), yt = (ay, by, cy), zt = (az, bz, cz).
     let coords = [tri.xs, tri.ys, tri.zs];
-    let x = coords[kx] - Vec3A::splat(ox);
-    let y = coords[ky] - Vec3A::splat(oy);
-    let z = coords[kz] - Vec3A::splat(oz);
-    // Sheared: xt = (ax, bx, cx), yt = (ay, by, cy), zt = (az, bz, cz).
-    let xt = x - z * sx;
-    let yt = y - z * sy;
-    let zt = z * sz;
+    let shear = AxisShear {
+        o: [ox, oy, oz].map(Vec3A::splat),
+        s: [sx, sy, sz].map(Vec3A::splat),
+    };
+    let (xt, yt, z) = shear.xy([coords[kx], coords[ky], coords[kz]]);
+    let zt = shear.z(z);
     // Edge functions (u, v, w) = (cx by - cy bx, ax cy - ay cx, bx ay - by ax).
     let e = yt.cross(xt);
     let (mut u, mut v, mut w) = (e.x, e.y, e.z);
@@ -242,7 +243,6 @@ pub struct WatertightLanes<F> {
 /// sheared frame: x' and y' first, for the edge functions, and what z'
 /// needs kept until then (the test computes z' only for lanes still in the
 /// running).
-#[cfg(target_arch = "x86_64")]
 pub trait ShearLanes<F> {
     type Kept: Copy;
     /// x' and y' of the vertex `v`, and what z' needs of it.
@@ -292,23 +292,21 @@ impl<
     }
 }
 
-/// One ray in every lane ([`RayShear::axes`], as [`intersect_triangle`]
-/// applies it): the vertices come with their coordinates in the ray's
-/// axis order (kx, ky, kz), as do the origin `o`, and `s` is (sx, sy,
-/// sz). x' = x - sx z, y' = y - sy z, z' = sz z: [`RowShear`]'s products
+/// One ray in every lane ([`RayShear::axes`]; [`intersect_triangle`]
+/// shears with it too, a triangle's three vertices to a `Vec3A`): the
+/// vertices come with their coordinates in the ray's axis order (kx, ky,
+/// kz), as do the origin `o`, and `s` is (sx, sy, sz). x' = x - sx z, y' = y - sy z, z' = sz z: [`RowShear`]'s products
 /// and sums without the terms whose row entry is zero, each left out term
 /// a zero added to the rest, so every value is the same wherever it is
 /// not zero, and a zero's sign changes nothing the test finds: an edge
 /// function of either zero sends its lane to the scalar test, and a depth
 /// of either zero is no hit. Eight operations a vertex instead of
 /// eighteen, and one vector kept for z' instead of three.
-#[cfg(target_arch = "x86_64")]
 pub struct AxisShear<F> {
     pub o: [F; 3],
     pub s: [F; 3],
 }
 
-#[cfg(target_arch = "x86_64")]
 impl<F: Copy + std::ops::Sub<Output = F> + std::ops::Mul<Output = F>> ShearLanes<F>
     for AxisShear<F>
 {
