@@ -267,7 +267,7 @@ fn trace_tile(
                 let aperture = sampler.next_2d();
                 if let (Some((cfg, batch)), None) = (&mut batch, &aov_streams) {
                     // The batch makes its camera rays together.
-                    batch.push(film, aperture, sampler, None);
+                    batch.push(film, aperture, sampler);
                     if batch.is_full() {
                         batch.trace_and_splat(scene, cfg, &mut block);
                     }
@@ -279,7 +279,7 @@ fn trace_tile(
                     aovs.evaluate(scene, &ray, &mut aov_sampler, &mut aov_values);
                 }
                 if let Some((cfg, batch)) = &mut batch {
-                    batch.push(film, aperture, sampler, Some(&aov_values));
+                    batch.push_traced_for_aovs(film, sampler, ray, &aov_values);
                     if batch.is_full() {
                         batch.trace_and_splat(scene, cfg, &mut block);
                     }
@@ -331,20 +331,34 @@ struct SampleBatch {
 
 impl SampleBatch {
     /// A sample: its film position, its aperture sample (its camera ray
-    /// is made with the batch's, [`crate::camera::Camera::generate_rays`];
-    /// a sample with AOVs made its own for them too), its sampler and its
-    /// AOVs, if the block has them.
-    fn push(
-        &mut self,
-        film: Vec2,
-        aperture: Vec2,
-        sampler: Sampler,
-        aovs: Option<&[f32; MAX_AOV_CHANNELS]>,
-    ) {
+    /// is made with the batch's, [`crate::camera::Camera::generate_rays`])
+    /// and its sampler.
+    fn push(&mut self, film: Vec2, aperture: Vec2, sampler: Sampler) {
+        debug_assert!(
+            self.rays.is_empty(),
+            "a batch's samples all come with rays or none"
+        );
         self.films.push(film);
         self.apertures.push(aperture);
         self.samplers.push(sampler);
-        self.aovs.extend(aovs);
+    }
+
+    /// A sample of a block with AOVs: its film position, its sampler, the
+    /// camera ray its AOVs were evaluated on, which the batch traces
+    /// rather than make it again (`generate_rays` makes the same rays bit
+    /// for bit), and its AOV values.
+    fn push_traced_for_aovs(
+        &mut self,
+        film: Vec2,
+        sampler: Sampler,
+        ray: Ray,
+        aovs: &[f32; MAX_AOV_CHANNELS],
+    ) {
+        debug_assert!(self.rays.len() == self.films.len());
+        self.films.push(film);
+        self.samplers.push(sampler);
+        self.rays.push(ray);
+        self.aovs.push(*aovs);
     }
 
     fn is_full(&self) -> bool {
@@ -354,8 +368,11 @@ impl SampleBatch {
     /// Traces the waiting samples' paths and splats them into `block`.
     fn trace_and_splat(&mut self, scene: &Scene, cfg: &PathConfig, block: &mut FilmBlock) {
         let n = self.films.len();
-        self.rays.resize(n, Ray::new(Vec3::ZERO, Vec3::Z));
-        (scene.camera).generate_rays(&self.films, &self.apertures, &mut self.rays);
+        if self.rays.len() != n {
+            // Samples without AOVs come without rays: made here together.
+            self.rays.resize(n, Ray::new(Vec3::ZERO, Vec3::Z));
+            (scene.camera).generate_rays(&self.films, &self.apertures, &mut self.rays);
+        }
         self.radiance.clear();
         self.radiance.resize(n, Rgb::ZERO);
         (self.paths).radiance(
