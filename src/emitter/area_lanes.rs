@@ -26,16 +26,21 @@ pub struct TriangleRequest<'a> {
     pub u1: f32,
 }
 
-/// [`AreaLight::sample_into`] of each of `requests` (1 to 4; lanes beyond
-/// them repeat the last and are dropped) into `lights[slots[k]]`.
+/// [`AreaLight::sample_into`] of each of the first `n` of `requests` (1 to
+/// 4, each `Some`; lanes beyond them repeat the last and are dropped) into
+/// `lights[slots[k]]`.
 pub fn sample_triangles_lanes(
     ctx: &EmitterContext,
-    requests: &[TriangleRequest; 4],
+    requests: &[Option<TriangleRequest>; 4],
     n: usize,
     slots: &[usize; 4],
     lights: &mut [Option<LightSample>],
 ) {
-    let r: [&TriangleRequest; 4] = std::array::from_fn(|k| &requests[k.min(n - 1)]);
+    let r: [&TriangleRequest; 4] = std::array::from_fn(|k| {
+        requests[k.min(n - 1)]
+            .as_ref()
+            .expect("the first n requests are filled")
+    });
     // The triangles, chosen one lane at a time.
     let tri = r.map(|r| r.mesh.choose_triangle(r.u1).0);
     let t = std::array::from_fn::<_, 4, _>(|k| {
@@ -192,7 +197,7 @@ mod tests {
                 }
             });
             let mut got = [None; 4];
-            sample_triangles_lanes(&ctx, &requests, n, &[0, 1, 2, 3], &mut got);
+            sample_triangles_lanes(&ctx, &requests.map(Some), n, &[0, 1, 2, 3], &mut got);
             for (k, r) in requests.iter().enumerate().take(n) {
                 let mut want = None;
                 r.light.sample_into(&ctx, r.p, r.u, r.u1, &mut want);

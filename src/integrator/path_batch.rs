@@ -602,9 +602,7 @@ impl TriangleGroup<'_> {
     /// Draws the waiting samples (at least one) into their slots of
     /// `lights`, and empties the group.
     fn flush(&mut self, ctx: &EmitterContext, lights: &mut [Option<LightSample>]) {
-        let n = self.n;
-        let requests = std::array::from_fn(|k| self.requests[k.min(n - 1)].expect("a filled lane"));
-        sample_triangles_lanes(ctx, &requests, n, &self.slot, lights);
+        sample_triangles_lanes(ctx, &self.requests, self.n, &self.slot, lights);
         self.n = 0;
     }
 }
