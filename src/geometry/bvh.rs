@@ -41,7 +41,7 @@ struct Prim {
 impl Prim {
     fn triangle(v: [Vec3; 3]) -> Prim {
         Prim {
-            xs: Vec4::new(v[0].x, v[1].x, v[2].x, f32::from_bits(0)),
+            xs: Vec4::new(v[0].x, v[1].x, v[2].x, f32::from_bits(TRIANGLE_TAG)),
             ys: Vec4::new(v[0].y, v[1].y, v[2].y, 0.0),
             zs: Vec4::new(v[0].z, v[1].z, v[2].z, 0.0),
         }
@@ -58,7 +58,7 @@ impl Prim {
     #[inline]
     fn kind(&self) -> PrimKind {
         match self.xs.w.to_bits() {
-            0 => PrimKind::Triangle,
+            TRIANGLE_TAG => PrimKind::Triangle,
             i if i & INSTANCE_BIT != 0 => PrimKind::Instance((i & !INSTANCE_BIT) as usize),
             i if i & CURVE_BIT != 0 => PrimKind::Curve((i & !CURVE_BIT) as usize),
             i if i & DISK_BIT != 0 => PrimKind::Disk((i & !DISK_BIT) as usize),
@@ -76,6 +76,10 @@ impl Prim {
         )
     }
 }
+
+/// Lane 3 of a triangle's [`Prim::xs`]: no mark (a sphere's is its index
+/// plus one, never 0).
+const TRIANGLE_TAG: u32 = 0;
 
 /// Marks an instance primitive in lane 3 of [`Prim::xs`].
 const INSTANCE_BIT: u32 = 1 << 31;
@@ -238,7 +242,11 @@ impl Bvh {
         groups: Vec<Bvh>,
     ) -> Bvh {
         let start = Instant::now();
-        let mut prims = Vec::new();
+        // Each primitive's record tag (`Prim::tagged`), 0 for a triangle:
+        // the records themselves are made once the tree has put the
+        // primitives in leaf order, so that they are not held, 48 bytes a
+        // primitive, through the build's peak of memory.
+        let mut tags = Vec::new();
         let mut spheres = Vec::new();
         let mut disks = Vec::new();
         let mut rectangles = Vec::new();
@@ -246,10 +254,10 @@ impl Bvh {
         let mut refs = Vec::new();
         let mut boxes = Vec::new();
         let mut bounds = Aabb::EMPTY;
-        // One primitive: its record, the shape and index a hit reports,
-        // its box.
-        let mut add = |prim: Prim, shape: usize, index: usize, b: Aabb| {
-            prims.push(prim);
+        // One primitive: its record's tag, the shape and index a hit
+        // reports, its box.
+        let mut add = |tag: u32, shape: usize, index: usize, b: Aabb| {
+            tags.push(tag);
             refs.push(PrimRef {
                 shape: shape as u32,
                 index: index as u32,
@@ -260,36 +268,26 @@ impl Bvh {
             match g {
                 Geometry::Mesh(m) => {
                     for ti in 0..m.triangle_count() {
-                        add(
-                            Prim::triangle(m.vertices(ti)),
-                            si,
-                            ti,
-                            m.triangle_bounds(ti),
-                        );
+                        add(TRIANGLE_TAG, si, ti, m.triangle_bounds(ti));
                     }
                 }
                 Geometry::Sphere(s) => {
-                    add(Prim::tagged(spheres.len() as u32 + 1), si, 0, s.bounds());
+                    add(spheres.len() as u32 + 1, si, 0, s.bounds());
                     spheres.push(*s);
                 }
                 Geometry::Disk(k) => {
-                    add(
-                        Prim::tagged(DISK_BIT | disks.len() as u32),
-                        si,
-                        0,
-                        k.bounds(),
-                    );
+                    add(DISK_BIT | disks.len() as u32, si, 0, k.bounds());
                     disks.push(*k);
                 }
                 Geometry::Rectangle(r) => {
                     let tag = RECTANGLE_BIT | rectangles.len() as u32;
-                    add(Prim::tagged(tag), si, 0, r.bounds());
+                    add(tag, si, 0, r.bounds());
                     rectangles.push(*r);
                 }
                 Geometry::Curve(c) => {
                     for seg in 0..c.segment_count() {
                         let tag = CURVE_BIT | curves.len() as u32;
-                        add(Prim::tagged(tag), si, seg, c.segment_bounds(seg));
+                        add(tag, si, seg, c.segment_bounds(seg));
                         curves.push(c.segment(seg));
                     }
                 }
@@ -299,16 +297,27 @@ impl Bvh {
             let b = inst.world_bounds(groups[inst.group as usize].bounds);
             // An empty group places nothing.
             if !b.is_empty() {
-                add(Prim::tagged(INSTANCE_BIT | i as u32), 0, 0, b);
+                add(INSTANCE_BIT | i as u32, 0, 0, b);
             }
         }
         for b in &boxes {
             bounds = bounds.union(*b);
         }
-        if prims.is_empty() || bounds.is_empty() {
+        // The record of primitive `i` (in the order added).
+        let prim = |i: usize| match tags[i] {
+            TRIANGLE_TAG => {
+                let r = refs[i];
+                let Geometry::Mesh(m) = &shapes[r.shape as usize] else {
+                    unreachable!("only meshes add triangles")
+                };
+                Prim::triangle(m.vertices(r.index as usize))
+            }
+            tag => Prim::tagged(tag),
+        };
+        if tags.is_empty() || bounds.is_empty() {
             return Bvh {
                 bvh: None,
-                prims,
+                prims: (0..tags.len()).map(prim).collect(),
                 spheres,
                 disks,
                 rectangles,
@@ -326,16 +335,16 @@ impl Bvh {
         // the slab test's own rounding bound for rays that meet a triangle
         // exactly at its box's face (obvhs's traversal, used until the wide
         // BVH, needed it; kept so the tree and the hits stay as they were).
-        let padded: Vec<Aabb> = boxes
-            .iter()
-            .map(|b| {
-                let pad = b.min.abs().max(b.max.abs()) * 1e-5 + Vec3::splat(1e-30);
-                Aabb {
-                    min: b.min - pad,
-                    max: b.max + pad,
-                }
-            })
-            .collect();
+        // Padded in place: the unpadded boxes are not needed again, and a
+        // copy would add 24 bytes a primitive to the build's peak memory.
+        let mut padded = boxes;
+        for b in &mut padded {
+            let pad = b.min.abs().max(b.max.abs()) * 1e-5 + Vec3::splat(1e-30);
+            *b = Aabb {
+                min: b.min - pad,
+                max: b.max + pad,
+            };
+        }
         let oboxes = build_boxes(&padded);
         let mut core = Duration::default();
         // Trees too big for packets are walked one ray at a time, their
@@ -343,7 +352,7 @@ impl Bvh {
         // obvhs's binary tree into leaves of up to `LEAF_LANES`
         // primitives (`WideBvh::from_bvh2`); the others keep obvhs's wide
         // tree, whose leaves of up to three suit the packet walks.
-        let wide_leaves = (prims.len() > PACKET_MAX_PRIMITIVES)
+        let wide_leaves = (tags.len() > PACKET_MAX_PRIMITIVES)
             .then(|| {
                 // A more thorough build where it pays for itself: obvhs's
                 // most thorough preset (reinsertion over every node) on
@@ -351,7 +360,7 @@ impl Bvh {
                 // median of 5) for 0.2 s more build on two cores; on a
                 // million triangles 3-4% faster for 3.4 s more, which a
                 // render must be long to win back.
-                let preset = if prims.len() <= THOROUGH_BUILD_MAX_PRIMITIVES {
+                let preset = if tags.len() <= THOROUGH_BUILD_MAX_PRIMITIVES {
                     BvhBuildParams::very_slow_build()
                 } else {
                     BvhBuildParams::medium_build()
@@ -377,7 +386,9 @@ impl Bvh {
             (WideBvh::from_cwbvh(&bvh, &leaf_boxes), order)
         });
         // Primitives in leaf order, so the traversal's ids index them.
-        let prims: Vec<Prim> = order.iter().map(|&i| prims[i as usize]).collect();
+        drop((padded, oboxes));
+        let prims: Vec<Prim> = order.iter().map(|&i| prim(i as usize)).collect();
+        drop(tags);
         let refs: Vec<PrimRef> = order.iter().map(|&i| refs[i as usize]).collect();
         let leaf_rows = if leaf_lanes {
             LeafRows::new(prims.len(), wide.leaves(), |i| {
