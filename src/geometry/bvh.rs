@@ -242,7 +242,7 @@ impl Bvh {
         groups: Vec<Bvh>,
     ) -> Bvh {
         let start = Instant::now();
-        // Each primitive's record tag (`Prim::tagged`), 0 for a triangle:
+        // Each primitive's record tag (`Prim::tagged`; `TRIANGLE_TAG`):
         // the records themselves are made once the tree has put the
         // primitives in leaf order, so that they are not held, 48 bytes a
         // primitive, through the build's peak of memory.

@@ -103,10 +103,9 @@ pub fn intersect_triangle(
     tmax: f32,
 ) -> Option<(f32, f32, f32)> {
     let ([kx, ky, kz], [sx, sy, sz], [ox, oy, oz]) = shear.axes();
-    // The vertices' coordinates in the ray's axis order, relative to the
-    // origin, three vertices at a time: (a, b, c).
-    // Sheared as a leaf's lanes shear them ([`AxisShear`]): xt = (ax, bx,
-    // cx), yt = (ay, by, cy), zt = (az, bz, cz).
+    // The vertices' coordinates in the ray's axis order, three vertices at
+    // a time, sheared as a leaf's lanes shear them (`AxisShear`): xt =
+    // (ax, bx, cx), yt = (ay, by, cy), zt = (az, bz, cz).
     let coords = [tri.xs, tri.ys, tri.zs];
     let shear = AxisShear {
         o: [ox, oy, oz].map(Vec3A::splat),
@@ -295,12 +294,13 @@ impl<
 /// One ray in every lane ([`RayShear::axes`]; [`intersect_triangle`]
 /// shears with it too, a triangle's three vertices to a `Vec3A`): the
 /// vertices come with their coordinates in the ray's axis order (kx, ky,
-/// kz), as do the origin `o`, and `s` is (sx, sy, sz). x' = x - sx z, y' = y - sy z, z' = sz z: [`RowShear`]'s products
-/// and sums without the terms whose row entry is zero, each left out term
-/// a zero added to the rest, so every value is the same wherever it is
-/// not zero, and a zero's sign changes nothing the test finds: an edge
-/// function of either zero sends its lane to the scalar test, and a depth
-/// of either zero is no hit. Eight operations a vertex instead of
+/// kz), as do the origin `o`, and `s` is (sx, sy, sz). x' = x - sx z,
+/// y' = y - sy z, z' = sz z: [`RowShear`]'s products and sums without the
+/// terms whose row entry is zero, each left out term a zero added to the
+/// rest, so every value is the same wherever it is not zero, and a zero's
+/// sign changes nothing the test finds: an edge function of either zero
+/// sends its lane to the scalar test, and a depth of either zero is no
+/// hit. Eight operations a vertex instead of
 /// eighteen, and one vector kept for z' instead of three.
 pub struct AxisShear<F> {
     pub o: [F; 3],
