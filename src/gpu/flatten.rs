@@ -221,7 +221,7 @@ pub const MAX_PLACED_PRIMS: usize = 1 << 24;
 /// Entries of the filter's 1D weight table (over [0, radius]).
 pub const FILTER_TABLE: usize = 1024;
 
-/// The render's constants (a uniform buffer; `common.wgsl`'s `Params`).
+/// The render's constants (a read-only storage buffer; `params.wgsl`'s `Params`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Params {
@@ -2906,7 +2906,7 @@ mod tests {
     /// every scene carries Beckmann's table of visible-slope guesses, in
     /// the shape the shader reads.
     #[test]
-    fn params_fill_the_uniform_and_point_at_beckmann_guesses() {
+    fn params_fill_the_buffer_and_point_at_beckmann_guesses() {
         assert_eq!(std::mem::size_of::<Params>() % 16, 0);
         let (scene, job) = load("tests/gpu/diffuse_box.xml");
         let flat = GpuScene::new(&scene, &job, 1).unwrap();

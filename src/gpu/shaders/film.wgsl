@@ -2,7 +2,7 @@
 // samples of a pass from the pixels around it, in a fixed order, and adds
 // them to the film: (weighted radiance sum, weight sum) per pixel.
 
-@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(0) var<storage, read> P: Params;
 @group(0) @binding(1) var<storage, read> filter_table: array<f32>;
 @group(0) @binding(2) var<storage, read> samples: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> film: array<vec4<f32>>;

@@ -1,4 +1,6 @@
-// The render's constants: `Params` in flatten.rs, field for field.
+// The render's constants: `Params` in flatten.rs, field for field, in a
+// read-only storage buffer (a uniform one made lavapipe recompile the
+// kernel every pass: gpu/mod.rs).
 struct Params {
     to_world: mat4x4<f32>,
     width: u32,

@@ -6,7 +6,7 @@ override VOLPATH: bool = false;
 // thread per pixel sample, writing the sample's radiance and its position
 // in the pixel for film.wgsl to reconstruct.
 
-@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(0) var<storage, read> P: Params;
 @group(0) @binding(1) var<storage, read> nodes: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> prims: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> normals: array<vec4<f32>>;
