@@ -300,8 +300,8 @@ impl<
 /// rest, so every value is the same wherever it is not zero, and a zero's
 /// sign changes nothing the test finds: an edge function of either zero
 /// sends its lane to the scalar test, and a depth of either zero is no
-/// hit. Eight operations a vertex instead of
-/// eighteen, and one vector kept for z' instead of three.
+/// hit. Eight operations a vertex instead of eighteen, and one vector
+/// kept for z' instead of three.
 pub struct AxisShear<F> {
     pub o: [F; 3],
     pub s: [F; 3],
