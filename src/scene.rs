@@ -239,12 +239,15 @@ impl Scene {
     /// The shading point `p` with normal `n` as the light choice sees it.
     pub fn choice_point(&self, p: Vec3, n: Vec3) -> crate::emitter::ChoicePoint {
         let mut at = crate::emitter::ChoicePoint::default();
-        self.set_choice_point(&mut at, p, n, None);
+        self.set_choice_point(&mut at, p, n, None, true);
         at
     }
 
     /// [`Scene::choice_point`] with its `facing` normal, stored into `at`
-    /// ([`crate::emitter::LightChoice::set_at`]).
+    /// ([`crate::emitter::LightChoice::set_at`]). Unless `weigh`, only
+    /// placed ([`crate::emitter::ChoicePoint::place`]): the caller weighs
+    /// the lights itself, several points at once
+    /// ([`crate::emitter::LightChoice::weigh_points`]).
     #[inline]
     pub fn set_choice_point(
         &self,
@@ -252,9 +255,11 @@ impl Scene {
         p: Vec3,
         n: Vec3,
         facing: Option<Vec3>,
+        weigh: bool,
     ) {
         match &self.light_choice {
-            Some(c) => c.set_at(at, p, n, facing),
+            Some(c) if weigh => c.set_at(at, p, n, facing),
+            Some(_) => crate::emitter::ChoicePoint::place(at, p, n, facing),
             None => *at = crate::emitter::ChoicePoint::default().facing(facing),
         }
     }

@@ -15,7 +15,7 @@
 
 use super::light_lanes::BoundsLanes;
 #[cfg(target_arch = "x86_64")]
-use super::light_lanes::BoundsLanes8;
+use super::light_lanes::{BoundsLanes8, PointLanes8};
 use super::{Emitter, EmitterContext};
 use crate::geometry::Geometry;
 use crate::math::Vec3;
@@ -340,16 +340,64 @@ impl LightChoice {
     /// field by field (a path keeps its point: building one on the stack
     /// and copying it in made loads that waited on the stores just made).
     pub fn set_at(&self, at: &mut ChoicePoint, p: Vec3, n: Vec3, facing: Option<Vec3>) {
-        *at = ChoicePoint {
-            p,
-            n,
-            total: 0.0,
-            importance: [0.0f32; KEPT_IMPORTANCE],
-            facing,
-        };
+        ChoicePoint::place(at, p, n, facing);
         if !self.lanes.is_empty() {
             self.weigh(at);
         }
+    }
+
+    /// Whether [`LightChoice::weigh_points`] can weigh points placed with
+    /// [`ChoicePoint::place`] eight at a time: the CPU has AVX2 and the
+    /// bounded lights are weighed one by one.
+    #[inline]
+    pub fn weighs_points_in_lanes(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return !self.lanes8.is_empty();
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// The weights [`LightChoice::set_at`] gives the points `p` with
+    /// normals `n` (zero for none), bit for bit, into `out`: each light
+    /// weighed at the eight points at once (a path batch's points;
+    /// weighing one point's few lights at a time left lanes empty).
+    /// Unused lanes may hold anything; their weights are dropped.
+    ///
+    /// # Panics
+    /// Where [`LightChoice::weighs_points_in_lanes`] is false.
+    #[cfg(target_arch = "x86_64")]
+    pub fn weigh_points(&self, p: &[Vec3; 8], n: &[Vec3; 8], out: &mut PointWeights8) {
+        assert!(self.weighs_points_in_lanes());
+        // SAFETY: `lanes8` is filled only where the CPU has AVX2.
+        unsafe { self.weigh_points_avx2(p, n, out) }
+    }
+
+    /// [`LightChoice::weigh_points`] compiled for AVX2: each light's
+    /// importance added to the sums in the lights' order, as
+    /// [`keep_importance`] adds them for one point.
+    ///
+    /// # Safety
+    /// Call only where the CPU has AVX2 (where `lanes8` is filled).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn weigh_points_avx2(&self, p: &[Vec3; 8], n: &[Vec3; 8], out: &mut PointWeights8) {
+        use std::arch::x86_64::*;
+        let at = PointLanes8::new(p, n);
+        let mut total = _mm256_setzero_ps();
+        for k in 0..self.bounded.len() {
+            let w = self.lanes8[k / 8].importance_at_points(k % 8, &at);
+            if let Some(row) = out.importance.get_mut(k) {
+                // SAFETY: eight floats.
+                unsafe { _mm256_storeu_ps(row.as_mut_ptr(), w) };
+            }
+            total = _mm256_add_ps(total, w);
+        }
+        // Rows of lights there are not stay zero, as `set_at` leaves them.
+        for row in out.importance.iter_mut().skip(self.bounded.len()) {
+            *row = [0.0; 8];
+        }
+        // SAFETY: eight floats.
+        unsafe { _mm256_storeu_ps(out.total.as_mut_ptr(), total) };
     }
 
     /// The bounded lights' importance at `at` and their sum: four or eight
@@ -552,6 +600,48 @@ impl ChoicePoint {
     pub fn facing(self, facing: Option<Vec3>) -> ChoicePoint {
         ChoicePoint { facing, ..self }
     }
+
+    /// `at` set to the point `p` with normal `n` and `facing`, its lights
+    /// not weighed yet ([`LightChoice::weigh_points`] weighs them, or
+    /// [`LightChoice::set_at`] places and weighs at once). Stored field by
+    /// field (see `set_at`).
+    #[inline]
+    pub fn place(at: &mut ChoicePoint, p: Vec3, n: Vec3, facing: Option<Vec3>) {
+        *at = ChoicePoint {
+            p,
+            n,
+            total: 0.0,
+            importance: [0.0f32; KEPT_IMPORTANCE],
+            facing,
+        };
+    }
+
+    /// The shading point and its normal (zero for none).
+    #[inline]
+    pub fn point(&self) -> (Vec3, Vec3) {
+        (self.p, self.n)
+    }
+
+    /// The weights of lane `lane` of `w` ([`LightChoice::weigh_points`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    pub fn take_weights(&mut self, w: &PointWeights8, lane: usize) {
+        self.total = w.total[lane];
+        for (slot, row) in self.importance.iter_mut().zip(&w.importance) {
+            *slot = row[lane];
+        }
+    }
+}
+
+/// The weights of eight points ([`LightChoice::weigh_points`]): each
+/// point's sum over the bounded lights, and the importance of the first
+/// eight lights (a row per light, a lane per point; zero past the
+/// lights' count).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PointWeights8 {
+    total: [f32; 8],
+    importance: [[f32; 8]; KEPT_IMPORTANCE],
 }
 
 /// [`LightChoice::weigh`]'s step for one group of lanes: the importance
@@ -705,6 +795,89 @@ mod tests {
                 assert_eq!(pr, probs[i], "{count} lights, light {i}");
             }
         }
+    }
+
+    /// Points weighed eight at a time in lanes (`weigh_points`, as a path
+    /// batch weighs them) get the weights `set_at` gives one point at a
+    /// time, bit for bit: sums and kept importance, for 2 to 13 lights
+    /// (spheres, one-sided quads, points), points with and without a
+    /// normal, inside lights' spheres and not, and partly filled groups.
+    /// Control: most weights are neither zero nor all alike.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn points_weighed_in_lanes_equal_points_weighed_one_by_one() {
+        use crate::sampling::Sampler;
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        fn random(s: &mut Sampler, scale: f32) -> Vec3 {
+            Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 2.0 * scale - Vec3::splat(scale)
+        }
+        let mut s = Sampler::new(23, 1);
+        let (mut nonzero, mut inside, mut compared) = (0, 0, 0);
+        for count in [2, 3, 5, 8, 9, 13] {
+            let mut shapes = Vec::new();
+            let mut emitters = Vec::new();
+            let mut centres = Vec::new();
+            for k in 0..count {
+                let radiance = Rgb::splat(1.0 + 20.0 * s.next_1d());
+                let shape = shapes.len() as u32;
+                match k % 3 {
+                    0 => {
+                        let c = random(&mut s, 2.0);
+                        let r = 0.05 + 0.75 * s.next_1d();
+                        shapes.push(Geometry::Sphere(Sphere::new(c, r).unwrap()));
+                        emitters.push(Emitter::Area(AreaLight::new(shape, radiance).unwrap()));
+                        centres.push(c);
+                    }
+                    1 => {
+                        shapes.push(Geometry::Mesh(quad(random(&mut s, 2.0).z, k % 2 == 0)));
+                        emitters.push(Emitter::Area(AreaLight::new(shape, radiance).unwrap()));
+                    }
+                    _ => {
+                        let p = random(&mut s, 2.0);
+                        emitters.push(Emitter::Point(PointLight::new(p, radiance).unwrap()));
+                    }
+                }
+            }
+            let ctx = EmitterContext {
+                shapes: &shapes,
+                scene_radius: 10.0,
+            };
+            let c = LightChoice::new(&emitters, &ctx).unwrap();
+            assert!(c.weighs_points_in_lanes());
+            let mut w = PointWeights8::default();
+            for round in 0..400 {
+                let len = 1 + round % 8;
+                let p: [Vec3; 8] = std::array::from_fn(|k| match (round + k) % 5 {
+                    // Inside a sphere light's bounds.
+                    0 => centres[k % centres.len()] + random(&mut s, 0.04),
+                    _ => random(&mut s, 3.0),
+                });
+                let n: [Vec3; 8] = std::array::from_fn(|k| match (round + k) % 4 {
+                    0 => Vec3::ZERO,
+                    _ => random(&mut s, 1.0).normalize_or(Vec3::X),
+                });
+                c.weigh_points(&p, &n, &mut w);
+                for lane in 0..len {
+                    let want = c.at(p[lane], n[lane]);
+                    let mut got = ChoicePoint::default();
+                    ChoicePoint::place(&mut got, p[lane], n[lane], None);
+                    got.take_weights(&w, lane);
+                    assert_eq!(got.total.to_bits(), want.total.to_bits(), "{count} lights");
+                    let bits = |a: &ChoicePoint| a.importance.map(f32::to_bits);
+                    assert_eq!(bits(&got), bits(&want), "{count} lights at {}", p[lane]);
+                    nonzero += want.importance.iter().filter(|&&x| x > 0.0).count();
+                    inside += usize::from(
+                        want.importance
+                            .contains(&c.bounded[0].1.inside_importance()),
+                    );
+                    compared += 1;
+                }
+            }
+        }
+        assert!(nonzero > 3 * compared, "{nonzero} of {compared}");
+        assert!(inside > compared / 20, "{inside} of {compared}");
     }
 
     /// At several shading points: the probabilities sum to one, `sample`

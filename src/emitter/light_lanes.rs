@@ -166,19 +166,9 @@ impl BoundsLanes8 {
     #[inline]
     #[target_feature(enable = "avx2")]
     pub fn importance(&self, p: Vec3, n: Vec3) -> [f32; 8] {
+        use avx::{cone_cos, cos_less, dot, le, select, sqrt1m};
         use std::arch::x86_64::*;
-        let (add, sub, mul, div) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
-        // glam's select: b where the mask is clear, a where it is set.
-        let select = |m: __m256, a: __m256, b: __m256| _mm256_blendv_ps(b, a, m);
-        let ge = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_GE_OQ>(a, b);
-        let le = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
-        let dot = |x1, y1, z1, x2, y2, z2| add(add(mul(x1, x2), mul(y1, y2)), mul(z1, z2));
-        let sqrt1m = |x| {
-            _mm256_sqrt_ps(_mm256_max_ps(
-                sub(_mm256_set1_ps(1.0), mul(x, x)),
-                _mm256_setzero_ps(),
-            ))
-        };
+        let (sub, mul, div) = (_mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
         // SAFETY: the rows are eight aligned floats each.
         let row = |k: usize| unsafe { _mm256_load_ps(self.rows[k].as_ptr()) };
         let (cx, cy, cz, radius, power) = (row(0), row(1), row(2), row(3), row(4));
@@ -198,20 +188,7 @@ impl BoundsLanes8 {
         let (wx, wy, wz) = (mul(tx, inv_dist), mul(ty, inv_dist), mul(tz, inv_dist));
         let sin_b = mul(radius, inv_dist);
         let cos_b = sqrt1m(sin_b);
-        // glam's clamp: max with the low end, then min with the high end.
-        let cos_w = _mm256_min_ps(
-            _mm256_max_ps(dot(ax, ay, az, wx, wy, wz), _mm256_set1_ps(-1.0)),
-            one,
-        );
-        let sin_w = sqrt1m(cos_w);
-        let within = ge(cos_w, cos_o);
-        let cos_x = select(within, one, add(mul(cos_w, cos_o), mul(sin_w, sin_o)));
-        let sin_x = select(within, zero, sub(mul(sin_w, cos_o), mul(cos_w, sin_o)));
-        let c = select(
-            ge(cos_x, cos_b),
-            one,
-            add(mul(cos_x, cos_b), mul(sin_x, sin_b)),
-        );
+        let c = cone_cos([ax, ay, az], cos_o, sin_o, [wx, wy, wz], cos_b, sin_b);
         let culled = _mm256_and_ps(cone, le(c, _mm256_set1_ps(-1e-4)));
         let mut factor = select(cone, _mm256_max_ps(c, _mm256_set1_ps(MIN_FACTOR)), one);
         if n != Vec3::ZERO {
@@ -222,12 +199,7 @@ impl BoundsLanes8 {
             );
             let magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
             let cos_i = _mm256_min_ps(_mm256_and_ps(dot(nx, ny, nz, wx, wy, wz), magnitude), one);
-            let sin_i = sqrt1m(cos_i);
-            let c = select(
-                ge(cos_i, cos_b),
-                one,
-                add(mul(cos_i, cos_b), mul(sin_i, sin_b)),
-            );
+            let c = cos_less(cos_i, sqrt1m(cos_i), cos_b, sin_b);
             factor = mul(factor, _mm256_max_ps(c, _mm256_set1_ps(MIN_FACTOR)));
         }
         let outside_value = select(culled, zero, div(mul(power, factor), d2));
@@ -237,6 +209,193 @@ impl BoundsLanes8 {
         // SAFETY: `out` holds eight floats.
         unsafe { _mm256_storeu_ps(out.as_mut_ptr(), value) };
         out
+    }
+
+    /// [`LightBounds::importance`] of the light in lane `lane` at each of
+    /// eight points, one per lane: the scalar routine's operations in its
+    /// order (its branches on the light taken here, those on the point
+    /// made selects), so the same bits (tested). Weighing many points a
+    /// light at a time fills every lane and runs the points' chains of
+    /// square roots and divisions side by side, where weighing a point's
+    /// few lights at a time left lanes empty and waited on each chain.
+    ///
+    /// # Safety
+    /// Call only where the CPU has AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn importance_at_points(&self, lane: usize, at: &PointLanes8) -> std::arch::x86_64::__m256 {
+        use avx::{cone_cos, cos_less, dot, le, select, sqrt1m};
+        use std::arch::x86_64::*;
+        let (sub, mul, div) = (_mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
+        let field = |k: usize| self.rows[k][lane];
+        let power = field(4);
+        if power <= 0.0 {
+            return _mm256_setzero_ps();
+        }
+        let splat = _mm256_set1_ps;
+        let (zero, one) = (_mm256_setzero_ps(), splat(1.0));
+        let radius = splat(field(3));
+        let (tx, ty, tz) = (
+            sub(at.x, splat(field(0))),
+            sub(at.y, splat(field(1))),
+            sub(at.z, splat(field(2))),
+        );
+        let d2 = dot(tx, ty, tz, tx, ty, tz);
+        let inside = le(d2, mul(radius, radius));
+        let inv_dist = div(one, _mm256_sqrt_ps(d2));
+        let (wx, wy, wz) = (mul(tx, inv_dist), mul(ty, inv_dist), mul(tz, inv_dist));
+        let sin_b = mul(radius, inv_dist);
+        let cos_b = sqrt1m(sin_b);
+        let mut factor = one;
+        let mut culled = zero;
+        if self.cone[lane] != 0 {
+            let (cos_o, sin_o) = (splat(field(8)), splat(field(9)));
+            let axis = [splat(field(5)), splat(field(6)), splat(field(7))];
+            let c = cone_cos(axis, cos_o, sin_o, [wx, wy, wz], cos_b, sin_b);
+            culled = le(c, splat(-1e-4));
+            factor = _mm256_max_ps(c, splat(MIN_FACTOR));
+        }
+        let magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
+        let cos_i = _mm256_min_ps(
+            _mm256_and_ps(dot(at.nx, at.ny, at.nz, wx, wy, wz), magnitude),
+            one,
+        );
+        let c = cos_less(cos_i, sqrt1m(cos_i), cos_b, sin_b);
+        let with_normal = mul(factor, _mm256_max_ps(c, splat(MIN_FACTOR)));
+        let factor = select(at.has_normal, with_normal, factor);
+        let outside_value = select(culled, zero, div(mul(splat(power), factor), d2));
+        select(inside, splat(field(10)), outside_value)
+    }
+}
+
+/// Eight shading points (positions and normals) in AVX lanes, one point
+/// per lane, for weighing one light at all of them at once
+/// ([`BoundsLanes8::importance_at_points`]).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(super) struct PointLanes8 {
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+    nx: std::arch::x86_64::__m256,
+    ny: std::arch::x86_64::__m256,
+    nz: std::arch::x86_64::__m256,
+    /// All ones where the point has a normal (`n != Vec3::ZERO`).
+    has_normal: std::arch::x86_64::__m256,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl PointLanes8 {
+    /// The points `p` with normals `n` (zero for none).
+    ///
+    /// # Safety
+    /// Call only where the CPU has AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn new(p: &[Vec3; 8], n: &[Vec3; 8]) -> PointLanes8 {
+        use std::arch::x86_64::*;
+        let lanes = |f: &dyn Fn(usize) -> f32| {
+            let a: [f32; 8] = std::array::from_fn(f);
+            // SAFETY: eight floats.
+            unsafe { _mm256_loadu_ps(a.as_ptr()) }
+        };
+        let (nx, ny, nz) = (lanes(&|k| n[k].x), lanes(&|k| n[k].y), lanes(&|k| n[k].z));
+        // `!=` on each component: true where unordered, as Rust's is.
+        let ne = |a| _mm256_cmp_ps::<_CMP_NEQ_UQ>(a, _mm256_setzero_ps());
+        PointLanes8 {
+            x: lanes(&|k| p[k].x),
+            y: lanes(&|k| p[k].y),
+            z: lanes(&|k| p[k].z),
+            nx,
+            ny,
+            nz,
+            has_normal: _mm256_or_ps(_mm256_or_ps(ne(nx), ne(ny)), ne(nz)),
+        }
+    }
+}
+
+/// The eight-lane routines' steps, each as the four-lane code does it.
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use std::arch::x86_64::*;
+
+    /// glam's select: `b` where the mask `m` is clear, `a` where it is set.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn select(m: __m256, a: __m256, b: __m256) -> __m256 {
+        _mm256_blendv_ps(b, a, m)
+    }
+
+    /// a >= b (false where unordered).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn ge(a: __m256, b: __m256) -> __m256 {
+        _mm256_cmp_ps::<_CMP_GE_OQ>(a, b)
+    }
+
+    /// a <= b (false where unordered).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn le(a: __m256, b: __m256) -> __m256 {
+        _mm256_cmp_ps::<_CMP_LE_OQ>(a, b)
+    }
+
+    /// x1 x2 + y1 y2 + z1 z2, added in glam's `Vec3::dot` order.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn dot(x1: __m256, y1: __m256, z1: __m256, x2: __m256, y2: __m256, z2: __m256) -> __m256 {
+        let (add, mul) = (_mm256_add_ps, _mm256_mul_ps);
+        add(add(mul(x1, x2), mul(y1, y2)), mul(z1, z2))
+    }
+
+    /// cos(max(0, x - b)) from the cosines and sines of angles x and b.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn cos_less(cos_x: __m256, sin_x: __m256, cos_b: __m256, sin_b: __m256) -> __m256 {
+        let (add, mul) = (_mm256_add_ps, _mm256_mul_ps);
+        let one = _mm256_set1_ps(1.0);
+        select(
+            ge(cos_x, cos_b),
+            one,
+            add(mul(cos_x, cos_b), mul(sin_x, sin_b)),
+        )
+    }
+
+    /// The cosine of the angle between an emission cone (`axis`, half-angle
+    /// o) and the unit direction `w`, less the light's extent b:
+    /// `LightBounds::importance`'s theta', one inside the cone.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn cone_cos(
+        axis: [__m256; 3],
+        cos_o: __m256,
+        sin_o: __m256,
+        w: [__m256; 3],
+        cos_b: __m256,
+        sin_b: __m256,
+    ) -> __m256 {
+        let (add, sub, mul) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps);
+        let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+        let [ax, ay, az] = axis;
+        let [wx, wy, wz] = w;
+        // glam's clamp: max with the low end, then min with the high end.
+        let cos_w = _mm256_min_ps(
+            _mm256_max_ps(dot(ax, ay, az, wx, wy, wz), _mm256_set1_ps(-1.0)),
+            one,
+        );
+        let sin_w = sqrt1m(cos_w);
+        let within = ge(cos_w, cos_o);
+        let cos_x = select(within, one, add(mul(cos_w, cos_o), mul(sin_w, sin_o)));
+        let sin_x = select(within, zero, sub(mul(sin_w, cos_o), mul(cos_w, sin_o)));
+        cos_less(cos_x, sin_x, cos_b, sin_b)
+    }
+
+    /// sqrt(max(1 - x^2, 0)).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn sqrt1m(x: __m256) -> __m256 {
+        let one_minus = _mm256_sub_ps(_mm256_set1_ps(1.0), _mm256_mul_ps(x, x));
+        _mm256_sqrt_ps(_mm256_max_ps(one_minus, _mm256_setzero_ps()))
     }
 }
 

@@ -21,6 +21,8 @@ pub use directional::DirectionalLight;
 pub use envmap::{EnvFilter, EnvMap, EnvMapError, EnvMapParam, EnvPoint, LightPdf, TexelRows};
 #[cfg(feature = "gpu")]
 pub use envmap::{EnvGpuFacing, EnvGpuTables};
+#[cfg(target_arch = "x86_64")]
+pub use light_choice::PointWeights8;
 pub use light_choice::{ChoicePoint, LightBounds, LightChoice, EXHAUSTIVE_MAX};
 pub use point::PointLight;
 pub use projector::{Projector, ProjectorError};

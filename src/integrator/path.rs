@@ -485,7 +485,7 @@ impl PathState {
             return false;
         }
         let light = self
-            .next_event(scene, its)
+            .next_event(scene, its, true)
             .and_then(|numbers| sample_light_with(scene, its.p, &self.prev_at, numbers, cfg.which));
         let mut shadow = None;
         let going = self.scatter(scene, cfg, its, light, sampler, &mut shadow);
@@ -529,9 +529,15 @@ impl PathState {
     /// choice it is taken and weighed with and returns its numbers; the
     /// caller samples ([`sample_light_with`] with `its.p` and
     /// [`PathState::choice_point`]) and hands the result to
-    /// [`PathState::scatter`].
+    /// [`PathState::scatter`]. Unless `weigh`, the choice's lights are not
+    /// weighed: the caller weighs them (a batch, eight points at once).
     #[inline]
-    pub fn next_event(&mut self, scene: &Scene, its: &Intersection) -> Option<LightNumbers> {
+    pub fn next_event(
+        &mut self,
+        scene: &Scene,
+        its: &Intersection,
+        weigh: bool,
+    ) -> Option<LightNumbers> {
         let numbers = self.light_numbers?;
         let bsdf = &scene.bsdfs[its.shape as usize];
         if bsdf.is_specular() {
@@ -553,7 +559,7 @@ impl PathState {
                 frame.n
             }
         });
-        scene.set_choice_point(&mut self.prev_at, its.p, frame.n, facing);
+        scene.set_choice_point(&mut self.prev_at, its.p, frame.n, facing, weigh);
         Some(numbers)
     }
 
@@ -562,6 +568,14 @@ impl PathState {
     #[inline]
     pub fn choice_point(&self) -> &ChoicePoint {
         &self.prev_at
+    }
+
+    /// [`PathState::choice_point`] to weigh ([`PathState::next_event`]
+    /// without `weigh`).
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    pub fn choice_point_mut(&mut self) -> &mut ChoicePoint {
+        &mut self.prev_at
     }
 
     /// A bounce's last step: the contribution of the light sample `light`
