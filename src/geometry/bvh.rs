@@ -18,7 +18,7 @@ use super::leaf_rows::TAG_ROW;
 use super::triangle::{intersect_triangle, PackedTriangle, RayShear};
 #[cfg(target_arch = "x86_64")]
 use super::triangle::{watertight_lanes, AxisShear, WatertightLanes};
-use super::wide_bvh::WideBvh;
+use super::wide_bvh::{LeafCost, WideBvh};
 use super::{CurveSegment, Disk, Geometry, Instance, Rectangle, Sphere};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::sampling::mix64;
@@ -352,6 +352,10 @@ impl Bvh {
         // obvhs's binary tree into leaves of up to `LEAF_LANES`
         // primitives (`WideBvh::from_bvh2`); the others keep obvhs's wide
         // tree, whose leaves of up to three suit the packet walks.
+        #[cfg(target_arch = "x86_64")]
+        let leaves_in_lanes = PacketIsa::detect().is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        let leaves_in_lanes = false;
         let wide_leaves = (tags.len() > PACKET_MAX_PRIMITIVES)
             .then(|| {
                 // A more thorough build where it pays for itself: obvhs's
@@ -370,13 +374,23 @@ impl Bvh {
                     ..preset
                 };
                 let bvh2 = build_bvh2(&oboxes, params, &mut core);
-                WideBvh::from_bvh2(&bvh2, &padded, LEAF_LANES as u32)
+                // Measured on the 102k-triangle mesh (incoherent rays,
+                // the blob's render): a leaf tested in lanes costs about
+                // one and a half nodes' tests; one tested triangle by
+                // triangle a fifth of a node per triangle (0.1 to 0.3 alike,
+                // 1 was 15% slower).
+                let leaf_cost = if leaves_in_lanes {
+                    LeafCost::Lanes(1.5)
+                } else {
+                    LeafCost::PerPrimitive(0.2)
+                };
+                WideBvh::from_bvh2(&bvh2, &padded, LEAF_LANES as u32, leaf_cost)
             })
             .flatten();
         // Its leaves' triangles are tested in lanes where it was built so
         // and the CPU has AVX2, as the walks' choice of copy sees it.
         #[cfg(target_arch = "x86_64")]
-        let leaf_lanes = wide_leaves.is_some() && PacketIsa::detect().is_some();
+        let leaf_lanes = wide_leaves.is_some() && leaves_in_lanes;
         #[cfg(not(target_arch = "x86_64"))]
         let leaf_lanes = false;
         let (wide, order) = wide_leaves.unwrap_or_else(|| {
