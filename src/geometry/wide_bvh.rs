@@ -379,50 +379,55 @@ struct CollapsePlan {
 impl CollapsePlan {
     fn new(bvh: &obvhs::bvh2::Bvh2, leaf_max: u32, leaf_cost: LeafCost) -> CollapsePlan {
         let n = bvh.nodes.len();
-        // Parents before children: children first from the back.
+        // Each node once, parents first (the right child's subtree before
+        // the left's), with what the costs need: backwards, that is an
+        // order in which a node's two children are the last two results
+        // not yet taken, so they live on a stack as deep as the tree, and
+        // the nodes are read once (a second pass over them in this order,
+        // with tables by node, made a million-triangle build 17% slower
+        // than the widest-first collapse; this way 4%).
         let mut pre = Vec::with_capacity(n);
         let mut stack = vec![0u32];
         while let Some(id) = stack.pop() {
-            pre.push(id);
             let node = &bvh.nodes[id as usize];
-            if !node.is_leaf() {
+            let prims = if node.is_leaf() {
+                node.prim_count
+            } else {
                 stack.extend([node.first_index, node.first_index + 1]);
-            }
+                0
+            };
+            pre.push((id, prims, node.aabb.half_area()));
         }
         let mut leaf = vec![false; n];
         let mut split = vec![[0u8; 8]; n];
-        // Primitives under each node, and the least cost of its subtree in
-        // at most k slots (index k - 1).
-        let mut under = vec![0u32; n];
-        let mut best = vec![[f32::INFINITY; 8]; n];
-        for &id in pre.iter().rev() {
+        // Per subtree done: its primitives and its least cost in at most k
+        // slots (index k - 1).
+        let mut done: Vec<(u32, [f32; 8])> = Vec::new();
+        for &(id, prims, area) in pre.iter().rev() {
             let id = id as usize;
-            let node = &bvh.nodes[id];
-            let area = node.aabb.half_area();
-            if node.is_leaf() {
-                under[id] = node.prim_count;
-            } else {
-                let first = node.first_index as usize;
-                under[id] = under[first] + under[first + 1];
-            }
+            let children = (prims == 0).then(|| {
+                let right = done.pop().expect("a node's right child is done");
+                let left = done.pop().expect("a node's left child is done");
+                (left, right)
+            });
+            let under = children.map_or(prims, |(l, r)| l.0 + r.0);
             let as_leaf = match leaf_cost {
-                _ if under[id] > leaf_max => f32::INFINITY,
+                _ if under > leaf_max => f32::INFINITY,
                 LeafCost::Lanes(c) => c * area,
-                LeafCost::PerPrimitive(c) => c * area * under[id] as f32,
+                LeafCost::PerPrimitive(c) => c * area * under as f32,
             };
-            if node.is_leaf() {
+            let Some(((_, l), (_, r))) = children else {
                 leaf[id] = true;
-                best[id] = [as_leaf; 8];
+                done.push((under, [as_leaf; 8]));
                 continue;
-            }
-            let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+            };
             // The two children in at most k slots together, and the left
             // one's share (1 where no cost compares, as with NaN boxes).
             let mut apart = [f32::INFINITY; 8];
             let mut share = [1u8; 8];
             for k in 2..=8 {
                 for kl in 1..k {
-                    let c = best[l][kl - 1] + best[r][k - kl - 1];
+                    let c = l[kl - 1] + r[k - kl - 1];
                     if c < apart[k - 1] {
                         apart[k - 1] = c;
                         share[k - 1] = kl as u8;
@@ -432,16 +437,15 @@ impl CollapsePlan {
             let as_node = area + apart[7];
             leaf[id] = as_leaf <= as_node;
             let one = as_leaf.min(as_node);
-            best[id][0] = one;
+            let mut best = [one; 8];
             for k in 2..=8 {
                 // A wide node of its own (eight slots) always splits.
                 if apart[k - 1] < one || (k == 8 && !leaf[id]) {
-                    best[id][k - 1] = apart[k - 1];
+                    best[k - 1] = apart[k - 1];
                     split[id][k - 1] = share[k - 1];
-                } else {
-                    best[id][k - 1] = one;
                 }
             }
+            done.push((under, best));
         }
         CollapsePlan { leaf, split }
     }
