@@ -398,6 +398,13 @@ impl CollapsePlan {
             };
             pre.push((id, prims, node.aabb.half_area()));
         }
+        // Each node also costs a hair more than its area, so that of
+        // trees of equal cost the one with fewest nodes wins: where boxes
+        // have no area (primitives on a line, or all at one point) every
+        // cost would be zero, and a chain of a binary tree would stay a
+        // chain of two-slot nodes.
+        let root_area = pre.first().map_or(0.0, |&(_, _, a)| a);
+        let per_node = (root_area * f32::EPSILON).max(f32::MIN_POSITIVE);
         let mut leaf = vec![false; n];
         let mut split = vec![[0u8; 8]; n];
         // Per subtree done: its primitives and its least cost in at most k
@@ -434,7 +441,7 @@ impl CollapsePlan {
                     }
                 }
             }
-            let as_node = area + apart[7];
+            let as_node = area + per_node + apart[7];
             leaf[id] = as_leaf <= as_node;
             let one = as_leaf.min(as_node);
             let mut best = [one; 8];
@@ -1312,6 +1319,43 @@ mod tests {
         assert!(mean_leaf(&trees[0]) > 3.0, "{}", mean_leaf(&trees[0]));
         assert!(mean_leaf(&trees[4]) < 1.5, "{}", mean_leaf(&trees[4]));
         assert!(trees[0].nodes.len() < trees[4].nodes.len());
+    }
+
+    /// Primitives on a line (every box without area, every cost zero)
+    /// are still collapsed into full eight-wide nodes: obvhs's binary
+    /// tree of them (unjittered boxes) is a chain, and each wide node
+    /// takes seven of its levels, not one. Control: the binary depth.
+    #[test]
+    fn flat_costs_still_fill_the_slots() {
+        let p = Vec3::new(0.5, -0.25, 2.0);
+        let tris: Vec<[Vec3; 3]> = (0..4096)
+            .map(|i| {
+                let q = p + Vec3::X * (i as f32 * 1e-3);
+                [q, q, q]
+            })
+            .collect();
+        let (boxes, o) = boxes_of(&tris);
+        let params = BvhBuildParams {
+            max_prims_per_leaf: 1,
+            ..BvhBuildParams::medium_build()
+        };
+        let b2 = obvhs::bvh2::builder::build_bvh2(&o, params, &mut Default::default());
+        let mut binary_depth = 0;
+        let mut todo = vec![(0u32, 1usize)];
+        while let Some((id, d)) = todo.pop() {
+            binary_depth = binary_depth.max(d);
+            let n = &b2.nodes[id as usize];
+            if !n.is_leaf() {
+                todo.extend([(n.first_index, d + 1), (n.first_index + 1, d + 1)]);
+            }
+        }
+        assert!(binary_depth > 100, "binary depth {binary_depth}");
+        let (bvh, _) = WideBvh::from_bvh2(&b2, &boxes, 8, LeafCost::Lanes(1.5)).unwrap();
+        assert!(
+            bvh.depth() <= binary_depth / 7 + 2,
+            "depth {} of a binary {binary_depth}",
+            bvh.depth()
+        );
     }
 
     fn lifo<S: TraversalStack>(n: u32) {
