@@ -391,10 +391,7 @@ impl Bvh {
             .flatten();
         // Its leaves' triangles are tested in lanes where it was built so
         // and the CPU has AVX2, as the walks' choice of copy sees it.
-        #[cfg(target_arch = "x86_64")]
         let leaf_lanes = wide_leaves.is_some() && leaves_in_lanes;
-        #[cfg(not(target_arch = "x86_64"))]
-        let leaf_lanes = false;
         let (wide, order) = wide_leaves.unwrap_or_else(|| {
             let bvh = build_cwbvh(&oboxes, BvhBuildParams::medium_build(), &mut core);
             let order = bvh.primitive_indices.clone();

@@ -1094,14 +1094,20 @@ mod tests {
         (WideBvh::from_cwbvh(&cw, &leaf_boxes), leaf_tris)
     }
 
-    /// As `build`, by [`WideBvh::from_bvh2`]: leaves of up to eight.
-    fn build_collapsed(tris: &[[Vec3; 3]]) -> (WideBvh, Vec<[Vec3; 3]>) {
-        let (boxes, o) = boxes_of(tris);
+    /// obvhs's binary tree over `o`, a primitive a leaf, as
+    /// [`WideBvh::from_bvh2`] takes it.
+    fn binary_tree(o: &[Boxed]) -> obvhs::bvh2::Bvh2 {
         let params = BvhBuildParams {
             max_prims_per_leaf: 1,
             ..BvhBuildParams::medium_build()
         };
-        let b2 = obvhs::bvh2::builder::build_bvh2(&o, params, &mut Default::default());
+        obvhs::bvh2::builder::build_bvh2(o, params, &mut Default::default())
+    }
+
+    /// As `build`, by [`WideBvh::from_bvh2`]: leaves of up to eight.
+    fn build_collapsed(tris: &[[Vec3; 3]]) -> (WideBvh, Vec<[Vec3; 3]>) {
+        let (boxes, o) = boxes_of(tris);
+        let b2 = binary_tree(&o);
         let (bvh, order) =
             WideBvh::from_bvh2(&b2, &boxes, 8, LeafCost::Lanes(1.5)).expect("leaves of one");
         let mut seen = vec![false; tris.len()];
@@ -1286,11 +1292,7 @@ mod tests {
     fn the_collapse_is_the_cheapest_under_its_costs() {
         let tris = soup(3000);
         let (boxes, o) = boxes_of(&tris);
-        let params = BvhBuildParams {
-            max_prims_per_leaf: 1,
-            ..BvhBuildParams::medium_build()
-        };
-        let b2 = obvhs::bvh2::builder::build_bvh2(&o, params, &mut Default::default());
+        let b2 = binary_tree(&o);
         let models = [
             LeafCost::Lanes(0.1),
             LeafCost::Lanes(1.5),
@@ -1335,11 +1337,7 @@ mod tests {
             })
             .collect();
         let (boxes, o) = boxes_of(&tris);
-        let params = BvhBuildParams {
-            max_prims_per_leaf: 1,
-            ..BvhBuildParams::medium_build()
-        };
-        let b2 = obvhs::bvh2::builder::build_bvh2(&o, params, &mut Default::default());
+        let b2 = binary_tree(&o);
         let mut binary_depth = 0;
         let mut todo = vec![(0u32, 1usize)];
         while let Some((id, d)) = todo.pop() {

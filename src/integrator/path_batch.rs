@@ -363,9 +363,10 @@ impl PathBatch {
         let mut weights = crate::emitter::PointWeights8::default();
         let mut flush = |paths: &mut [PathState], chunk: &[usize; 8], n: usize| {
             // Unused lanes repeat the last point; their weights are dropped.
-            let point = |k: usize| paths[chunk[k.min(n - 1)]].choice_point().point();
-            let p = std::array::from_fn(|k| point(k).0);
-            let nrm = std::array::from_fn(|k| point(k).1);
+            let (mut p, mut nrm) = ([Vec3::ZERO; 8], [Vec3::ZERO; 8]);
+            for k in 0..8 {
+                (p[k], nrm[k]) = paths[chunk[k.min(n - 1)]].choice_point().point();
+            }
             choice.weigh_points(&p, &nrm, &mut weights);
             for (lane, &i) in chunk[..n].iter().enumerate() {
                 paths[i].choice_point_mut().take_weights(&weights, lane);
