@@ -330,8 +330,8 @@ impl<F: Copy + std::ops::Sub<Output = F> + std::ops::Mul<Output = F>> ShearLanes
 /// (its shear `shear`, range `tmin`..`tmax`) and a triangle (vertices
 /// `v`): a packet's rays against one triangle splat in every lane
 /// ([`RowShear`]), or one ray splat against a leaf's triangles
-/// ([`AxisShear`]). `None` where no lane of `lanes` can hit (the scalar
-/// test's early `None`s, as masks).
+/// ([`AxisShear`]). `None` where every lane of `lanes` passes the
+/// triangle by (the scalar test's first early `None`, as a mask).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub fn watertight_lanes<L: Lanes, S: ShearLanes<L::F>>(
@@ -367,12 +367,11 @@ pub fn watertight_lanes<L: Lanes, S: ShearLanes<L::F>>(
     let inv_det = l.splat(1.0) / det;
     let t = t_scaled * inv_det;
     let in_range = l.m_and(l.gt(t, tmin), l.lt(t, tmax));
+    // The scalar test's second and third `None` (no lane in range) are
+    // left to the masks: on the Cornell box their branch mispredicted
+    // more than the error bounds cost (valgrind's branch model: 3% fewer
+    // mispredicts, 0.3% fewer instructions).
     let candidate = l.m_andnot(l.m_or(outside, l.eq(det, zero)), in_range);
-    // No lane in range (the scalar test's second and third `None`): the
-    // error bounds are not needed.
-    if l.bits(candidate) & lanes == 0 && zero_edge == 0 {
-        return None;
-    }
     #[inline(always)]
     fn max3<L: Lanes>(l: L, a: L::F, b: L::F, c: L::F) -> L::F {
         l.max(l.max(l.abs(a), l.abs(b)), l.abs(c))

@@ -272,6 +272,20 @@ impl<E: Copy> TraversalStack<E> for FixedStack<E> {
     }
 }
 
+impl<E: Copy> FixedStack<E> {
+    /// Writes `e` on top and keeps it only if `keep`: a push without a
+    /// branch, for entries kept at random (the packet walks' children,
+    /// whose per-slot branch mispredicted).
+    #[inline(always)]
+    fn push_if(&mut self, e: E, keep: bool) {
+        debug_assert!(self.len < FIXED_ENTRIES);
+        // SAFETY: as `push`: the write is at `len`, which stays within the
+        // `7 d + 1` entries the packet walks keep at most (see the type).
+        unsafe { self.fixed.get_unchecked_mut(self.len).write(e) };
+        self.len += usize::from(keep);
+    }
+}
+
 /// The stack of walks through trees too deep for [`FixedStack`].
 struct VecStack(Vec<Entry>);
 
@@ -949,16 +963,16 @@ impl WideBvh {
             for slot in (0..8).rev() {
                 let (meets, _) = packet_slab_test(p, node, slot, p.tmax);
                 let meets = meets & lanes;
-                if meets == 0 {
-                    continue;
-                }
                 // Pushed last to first, popped in slot order.
-                stack.push(PacketEntry {
-                    tnear: p.l.zero(),
-                    index: node.child[slot],
-                    count: node.count[slot] as u32,
-                    lanes: meets,
-                });
+                stack.push_if(
+                    PacketEntry {
+                        tnear: p.l.zero(),
+                        index: node.child[slot],
+                        count: node.count[slot] as u32,
+                        lanes: meets,
+                    },
+                    meets != 0,
+                );
             }
         }
         p.live & !open
@@ -1010,16 +1024,16 @@ impl WideBvh {
             for slot in (0..8).rev() {
                 let (meets, lo) = packet_slab_test(p, node, slot, reach);
                 let meets = meets & lanes;
-                if meets == 0 {
-                    continue;
-                }
                 // Pushed last to first, popped in slot order.
-                stack.push(PacketEntry {
-                    tnear: lo,
-                    index: node.child[slot],
-                    count: node.count[slot] as u32,
-                    lanes: meets,
-                });
+                stack.push_if(
+                    PacketEntry {
+                        tnear: lo,
+                        index: node.child[slot],
+                        count: node.count[slot] as u32,
+                        lanes: meets,
+                    },
+                    meets != 0,
+                );
             }
         }
     }
@@ -1375,6 +1389,27 @@ mod tests {
     fn the_stacks_stay_last_in_first_out() {
         lifo::<FixedStack>(FIXED_ENTRIES as u32);
         lifo::<VecStack>(600);
+    }
+
+    /// `push_if` keeps exactly the entries it is told to, in order, the
+    /// others overwritten by the next push.
+    #[test]
+    fn push_if_keeps_what_it_is_told_to() {
+        let mut s = FixedStack::<Entry>::new();
+        let entry = |i: u32| Entry {
+            t: 0.0,
+            index: i,
+            count: 0,
+        };
+        for i in 0..FIXED_ENTRIES as u32 - 1 {
+            s.push_if(entry(i), i % 3 != 1);
+        }
+        let kept: Vec<u32> = std::iter::from_fn(|| s.pop().map(|e| e.index)).collect();
+        let expected: Vec<u32> = (0..FIXED_ENTRIES as u32 - 1)
+            .rev()
+            .filter(|i| i % 3 != 1)
+            .collect();
+        assert_eq!(kept, expected);
     }
 
     /// A chain of `levels` nodes, each with seven one-primitive leaves and
