@@ -276,6 +276,7 @@ impl<E: Copy> FixedStack<E> {
     /// Writes `e` on top and keeps it only if `keep`: a push without a
     /// branch, for entries kept at random (the packet walks' children,
     /// whose per-slot branch mispredicted).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     #[inline(always)]
     fn push_if(&mut self, e: E, keep: bool) {
         debug_assert!(self.len < FIXED_ENTRIES);
