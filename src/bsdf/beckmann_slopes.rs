@@ -7,14 +7,14 @@
 //! Jakob's routine (Mitsuba's) solves `F(x) = u F(max)` with three Newton
 //! steps from the grazing-angle solution: six `exp` and five `log` in f64,
 //! 200 ns a call here. A 32 x 64 table of the solution (built once, on
-//! first use, by bisection) gives a guess within 4e-3, and one Halley step (cubic
-//! convergence; its second derivative costs nothing more) finishes it:
-//! three `log` and two `exp`, and a smaller worst CDF error than the three
-//! Newton steps (7e-7 against 2e-6; tested). The sampling routines run in
-//! f32, the same operations as the GPU's copy (`bsdf.wgsl`), with f32's
-//! erf and erfinv (the approximations are f32's anyway): 72 ns a call
-//! against 86 ns in f64, with the same worst CDF error (6.6e-7 against
-//! 6.2e-7 on the test's grid).
+//! first use, by bisection) gives a guess within 4e-3, and one Halley
+//! step (cubic convergence; its second derivative costs nothing more)
+//! finishes it: three `log` and two `exp`, and a smaller worst CDF error
+//! than the three Newton steps (7e-7 against 2e-6; tested). It runs in
+//! f32, the same operations as the GPU's copy (`bsdf.wgsl`), with f32 erf
+//! and erfinv (the approximations are f32's anyway): 72 ns a call, where
+//! the same steps in f64 took 86 ns for the same worst CDF error (6.6e-7
+//! against 6.2e-7 on the test's grid).
 
 use crate::math::Vec2;
 use std::sync::OnceLock;
@@ -217,8 +217,9 @@ mod tests {
     }
 
     /// The sampled slopes invert the CDF to 1e-6 everywhere (measured
-    /// 6.6e-7 in f32, 6.2e-7 in f64; Jakob's three Newton steps: 2e-6). Control: the table's guess
-    /// alone, without the Halley step, is far off.
+    /// 6.6e-7; the same steps in f64: 6.2e-7; Jakob's three Newton steps:
+    /// 2e-6). Control: the table's guess alone, without the Halley step,
+    /// is far off.
     #[test]
     fn x_slopes_invert_the_cdf() {
         let err = worst_cdf_error(|c, u| beckmann_visible_slopes(c, Vec2::new(u, 0.5)).x);
