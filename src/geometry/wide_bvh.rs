@@ -253,12 +253,7 @@ impl<E: Copy> TraversalStack<E> for FixedStack<E> {
 
     #[inline(always)]
     fn push(&mut self, e: E) {
-        debug_assert!(self.len < FIXED_ENTRIES);
-        // SAFETY: only trees of depth <= FIXED_DEPTH are walked with this
-        // stack, and their walks hold at most 7 * FIXED_DEPTH < FIXED_ENTRIES
-        // entries.
-        unsafe { self.fixed.get_unchecked_mut(self.len).write(e) };
-        self.len += 1;
+        self.push_if(e, true);
     }
 
     #[inline(always)]
@@ -275,13 +270,13 @@ impl<E: Copy> TraversalStack<E> for FixedStack<E> {
 impl<E: Copy> FixedStack<E> {
     /// Writes `e` on top and keeps it only if `keep`: a push without a
     /// branch, for entries kept at random (the packet walks' children,
-    /// whose per-slot branch mispredicted).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    /// whose per-slot branch mispredicted); `push` is it with `true`.
     #[inline(always)]
     fn push_if(&mut self, e: E, keep: bool) {
         debug_assert!(self.len < FIXED_ENTRIES);
-        // SAFETY: as `push`: the write is at `len`, which stays within the
-        // `7 d + 1` entries the packet walks keep at most (see the type).
+        // SAFETY: the write is at `len`. Only trees of depth <= FIXED_DEPTH
+        // are walked with this stack, and their walks hold at most
+        // 7 * FIXED_DEPTH + 1 < FIXED_ENTRIES entries (see the type).
         unsafe { self.fixed.get_unchecked_mut(self.len).write(e) };
         self.len += usize::from(keep);
     }
