@@ -12,7 +12,7 @@ use super::beckmann_slopes::{
     beckmann_visible_slope_x, beckmann_visible_slope_y, beckmann_visible_slopes,
 };
 use super::params::{self, BsdfError, BsdfParam};
-use crate::math::{sin_cos_turns, Vec2, Vec3, PI};
+use crate::math::{exp_or_zero, sin_cos_turns, Vec2, Vec3, PI};
 use crate::sampling::warp;
 
 /// Which normal distribution a rough BSDF uses (Mitsuba's `distribution`).
@@ -141,7 +141,7 @@ impl MicrofacetDistribution {
         let (sx, sy) = (m.x / au, m.y / av);
         let result = match self.kind {
             MicrofacetType::Beckmann => {
-                (-(sx * sx + sy * sy) / cos2).exp() / (PI * au * av * cos2 * cos2)
+                exp_or_zero(-(sx * sx + sy * sy) / cos2) / (PI * au * av * cos2 * cos2)
             }
             MicrofacetType::Ggx => {
                 let t = sx * sx + sy * sy + cos2;

@@ -10,7 +10,7 @@ mod transform;
 #[cfg(target_arch = "x86_64")]
 pub use approx::exp8;
 pub use approx::{
-    clamp_unit_lanes, exp4, fast_atan2, fast_atan2_lanes, select_bits, sin_cos_turns,
+    clamp_unit_lanes, exp4, exp_or_zero, fast_atan2, fast_atan2_lanes, select_bits, sin_cos_turns,
     sin_cos_turns_lanes, EXP4_MAX_RELATIVE_ERROR, FAST_ATAN2_MAX_ERROR, SIN_COS_TURNS_MAX_ERROR,
 };
 pub use frame::Frame;
