@@ -391,6 +391,8 @@ impl Camera {
     #[target_feature(enable = "avx2")]
     unsafe fn perspective_rays_avx2(&self, films: &[Vec2], apertures: &[Vec2], rays: &mut [Ray]) {
         use crate::geometry::lanes::{Avx2Lanes, Lanes, MAX_LANES};
+        // Eight rays at a time, in arrays of MAX_LANES.
+        const W: usize = <Avx2Lanes as Lanes>::WIDTH;
         // SAFETY: the caller saw AVX2.
         let l = unsafe { Avx2Lanes::new_unchecked() };
         let p = &self.params;
@@ -403,8 +405,8 @@ impl Camera {
         let (near, far) = (l.splat(p.near_clip), l.splat(p.far_clip));
         let lens = p.lens_radius > 0.0;
         let focal = l.splat(p.focal_distance);
-        let chunks = films.chunks(MAX_LANES).zip(apertures.chunks(MAX_LANES));
-        for ((films, apertures), rays) in chunks.zip(rays.chunks_mut(MAX_LANES)) {
+        let chunks = films.chunks(W).zip(apertures.chunks(W));
+        for ((films, apertures), rays) in chunks.zip(rays.chunks_mut(W)) {
             // Lanes beyond the rays compute a ray through (0, 0), unused.
             let (mut fx, mut fy) = ([0.0f32; MAX_LANES], [0.0f32; MAX_LANES]);
             for (k, f) in films.iter().enumerate() {

@@ -22,9 +22,9 @@ pub struct Machine {
     pub avx2: bool,
     /// Whether the CPU reports AVX-512F (Dr.Jit's 16 lanes).
     pub avx512f: bool,
-    /// Whether lente's BVH walks run in AVX-512VL's form
-    /// ([`crate::geometry::PacketIsa`]).
-    pub walks_avx512vl: bool,
+    /// The instruction set of lente's BVH walks
+    /// ([`crate::geometry::PacketIsa`]), if it has one.
+    pub walks: Option<crate::geometry::PacketIsa>,
 }
 
 impl Machine {
@@ -40,17 +40,16 @@ impl Machine {
         #[cfg(not(target_arch = "x86_64"))]
         let (avx, avx2, avx512f) = (false, false, false);
         #[cfg(target_arch = "x86_64")]
-        let walks_avx512vl =
-            crate::geometry::PacketIsa::detect() == Some(crate::geometry::PacketIsa::Avx512Vl);
+        let walks = crate::geometry::PacketIsa::detect();
         #[cfg(not(target_arch = "x86_64"))]
-        let walks_avx512vl = false;
+        let walks = None;
         Machine {
             cpu: model_name(&cpuinfo).unwrap_or("unknown CPU").to_string(),
             logical_cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
             avx,
             avx2,
             avx512f,
-            walks_avx512vl,
+            walks,
         }
     }
 
@@ -72,10 +71,16 @@ impl Machine {
             self.logical_cpus,
             yes_no(self.avx2),
             yes_no(self.avx512f),
-            match (self.avx2, self.walks_avx512vl) {
-                (true, true) => "AVX2, BVH walks AVX-512VL",
-                (true, false) => "AVX2",
-                _ => "portable",
+            {
+                use crate::geometry::PacketIsa;
+                match (self.avx2, self.walks) {
+                    (true, Some(PacketIsa::Avx512)) => {
+                        "AVX2, BVH walks AVX-512VL, packets of 16 rays in AVX-512"
+                    }
+                    (true, Some(PacketIsa::Avx512Vl)) => "AVX2, BVH walks AVX-512VL",
+                    (true, _) => "AVX2",
+                    _ => "portable",
+                }
             },
         )
     }
@@ -114,7 +119,7 @@ mod tests {
             avx: true,
             avx2: true,
             avx512f: false,
-            walks_avx512vl: false,
+            walks: Some(crate::geometry::PacketIsa::Avx2),
         };
         let d = m.describe();
         assert!(d.contains("Test CPU, 2 logical CPU(s)"), "{d}");
@@ -125,9 +130,15 @@ mod tests {
         );
         m.avx512f = true;
         assert!(m.describe().ends_with("lanes here: 16)"));
-        m.walks_avx512vl = true;
+        m.walks = Some(crate::geometry::PacketIsa::Avx512Vl);
         assert!(m.describe().contains("paths: AVX2, BVH walks AVX-512VL;"));
-        m.walks_avx512vl = false;
+        m.walks = Some(crate::geometry::PacketIsa::Avx512);
+        let d = m.describe();
+        assert!(
+            d.contains("walks AVX-512VL, packets of 16 rays in AVX-512;"),
+            "{d}"
+        );
+        m.walks = None;
         m.avx = false;
         m.avx2 = false;
         m.avx512f = false;
@@ -146,6 +157,6 @@ mod tests {
         // Each extension implies the one before it on every CPU shipped.
         assert!(!m.avx512f || m.avx2);
         assert!(!m.avx2 || m.avx);
-        assert!(!m.walks_avx512vl || m.avx512f);
+        assert!(m.walks.is_none_or(|w| !w.has_avx512vl() || m.avx512f));
     }
 }

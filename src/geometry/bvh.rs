@@ -688,11 +688,17 @@ pub const THOROUGH_BUILD_MAX_PRIMITIVES: usize = 1 << 18;
 /// (`WideBvh::from_bvh2`): AVX2's eight lanes, which test them together.
 pub const LEAF_LANES: usize = 8;
 
-/// Rays in a packet: eight lanes (AVX2, or AVX-512VL's 256-bit registers).
-pub const PACKET_LANES: usize = 8;
+/// Rays in a packet: at most sixteen, walked together in AVX-512's
+/// sixteen lanes where [`PacketIsa::Avx512`] says so, in two halves of
+/// eight elsewhere.
+pub const PACKET_LANES: usize = 16;
 
 #[cfg(target_arch = "x86_64")]
 const _: () = assert!(PACKET_LANES == super::lanes::MAX_LANES);
+
+/// The rays of a packet walked in eight lanes.
+#[cfg(target_arch = "x86_64")]
+const EIGHT: usize = <Avx2Lanes as Lanes>::WIDTH;
 
 impl Bvh {
     /// Whether [`Bvh::intersect_packet`] walks rays together here: a small
@@ -731,9 +737,21 @@ impl Bvh {
     #[cfg(target_arch = "x86_64")]
     fn intersect_packet_in(&self, isa: PacketIsa, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
         assert!(isa.available());
+        if rays.len() > EIGHT {
+            if isa == PacketIsa::Avx512 {
+                // SAFETY: the CPU has AVX-512F, AVX-512VL and AVX2.
+                return unsafe { self.intersect_packet_avx512x16(rays, hits) };
+            }
+            let (a, b) = rays.split_at(EIGHT);
+            let (hits_a, hits_b) = hits.split_at_mut(EIGHT);
+            self.intersect_packet_in(isa, a, hits_a);
+            return self.intersect_packet_in(isa, b, hits_b);
+        }
         match isa {
             // SAFETY: the CPU has AVX-512F, AVX-512VL and AVX2.
-            PacketIsa::Avx512Vl => unsafe { self.intersect_packet_avx512(rays, hits) },
+            PacketIsa::Avx512Vl | PacketIsa::Avx512 => unsafe {
+                self.intersect_packet_avx512(rays, hits)
+            },
             // SAFETY: the CPU has AVX2.
             PacketIsa::Avx2 => unsafe { self.intersect_packet_avx2(rays, hits) },
         }
@@ -744,6 +762,14 @@ impl Bvh {
     fn intersect_packet_avx2(&self, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
         // SAFETY: compiled for AVX2, called where the CPU has it.
         let l = unsafe { Avx2Lanes::new_unchecked() };
+        self.intersect_packet_lanes(l, rays, hits);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    fn intersect_packet_avx512x16(&self, rays: &[Ray], hits: &mut [Option<BvhHit>]) {
+        // SAFETY: compiled for AVX-512, called where the CPU has it.
+        let l = unsafe { super::lanes::Avx512Lanes::new_unchecked() };
         self.intersect_packet_lanes(l, rays, hits);
     }
 
@@ -888,9 +914,17 @@ impl Bvh {
     #[cfg(target_arch = "x86_64")]
     fn occluded_packet_in(&self, isa: PacketIsa, rays: &[Ray]) -> u32 {
         assert!(isa.available());
+        if rays.len() > EIGHT {
+            if isa == PacketIsa::Avx512 {
+                // SAFETY: the CPU has AVX-512F, AVX-512VL and AVX2.
+                return unsafe { self.occluded_packet_avx512x16(rays) };
+            }
+            let (a, b) = rays.split_at(EIGHT);
+            return self.occluded_packet_in(isa, a) | (self.occluded_packet_in(isa, b) << EIGHT);
+        }
         match isa {
             // SAFETY: the CPU has AVX-512F, AVX-512VL and AVX2.
-            PacketIsa::Avx512Vl => unsafe { self.occluded_packet_avx512(rays) },
+            PacketIsa::Avx512Vl | PacketIsa::Avx512 => unsafe { self.occluded_packet_avx512(rays) },
             // SAFETY: the CPU has AVX2.
             PacketIsa::Avx2 => unsafe { self.occluded_packet_avx2(rays) },
         }
@@ -901,6 +935,14 @@ impl Bvh {
     fn occluded_packet_avx2(&self, rays: &[Ray]) -> u32 {
         // SAFETY: compiled for AVX2, called where the CPU has it.
         let l = unsafe { Avx2Lanes::new_unchecked() };
+        self.occluded_packet_lanes(l, rays)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    fn occluded_packet_avx512x16(&self, rays: &[Ray]) -> u32 {
+        // SAFETY: compiled for AVX-512, called where the CPU has it.
+        let l = unsafe { super::lanes::Avx512Lanes::new_unchecked() };
         self.occluded_packet_lanes(l, rays)
     }
 
@@ -1058,11 +1100,15 @@ mod tests {
         // The dispatching entry points, then each instruction set the CPU
         // has, called directly (packets of one ray included).
         #[cfg(target_arch = "x86_64")]
-        let walks: Vec<Option<PacketIsa>> =
-            [None, Some(PacketIsa::Avx2), Some(PacketIsa::Avx512Vl)]
-                .into_iter()
-                .filter(|w| w.is_none_or(PacketIsa::available))
-                .collect();
+        let walks: Vec<Option<PacketIsa>> = [
+            None,
+            Some(PacketIsa::Avx2),
+            Some(PacketIsa::Avx512Vl),
+            Some(PacketIsa::Avx512),
+        ]
+        .into_iter()
+        .filter(|w| w.is_none_or(PacketIsa::available))
+        .collect();
         #[cfg(not(target_arch = "x86_64"))]
         let walks = [None::<()>];
         let mut hit = 0;

@@ -1,6 +1,6 @@
-//! The SIMD registers the packet tests run in, as one interface over two
-//! instruction sets: AVX2 ([`Avx2Lanes`]) and AVX-512VL
-//! ([`Avx512VlLanes`]), eight float lanes each. The packet walks and every
+//! The SIMD registers the packet tests run in, as one interface over
+//! three: AVX2 ([`Avx2Lanes`]) and AVX-512VL ([`Avx512VlLanes`]), eight
+//! float lanes each, and AVX-512F's sixteen ([`Avx512Lanes`]). The packet walks and every
 //! shape's lane test are written once, generic over [`Lanes`], and
 //! compiled into one copy per instruction set inside a function built for
 //! it, chosen at run time ([`PacketIsa::detect`]).
@@ -9,11 +9,12 @@
 //! and mask registers: comparisons set a mask, blends read one, and the
 //! walk's rays stay in registers instead of being reloaded from the stack
 //! (issue 15: the Cornell box, the constant cube and the mirror on a stand
-//! 3-4% faster, same images). Sixteen-lane 512-bit packets were measured
-//! too and left out: the same eight rays ran 10% slower in 512-bit code
-//! (the clock such code runs at is the usual cause; this VM has no
-//! counters to tell), and sixteen rays gained 3% on the Cornell box but
-//! lost 2-5% on the other scenes.
+//! 3-4% faster, same images). Packets of sixteen rays in 512-bit
+//! registers ([`Avx512Lanes`]) pay where the CPU runs 512-bit operations
+//! at full rate (AMD Zen 5: the Cornell box 8-11% faster, see
+//! [`PacketIsa::detect`]); on an Intel Xeon VM the same eight rays ran
+//! 10% slower in 512-bit code, and sixteen rays gained 3% on the Cornell
+//! box but lost 2-5% on the other scenes, so it keeps eight.
 //!
 //! A lane does the scalar code's operations in its order (no fused
 //! multiply-adds), so both instruction sets find the same bits.
@@ -32,9 +33,9 @@ use std::ops::{Add, Div, Mul, Sub};
 
 use crate::math::Ray;
 
-/// Lanes in a register: the size of the arrays a register is read into
-/// and written from.
-pub const MAX_LANES: usize = 8;
+/// Lanes in the widest register: the size of the arrays a register is
+/// read into and written from (eight-lane registers use the first half).
+pub const MAX_LANES: usize = 16;
 
 /// One instruction set's SIMD registers: float vectors `F`, their
 /// comparison masks `M`, and the operations the packet tests use. `self` is the token that
@@ -46,6 +47,8 @@ pub trait Lanes: Copy {
         + Mul<Output = Self::F>
         + Div<Output = Self::F>;
     type M: Copy;
+    /// Lanes in a register.
+    const WIDTH: usize;
     fn splat(self, x: f32) -> Self::F;
     /// `x`'s bits in every lane.
     fn splat_bits(self, x: u32) -> Self::F;
@@ -149,26 +152,298 @@ impl Avx512VlLanes {
     }
 }
 
+/// AVX-512F's sixteen lanes: 512-bit registers and 16-bit masks, for
+/// packets of up to sixteen rays.
+#[derive(Clone, Copy, Debug)]
+pub struct Avx512Lanes(());
+
+impl Avx512Lanes {
+    /// The token, unchecked.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512F, AVX-512VL and AVX2.
+    #[inline(always)]
+    pub unsafe fn new_unchecked() -> Avx512Lanes {
+        Avx512Lanes(())
+    }
+}
+
+/// Sixteen float lanes (only made by the token).
+#[derive(Clone, Copy, Debug)]
+pub struct F16(__m512);
+
+// SAFETY (each operator): an `F16` exists only where the CPU has
+// AVX-512F, and the operators are inlined into functions built for it.
+impl Add for F16 {
+    type Output = F16;
+    #[inline(always)]
+    fn add(self, b: F16) -> F16 {
+        F16(unsafe { _mm512_add_ps(self.0, b.0) })
+    }
+}
+
+impl Sub for F16 {
+    type Output = F16;
+    #[inline(always)]
+    fn sub(self, b: F16) -> F16 {
+        F16(unsafe { _mm512_sub_ps(self.0, b.0) })
+    }
+}
+
+impl Mul for F16 {
+    type Output = F16;
+    #[inline(always)]
+    fn mul(self, b: F16) -> F16 {
+        F16(unsafe { _mm512_mul_ps(self.0, b.0) })
+    }
+}
+
+impl Div for F16 {
+    type Output = F16;
+    #[inline(always)]
+    fn div(self, b: F16) -> F16 {
+        F16(unsafe { _mm512_div_ps(self.0, b.0) })
+    }
+}
+
+/// Two eight-lane registers as one of sixteen (`lo` in lanes 0-7).
+///
+/// # Safety
+/// Only inlined into functions compiled for AVX-512F.
+#[inline(always)]
+unsafe fn join16(lo: __m256, hi: __m256) -> __m512 {
+    unsafe {
+        _mm512_castpd_ps(_mm512_insertf64x4::<1>(
+            _mm512_castpd256_pd512(_mm256_castps_pd(lo)),
+            _mm256_castps_pd(hi),
+        ))
+    }
+}
+
+/// A sixteen-lane register's halves (lanes 0-7, lanes 8-15).
+///
+/// # Safety
+/// Only inlined into functions compiled for AVX-512F.
+#[inline(always)]
+unsafe fn halves16(v: __m512) -> (__m256, __m256) {
+    unsafe {
+        let v = _mm512_castps_pd(v);
+        (
+            _mm256_castpd_ps(_mm512_castpd512_pd256(v)),
+            _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(v)),
+        )
+    }
+}
+
+impl Lanes for Avx512Lanes {
+    type F = F16;
+    type M = __mmask16;
+    const WIDTH: usize = 16;
+
+    // SAFETY (every operation): the token exists only where the CPU has
+    // AVX-512F, AVX-512VL and AVX2, and the operations are inlined into
+    // functions built for them.
+    #[inline(always)]
+    fn splat(self, x: f32) -> F16 {
+        F16(unsafe { _mm512_set1_ps(x) })
+    }
+    #[inline(always)]
+    fn splat_bits(self, x: u32) -> F16 {
+        F16(unsafe { _mm512_castsi512_ps(_mm512_set1_epi32(x as i32)) })
+    }
+    #[inline(always)]
+    fn zero(self) -> F16 {
+        F16(unsafe { _mm512_setzero_ps() })
+    }
+    #[inline(always)]
+    fn load(self, a: &[f32; MAX_LANES]) -> F16 {
+        F16(unsafe { _mm512_loadu_ps(a.as_ptr()) })
+    }
+    #[inline(always)]
+    fn store(self, v: F16) -> [f32; MAX_LANES] {
+        let mut a = [0.0; MAX_LANES];
+        unsafe { _mm512_storeu_ps(a.as_mut_ptr(), v.0) };
+        a
+    }
+    #[inline(always)]
+    fn min(self, a: F16, b: F16) -> F16 {
+        F16(unsafe { _mm512_min_ps(a.0, b.0) })
+    }
+    #[inline(always)]
+    fn max(self, a: F16, b: F16) -> F16 {
+        F16(unsafe { _mm512_max_ps(a.0, b.0) })
+    }
+    #[inline(always)]
+    fn sqrt(self, a: F16) -> F16 {
+        F16(unsafe { _mm512_sqrt_ps(a.0) })
+    }
+    // The bit operations in integer lanes (the float ones are AVX-512DQ).
+    #[inline(always)]
+    fn and(self, a: F16, b: F16) -> F16 {
+        F16(unsafe {
+            _mm512_castsi512_ps(_mm512_and_si512(
+                _mm512_castps_si512(a.0),
+                _mm512_castps_si512(b.0),
+            ))
+        })
+    }
+    #[inline(always)]
+    fn or(self, a: F16, b: F16) -> F16 {
+        F16(unsafe {
+            _mm512_castsi512_ps(_mm512_or_si512(
+                _mm512_castps_si512(a.0),
+                _mm512_castps_si512(b.0),
+            ))
+        })
+    }
+    #[inline(always)]
+    fn xor(self, a: F16, b: F16) -> F16 {
+        F16(unsafe {
+            _mm512_castsi512_ps(_mm512_xor_si512(
+                _mm512_castps_si512(a.0),
+                _mm512_castps_si512(b.0),
+            ))
+        })
+    }
+    #[inline(always)]
+    fn andnot(self, a: F16, b: F16) -> F16 {
+        F16(unsafe {
+            _mm512_castsi512_ps(_mm512_andnot_si512(
+                _mm512_castps_si512(a.0),
+                _mm512_castps_si512(b.0),
+            ))
+        })
+    }
+    #[inline(always)]
+    fn lt(self, a: F16, b: F16) -> __mmask16 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(a.0, b.0) }
+    }
+    #[inline(always)]
+    fn le(self, a: F16, b: F16) -> __mmask16 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(a.0, b.0) }
+    }
+    #[inline(always)]
+    fn gt(self, a: F16, b: F16) -> __mmask16 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_GT_OQ>(a.0, b.0) }
+    }
+    #[inline(always)]
+    fn eq(self, a: F16, b: F16) -> __mmask16 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(a.0, b.0) }
+    }
+    #[inline(always)]
+    fn unord(self, a: F16, b: F16) -> __mmask16 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(a.0, b.0) }
+    }
+    #[inline(always)]
+    fn m_and(self, a: __mmask16, b: __mmask16) -> __mmask16 {
+        a & b
+    }
+    #[inline(always)]
+    fn m_or(self, a: __mmask16, b: __mmask16) -> __mmask16 {
+        a | b
+    }
+    #[inline(always)]
+    fn m_andnot(self, a: __mmask16, b: __mmask16) -> __mmask16 {
+        !a & b
+    }
+    #[inline(always)]
+    fn m_all(self) -> __mmask16 {
+        0xffff
+    }
+    #[inline(always)]
+    fn bits(self, m: __mmask16) -> u32 {
+        u32::from(m)
+    }
+    #[inline(always)]
+    fn mask(self, bits: u32) -> __mmask16 {
+        bits as __mmask16
+    }
+    #[inline(always)]
+    fn blend(self, a: F16, b: F16, m: __mmask16) -> F16 {
+        F16(unsafe { _mm512_mask_blend_ps(m, a.0, b.0) })
+    }
+    #[inline(always)]
+    fn sign(self, v: F16) -> __mmask16 {
+        unsafe { _mm512_cmplt_epi32_mask(_mm512_castps_si512(v.0), _mm512_setzero_si512()) }
+    }
+    #[inline(always)]
+    fn rays(self, rays: &[Ray]) -> [F16; 8] {
+        // Rays 0-7 and 8-15 transposed apart (lanes beyond the rays
+        // repeat ray 0), then joined.
+        unsafe {
+            let lo = ray_fields8(rays, 0);
+            let hi = ray_fields8(rays, 8);
+            [
+                F16(join16(lo[0], hi[0])),
+                F16(join16(lo[1], hi[1])),
+                F16(join16(lo[2], hi[2])),
+                F16(join16(lo[3], hi[3])),
+                F16(join16(lo[4], hi[4])),
+                F16(join16(lo[5], hi[5])),
+                F16(join16(lo[6], hi[6])),
+                F16(join16(lo[7], hi[7])),
+            ]
+        }
+    }
+    #[inline(always)]
+    fn store_rays(self, fields: [F16; 8], rays: &mut [Ray]) {
+        unsafe {
+            let h = [
+                halves16(fields[0].0),
+                halves16(fields[1].0),
+                halves16(fields[2].0),
+                halves16(fields[3].0),
+                halves16(fields[4].0),
+                halves16(fields[5].0),
+                halves16(fields[6].0),
+                halves16(fields[7].0),
+            ];
+            let lo = transpose8([
+                h[0].0, h[1].0, h[2].0, h[3].0, h[4].0, h[5].0, h[6].0, h[7].0,
+            ]);
+            let hi = transpose8([
+                h[0].1, h[1].1, h[2].1, h[3].1, h[4].1, h[5].1, h[6].1, h[7].1,
+            ]);
+            for (ray, v) in rays.iter_mut().zip(lo.into_iter().chain(hi)) {
+                // SAFETY: a `Ray` is eight contiguous floats.
+                _mm256_storeu_ps((ray as *mut Ray).cast(), v);
+            }
+        }
+    }
+}
+
 /// Which instruction set the packet walks run in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PacketIsa {
     Avx2,
+    /// AVX-512VL's eight lanes.
     Avx512Vl,
+    /// AVX-512VL's eight lanes for packets of up to eight rays (and the
+    /// one-ray walks' leaves), AVX-512F's sixteen (`Avx512Lanes`) for
+    /// packets of more.
+    Avx512,
 }
 
 impl PacketIsa {
-    /// The best the CPU has, None without AVX2. `LENTE_SIMD=avx2` keeps a
-    /// CPU with AVX-512 to AVX2 (to compare the two; the images are the
-    /// same).
+    /// The best the CPU has, None without AVX2: with AVX-512, packets of
+    /// sixteen where the CPU runs 512-bit operations at the rate of
+    /// 256-bit ones (AMD Zen 5 and later), eight elsewhere. `LENTE_SIMD`
+    /// names one instead (`avx2`, `avx512vl` or `avx512`; to compare
+    /// them, the images are the same), where the CPU has it.
     pub fn detect() -> Option<PacketIsa> {
         static ISA: std::sync::OnceLock<Option<PacketIsa>> = std::sync::OnceLock::new();
         *ISA.get_or_init(|| {
-            let avx2_only = std::env::var("LENTE_SIMD").is_ok_and(|v| v.trim() == "avx2");
-            if Avx512VlLanes::new().is_some() && !avx2_only {
-                Some(PacketIsa::Avx512Vl)
-            } else {
-                Avx2Lanes::new().map(|_| PacketIsa::Avx2)
+            let named = std::env::var("LENTE_SIMD").ok();
+            let named = named.as_deref().map(str::trim);
+            if Avx512VlLanes::new().is_none() || named == Some("avx2") {
+                return Avx2Lanes::new().map(|_| PacketIsa::Avx2);
             }
+            Some(match named {
+                Some("avx512vl") => PacketIsa::Avx512Vl,
+                Some("avx512") => PacketIsa::Avx512,
+                _ if full_rate_512() => PacketIsa::Avx512,
+                _ => PacketIsa::Avx512Vl,
+            })
         })
     }
 
@@ -178,9 +453,39 @@ impl PacketIsa {
     pub fn available(self) -> bool {
         match self {
             PacketIsa::Avx2 => Avx2Lanes::new().is_some(),
-            PacketIsa::Avx512Vl => Avx512VlLanes::new().is_some(),
+            PacketIsa::Avx512Vl | PacketIsa::Avx512 => Avx512VlLanes::new().is_some(),
         }
     }
+
+    /// Whether the one-ray walks and packets of up to eight rays run in
+    /// AVX-512VL's form (rather than AVX2's).
+    #[inline]
+    pub fn has_avx512vl(self) -> bool {
+        self != PacketIsa::Avx2
+    }
+}
+
+/// Whether this CPU's 512-bit operations cost what 256-bit ones do, so
+/// that a packet of sixteen rays costs about what one of eight does: AMD
+/// Zen 5 (family 1Ah) and later, whose vector units are 512 bits wide.
+/// Measured on a Zen 5 VM (issue 15, Cornell box 1.95 -> 2.11-2.18 M
+/// samples/s, the constant cube +5%, the env-lit spheres +5%, the same
+/// images). Elsewhere eight: Zen 4 splits 512-bit operations in two, and
+/// on the Intel Xeon VMs sixteen rays gained 3% on the Cornell box but
+/// lost 2-5% on the other scenes (the clock 512-bit code runs at).
+fn full_rate_512() -> bool {
+    // SAFETY: CPUID leaves 0 and 1 exist on every x86_64 CPU. (Newer Rust
+    // calls it safe, older unsafe.)
+    #[allow(unused_unsafe)]
+    let (vendor, signature) = unsafe { (__cpuid(0), __cpuid(1)) };
+    let amd = [vendor.ebx, vendor.edx, vendor.ecx] == [0x6874_7541, 0x6974_6e65, 0x444d_4163];
+    let base = (signature.eax >> 8) & 0xf;
+    let family = if base == 0xf {
+        base + ((signature.eax >> 20) & 0xff)
+    } else {
+        base
+    };
+    amd && family >= 0x1a
 }
 
 /// Eight float lanes (only made by the tokens).
@@ -363,6 +668,7 @@ macro_rules! float_ops {
 impl Lanes for Avx2Lanes {
     type F = F8;
     type M = __m256;
+    const WIDTH: usize = 8;
 
     // SAFETY (every operation): the token exists only where the CPU has
     // AVX2, and the operations are inlined into functions built for it.
@@ -429,6 +735,7 @@ impl Lanes for Avx2Lanes {
 impl Lanes for Avx512VlLanes {
     type F = F8;
     type M = __mmask8;
+    const WIDTH: usize = 8;
 
     // SAFETY (every operation): the token exists only where the CPU has
     // AVX-512F, AVX-512VL and AVX2, and the operations are inlined into
@@ -515,4 +822,74 @@ pub fn scaled_sub3<F: Copy + Sub<Output = F> + Mul<Output = F>>(
     b: [F; 3],
 ) -> [F; 3] {
     [t * a[0] - b[0], t * a[1] - b[1], t * a[2] - b[2]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rays `0..n` by field and back: every lane of a field holds its
+    /// ray's value (lanes beyond the rays the first ray's), and storing
+    /// the fields writes the rays as they were, and nothing beyond them.
+    #[inline(always)]
+    fn fields_round_trip<L: Lanes>(l: L, n: usize) {
+        let ray = |k: usize| {
+            let f = |j: usize| (8 * k + j) as f32 + 0.25;
+            Ray::with_range(
+                crate::math::Vec3::new(f(0), f(1), f(2)),
+                crate::math::Vec3::new(f(3), f(4), f(5)),
+                f(6),
+                f(7),
+            )
+        };
+        let rays: Vec<Ray> = (0..n).map(ray).collect();
+        let fields = l.rays(&rays);
+        for (j, field) in fields.iter().enumerate() {
+            let lanes = l.store(*field);
+            for (k, &v) in lanes.iter().enumerate().take(L::WIDTH) {
+                let of = if k < n { k } else { 0 };
+                assert_eq!(v, (8 * of + j) as f32 + 0.25, "field {j}, lane {k} of {n}");
+            }
+        }
+        let blank = Ray::with_range(crate::math::Vec3::ZERO, crate::math::Vec3::Z, 0.0, 0.0);
+        let mut back = vec![blank; L::WIDTH + 1];
+        l.store_rays(fields, &mut back[..n]);
+        for (k, r) in back.iter().enumerate() {
+            let want = if k < n { rays[k] } else { blank };
+            assert_eq!(format!("{r:?}"), format!("{want:?}"), "ray {k} of {n}");
+        }
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn avx2_round_trips() {
+        // SAFETY: built for AVX2, run where the CPU has it.
+        let l = unsafe { Avx2Lanes::new_unchecked() };
+        for n in 1..=Avx2Lanes::WIDTH {
+            fields_round_trip(l, n);
+        }
+    }
+
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    fn avx512_round_trips() {
+        // SAFETY: built for AVX-512, run where the CPU has it.
+        let (vl, l) = unsafe { (Avx512VlLanes::new_unchecked(), Avx512Lanes::new_unchecked()) };
+        for n in 1..=Avx512VlLanes::WIDTH {
+            fields_round_trip(vl, n);
+        }
+        for n in 1..=Avx512Lanes::WIDTH {
+            fields_round_trip(l, n);
+        }
+    }
+
+    #[test]
+    fn rays_by_field_and_back_in_every_width() {
+        if Avx2Lanes::new().is_some() {
+            // SAFETY: the CPU has AVX2.
+            unsafe { avx2_round_trips() };
+        }
+        if Avx512VlLanes::new().is_some() {
+            // SAFETY: the CPU has AVX-512F, AVX-512VL and AVX2.
+            unsafe { avx512_round_trips() };
+        }
+    }
 }

@@ -51,7 +51,7 @@ impl<'a, L: Lanes> RayPacket<'a, L> {
     /// random direction mispredicts).
     #[inline(always)]
     pub fn new(l: L, rays: &'a [Ray]) -> RayPacket<'a, L> {
-        assert!(!rays.is_empty() && rays.len() <= MAX_LANES);
+        assert!(!rays.is_empty() && rays.len() <= L::WIDTH && L::WIDTH <= MAX_LANES);
         // (No closures here or below: they would be compiled without the
         // width's instruction set, and its operations left as calls.)
         let f = l.rays(rays);

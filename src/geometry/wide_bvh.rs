@@ -718,13 +718,15 @@ impl WideBvh {
             return self.closest_with::<Portable, VecStack, F>(ray, leaf);
         }
         #[cfg(target_arch = "x86_64")]
-        match super::lanes::PacketIsa::detect() {
+        use super::lanes::PacketIsa;
+        #[cfg(target_arch = "x86_64")]
+        match PacketIsa::detect() {
             // SAFETY: the CPU supports AVX-512VL.
-            Some(super::lanes::PacketIsa::Avx512Vl) => {
+            Some(PacketIsa::Avx512Vl | PacketIsa::Avx512) => {
                 return unsafe { self.closest_avx512(ray, leaf) }
             }
             // SAFETY: the CPU supports AVX2.
-            Some(super::lanes::PacketIsa::Avx2) => return unsafe { self.closest_avx2(ray, leaf) },
+            Some(PacketIsa::Avx2) => return unsafe { self.closest_avx2(ray, leaf) },
             None => {}
         }
         self.closest_with::<Portable, FixedStack, F>(ray, leaf)
@@ -810,13 +812,15 @@ impl WideBvh {
             return self.any_with::<Portable, VecStack, F>(ray, leaf);
         }
         #[cfg(target_arch = "x86_64")]
-        match super::lanes::PacketIsa::detect() {
+        use super::lanes::PacketIsa;
+        #[cfg(target_arch = "x86_64")]
+        match PacketIsa::detect() {
             // SAFETY: the CPU supports AVX-512VL.
-            Some(super::lanes::PacketIsa::Avx512Vl) => {
+            Some(PacketIsa::Avx512Vl | PacketIsa::Avx512) => {
                 return unsafe { self.any_avx512(ray, leaf) }
             }
             // SAFETY: the CPU supports AVX2.
-            Some(super::lanes::PacketIsa::Avx2) => return unsafe { self.any_avx2(ray, leaf) },
+            Some(PacketIsa::Avx2) => return unsafe { self.any_avx2(ray, leaf) },
             None => {}
         }
         self.any_with::<Portable, FixedStack, F>(ray, leaf)
