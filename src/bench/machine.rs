@@ -22,9 +22,12 @@ pub struct Machine {
     pub avx2: bool,
     /// Whether the CPU reports AVX-512F (Dr.Jit's 16 lanes).
     pub avx512f: bool,
-    /// The instruction set of lente's BVH walks
-    /// ([`crate::geometry::PacketIsa`]), if it has one.
-    pub walks: Option<crate::geometry::PacketIsa>,
+    /// Whether lente's BVH walks run in AVX-512VL's form
+    /// ([`crate::geometry::PacketIsa`]).
+    pub walks_avx512vl: bool,
+    /// Whether its packets of sixteen rays run in AVX-512's sixteen lanes
+    /// (`PacketIsa::Avx512`) rather than as two of eight.
+    pub packets_of_16: bool,
 }
 
 impl Machine {
@@ -40,16 +43,24 @@ impl Machine {
         #[cfg(not(target_arch = "x86_64"))]
         let (avx, avx2, avx512f) = (false, false, false);
         #[cfg(target_arch = "x86_64")]
-        let walks = crate::geometry::PacketIsa::detect();
+        let (walks_avx512vl, packets_of_16) = {
+            use crate::geometry::PacketIsa;
+            let isa = PacketIsa::detect();
+            (
+                isa.is_some_and(PacketIsa::has_avx512vl),
+                isa == Some(PacketIsa::Avx512),
+            )
+        };
         #[cfg(not(target_arch = "x86_64"))]
-        let walks = None;
+        let (walks_avx512vl, packets_of_16) = (false, false);
         Machine {
             cpu: model_name(&cpuinfo).unwrap_or("unknown CPU").to_string(),
             logical_cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
             avx,
             avx2,
             avx512f,
-            walks,
+            walks_avx512vl,
+            packets_of_16,
         }
     }
 
@@ -71,16 +82,11 @@ impl Machine {
             self.logical_cpus,
             yes_no(self.avx2),
             yes_no(self.avx512f),
-            {
-                use crate::geometry::PacketIsa;
-                match (self.avx2, self.walks) {
-                    (true, Some(PacketIsa::Avx512)) => {
-                        "AVX2, BVH walks AVX-512VL, packets of 16 rays in AVX-512"
-                    }
-                    (true, Some(PacketIsa::Avx512Vl)) => "AVX2, BVH walks AVX-512VL",
-                    (true, _) => "AVX2",
-                    _ => "portable",
-                }
+            match (self.avx2, self.walks_avx512vl, self.packets_of_16) {
+                (true, true, true) => "AVX2, BVH walks AVX-512VL, packets of 16 rays in AVX-512",
+                (true, true, false) => "AVX2, BVH walks AVX-512VL",
+                (true, false, _) => "AVX2",
+                _ => "portable",
             },
         )
     }
@@ -119,7 +125,8 @@ mod tests {
             avx: true,
             avx2: true,
             avx512f: false,
-            walks: Some(crate::geometry::PacketIsa::Avx2),
+            walks_avx512vl: false,
+            packets_of_16: false,
         };
         let d = m.describe();
         assert!(d.contains("Test CPU, 2 logical CPU(s)"), "{d}");
@@ -130,15 +137,15 @@ mod tests {
         );
         m.avx512f = true;
         assert!(m.describe().ends_with("lanes here: 16)"));
-        m.walks = Some(crate::geometry::PacketIsa::Avx512Vl);
+        m.walks_avx512vl = true;
         assert!(m.describe().contains("paths: AVX2, BVH walks AVX-512VL;"));
-        m.walks = Some(crate::geometry::PacketIsa::Avx512);
+        m.packets_of_16 = true;
         let d = m.describe();
         assert!(
             d.contains("walks AVX-512VL, packets of 16 rays in AVX-512;"),
             "{d}"
         );
-        m.walks = None;
+        (m.walks_avx512vl, m.packets_of_16) = (false, false);
         m.avx = false;
         m.avx2 = false;
         m.avx512f = false;
@@ -157,6 +164,7 @@ mod tests {
         // Each extension implies the one before it on every CPU shipped.
         assert!(!m.avx512f || m.avx2);
         assert!(!m.avx2 || m.avx);
-        assert!(m.walks.is_none_or(|w| !w.has_avx512vl() || m.avx512f));
+        assert!(!m.walks_avx512vl || m.avx512f);
+        assert!(!m.packets_of_16 || m.walks_avx512vl);
     }
 }

@@ -1,4 +1,5 @@
-//! Eight rays at once in SIMD lanes ([`Lanes`]: AVX2 or AVX-512VL), for
+//! Eight or sixteen rays at once in SIMD lanes ([`Lanes`]: AVX2's or
+//! AVX-512VL's eight, AVX-512's sixteen), for
 //! scenes small enough that rays which have nothing in
 //! common still visit the same few nodes and leaves (issue 15: a Cornell
 //! box's 31 primitives, a cube on a ground's 13). One primitive is tested
@@ -8,7 +9,7 @@
 //! Each shape's lane test ([`super::triangle::intersect_triangle_lanes`],
 //! `Sphere::intersect_lanes`, `PlaneFrame::hit_lanes`) does its scalar
 //! test's operations in the same order, so a lane's hit is the scalar
-//! test's bit for bit (tested in `bvh.rs`, in both instruction sets).
+//! test's bit for bit (tested in `bvh.rs`, in every width).
 //!
 //! Everything here runs only inside functions compiled for the lanes'
 //! instruction set, which are called only after the CPU was seen to

@@ -12,8 +12,9 @@
 //! small enough for packets, a ray that meets two surfaces at exactly the
 //! same distance may keep the other one: [`crate::geometry::Bvh::intersect_packet`].)
 //! It is the frame for stages that work on many paths at once (SIMD lanes
-//! across paths, issue 15): the trace of a small scene runs eight rays at
-//! a time in AVX2 lanes; the environment map's lookups of escaped paths,
+//! across paths, issue 15): the trace of a small scene runs packets of
+//! sixteen rays (in AVX-512's sixteen lanes on CPUs that run them at full
+//! rate, in two walks of eight lanes elsewhere); the environment map's lookups of escaped paths,
 //! its light samples, the cone samples of sphere lights and the
 //! directions of constant skies' samples (within the bounce stage) and the location of new rays on the map (the last stage)
 //! run four paths at a time; the rest takes one path at a time.
@@ -392,7 +393,7 @@ impl PathBatch {
     #[cfg(not(target_arch = "x86_64"))]
     fn weigh_choice_points(&mut self, _scene: &Scene) {}
 
-    /// Stage 3's shadow rays, eight at a time ([`Scene::occluded_packet`]):
+    /// Stage 3's shadow rays, sixteen at a time ([`Scene::occluded_packet`]):
     /// each light sample's contribution is added to its path where nothing
     /// blocks its ray (after the path's BSDF sample, which does not read
     /// the radiance: the same sums as `li`'s).
