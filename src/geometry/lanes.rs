@@ -102,6 +102,44 @@ pub trait Lanes: Copy {
     }
 }
 
+/// `+ - * /` for a register type wrapping one intrinsic type, by the
+/// intrinsics named.
+macro_rules! arithmetic {
+    ($t:ident, $add:ident, $sub:ident, $mul:ident, $div:ident) => {
+        impl Add for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn add(self, b: $t) -> $t {
+                $t(unsafe { $add(self.0, b.0) })
+            }
+        }
+
+        impl Sub for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn sub(self, b: $t) -> $t {
+                $t(unsafe { $sub(self.0, b.0) })
+            }
+        }
+
+        impl Mul for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn mul(self, b: $t) -> $t {
+                $t(unsafe { $mul(self.0, b.0) })
+            }
+        }
+
+        impl Div for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn div(self, b: $t) -> $t {
+                $t(unsafe { $div(self.0, b.0) })
+            }
+        }
+    };
+}
+
 /// AVX2's eight lanes.
 #[derive(Clone, Copy, Debug)]
 pub struct Avx2Lanes(());
@@ -174,37 +212,13 @@ pub struct F16(__m512);
 
 // SAFETY (each operator): an `F16` exists only where the CPU has
 // AVX-512F, and the operators are inlined into functions built for it.
-impl Add for F16 {
-    type Output = F16;
-    #[inline(always)]
-    fn add(self, b: F16) -> F16 {
-        F16(unsafe { _mm512_add_ps(self.0, b.0) })
-    }
-}
-
-impl Sub for F16 {
-    type Output = F16;
-    #[inline(always)]
-    fn sub(self, b: F16) -> F16 {
-        F16(unsafe { _mm512_sub_ps(self.0, b.0) })
-    }
-}
-
-impl Mul for F16 {
-    type Output = F16;
-    #[inline(always)]
-    fn mul(self, b: F16) -> F16 {
-        F16(unsafe { _mm512_mul_ps(self.0, b.0) })
-    }
-}
-
-impl Div for F16 {
-    type Output = F16;
-    #[inline(always)]
-    fn div(self, b: F16) -> F16 {
-        F16(unsafe { _mm512_div_ps(self.0, b.0) })
-    }
-}
+arithmetic!(
+    F16,
+    _mm512_add_ps,
+    _mm512_sub_ps,
+    _mm512_mul_ps,
+    _mm512_div_ps
+);
 
 /// Two eight-lane registers as one of sixteen (`lo` in lanes 0-7).
 ///
@@ -494,37 +508,13 @@ pub struct F8(__m256);
 
 // SAFETY (each operator): an `F8` exists only where the CPU has AVX2,
 // and the operators are inlined into functions built for it.
-impl Add for F8 {
-    type Output = F8;
-    #[inline(always)]
-    fn add(self, b: F8) -> F8 {
-        F8(unsafe { _mm256_add_ps(self.0, b.0) })
-    }
-}
-
-impl Sub for F8 {
-    type Output = F8;
-    #[inline(always)]
-    fn sub(self, b: F8) -> F8 {
-        F8(unsafe { _mm256_sub_ps(self.0, b.0) })
-    }
-}
-
-impl Mul for F8 {
-    type Output = F8;
-    #[inline(always)]
-    fn mul(self, b: F8) -> F8 {
-        F8(unsafe { _mm256_mul_ps(self.0, b.0) })
-    }
-}
-
-impl Div for F8 {
-    type Output = F8;
-    #[inline(always)]
-    fn div(self, b: F8) -> F8 {
-        F8(unsafe { _mm256_div_ps(self.0, b.0) })
-    }
-}
+arithmetic!(
+    F8,
+    _mm256_add_ps,
+    _mm256_sub_ps,
+    _mm256_mul_ps,
+    _mm256_div_ps
+);
 
 /// The transpose of an 8 x 8 matrix of floats held by rows: unpacks
 /// within 128-bit halves, then across them.
