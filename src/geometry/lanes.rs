@@ -12,9 +12,10 @@
 //! 3-4% faster, same images). Packets of sixteen rays in 512-bit
 //! registers ([`Avx512Lanes`]) pay where the CPU runs 512-bit operations
 //! at full rate (AMD Zen 5: the Cornell box 8-11% faster, see
-//! [`PacketIsa::detect`]); on an Intel Xeon VM the same eight rays ran
-//! 10% slower in 512-bit code, and sixteen rays gained 3% on the Cornell
-//! box but lost 2-5% on the other scenes, so it keeps eight.
+//! [`PacketIsa::detect`]); on an Intel Xeon VM, with older walks, the
+//! same eight rays ran 10% slower in 512-bit code, and sixteen rays
+//! gained 3% on the Cornell box but lost 2-5% on the other scenes, so it
+//! keeps eight.
 //!
 //! A lane does the scalar code's operations in its order (no fused
 //! multiply-adds), so both instruction sets find the same bits.
@@ -482,10 +483,11 @@ impl PacketIsa {
 /// Whether this CPU's 512-bit operations cost what 256-bit ones do, so
 /// that a packet of sixteen rays costs about what one of eight does: AMD
 /// Zen 5 (family 1Ah) and later, whose vector units are 512 bits wide.
-/// Measured on a Zen 5 VM (issue 15, Cornell box 1.95 -> 2.11-2.18 M
-/// samples/s, the constant cube +5%, the env-lit spheres +5%, the same
-/// images). Elsewhere eight: Zen 4 splits 512-bit operations in two, and
-/// on the Intel Xeon VMs sixteen rays gained 3% on the Cornell box but
+/// Measured on a Zen 5 VM (issue 15, three alternating runs: Cornell box
+/// 1.95 -> 2.12-2.19 M samples/s, the constant cube +2-4%, the other
+/// packet scenes within noise; the same images). Elsewhere eight: Zen 4
+/// splits 512-bit operations in two (not measured), and on an Intel Xeon
+/// VM, with older walks, sixteen rays gained 3% on the Cornell box but
 /// lost 2-5% on the other scenes (the clock 512-bit code runs at).
 fn full_rate_512() -> bool {
     // SAFETY: CPUID leaves 0 and 1 exist on every x86_64 CPU. (Newer Rust
